@@ -1,0 +1,350 @@
+//! Frequency-domain data: spectra `Y_k`, `U_k` at frequencies `ω_k`, with optional noise
+//! (co)variances.
+
+use crate::error::{FdidError, Result, check_finite, check_finite_complex};
+use crate::{Complex, Real};
+
+/// Per-line noise (co)variances of the measured spectra.
+///
+/// `var_y[k] = E|N_Y(ω_k)|²`, `var_u[k] = E|N_U(ω_k)|²` and `cov_yu[k] = E[N_Y N_U*]`.
+/// For frequency response data (`U_k = 1`), `var_y` is the variance of the FRF noise and
+/// `var_u` is zero.
+#[derive(Debug, Clone, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+pub struct NoiseVariances<T: Real> {
+    /// Output noise variance per line.
+    pub var_y: Vec<T>,
+    /// Input noise variance per line.
+    pub var_u: Vec<T>,
+    /// Output–input noise covariance per line.
+    pub cov_yu: Vec<Complex<T>>,
+}
+
+impl<T: Real> NoiseVariances<T> {
+    /// Output noise only (`var_u = 0`, `cov_yu = 0`): the case of FRF data with a `var`
+    /// column.
+    pub fn output_only(var_y: Vec<T>) -> Self {
+        let n = var_y.len();
+        Self {
+            var_y,
+            var_u: vec![T::zero(); n],
+            cov_yu: vec![Complex::new(T::zero(), T::zero()); n],
+        }
+    }
+
+    /// Number of lines.
+    pub fn len(&self) -> usize {
+        self.var_y.len()
+    }
+
+    /// True when there are no lines.
+    pub fn is_empty(&self) -> bool {
+        self.var_y.is_empty()
+    }
+
+    fn validate(&self, n: usize) -> Result<()> {
+        for (what, got) in [
+            ("var_y", self.var_y.len()),
+            ("var_u", self.var_u.len()),
+            ("cov_yu", self.cov_yu.len()),
+        ] {
+            if got != n {
+                return Err(FdidError::LengthMismatch {
+                    what,
+                    expected: n,
+                    got,
+                });
+            }
+        }
+        check_finite("var_y", &self.var_y)?;
+        check_finite("var_u", &self.var_u)?;
+        check_finite_complex("cov_yu", &self.cov_yu)?;
+        for (what, v) in [("var_y", &self.var_y), ("var_u", &self.var_u)] {
+            if let Some(index) = v.iter().position(|x| *x < T::zero()) {
+                return Err(FdidError::InvalidArgument {
+                    name: what,
+                    value: format!("{} at entry {index}", v[index]),
+                    reason: "a variance cannot be negative".into(),
+                });
+            }
+        }
+        Ok(())
+    }
+
+    /// Keeps the lines whose index satisfies `keep`.
+    pub(crate) fn filter(&self, keep: &[bool]) -> Self {
+        let pick = |v: &[T]| {
+            v.iter()
+                .zip(keep)
+                .filter(|(_, k)| **k)
+                .map(|(x, _)| *x)
+                .collect::<Vec<_>>()
+        };
+        Self {
+            var_y: pick(&self.var_y),
+            var_u: pick(&self.var_u),
+            cov_yu: self
+                .cov_yu
+                .iter()
+                .zip(keep)
+                .filter(|(_, k)| **k)
+                .map(|(x, _)| *x)
+                .collect(),
+        }
+    }
+}
+
+/// Frequency-domain data of one or more merged experiments.
+///
+/// Frequencies are angular (rad/s) inside the crate; files use Hz. Invariants, checked by
+/// [`FrequencyData::new`]: equal lengths, finite values, frequencies non-negative and
+/// non-decreasing (equal frequencies occur only after merging experiments), at least one
+/// line, `ts > 0` when given.
+#[derive(Debug, Clone, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+pub struct FrequencyData<T: Real> {
+    omega: Vec<T>,
+    y: Vec<Complex<T>>,
+    u: Vec<Complex<T>>,
+    noise: Option<NoiseVariances<T>>,
+    ts: Option<T>,
+}
+
+impl<T: Real> FrequencyData<T> {
+    /// Builds validated spectra data: output `y`, input `u` at angular frequencies `omega`
+    /// (rad/s), with an optional sample time `ts` (s) for discrete-time models.
+    ///
+    /// # Errors
+    /// Mismatched lengths, no lines, non-finite values, negative or decreasing frequencies,
+    /// `ts ≤ 0` or non-finite.
+    pub fn new(
+        omega: Vec<T>,
+        y: Vec<Complex<T>>,
+        u: Vec<Complex<T>>,
+        ts: Option<T>,
+    ) -> Result<Self> {
+        let n = omega.len();
+        if n == 0 {
+            return Err(FdidError::TooShort {
+                what: "frequency lines",
+                needed: 1,
+                got: 0,
+            });
+        }
+        for (what, got) in [("y", y.len()), ("u", u.len())] {
+            if got != n {
+                return Err(FdidError::LengthMismatch {
+                    what,
+                    expected: n,
+                    got,
+                });
+            }
+        }
+        check_finite("omega", &omega)?;
+        check_finite_complex("y", &y)?;
+        check_finite_complex("u", &u)?;
+        if let Some(index) = omega.iter().position(|w| *w < T::zero()) {
+            return Err(FdidError::NegativeFrequency {
+                index,
+                value: omega[index].to_f64_lossless(),
+            });
+        }
+        if let Some(i) = omega.windows(2).position(|w| w[1] < w[0]) {
+            return Err(FdidError::Unsorted {
+                index: i + 1,
+                value: omega[i + 1].to_f64_lossless(),
+                previous: omega[i].to_f64_lossless(),
+            });
+        }
+        if let Some(t) = ts {
+            if !num_traits::Float::is_finite(t) || t <= T::zero() {
+                return Err(FdidError::InvalidArgument {
+                    name: "ts",
+                    value: format!("{t}"),
+                    reason: "the sample time must be positive and finite".into(),
+                });
+            }
+        }
+        Ok(Self {
+            omega,
+            y,
+            u,
+            noise: None,
+            ts,
+        })
+    }
+
+    /// Frequency response data `G_k` (so `U_k = 1`, `Y_k = G_k`).
+    ///
+    /// # Errors
+    /// As [`FrequencyData::new`].
+    pub fn from_frf(omega: Vec<T>, frf: Vec<Complex<T>>, ts: Option<T>) -> Result<Self> {
+        let u = vec![Complex::new(T::one(), T::zero()); frf.len()];
+        Self::new(omega, frf, u, ts)
+    }
+
+    /// Attaches per-line noise (co)variances.
+    ///
+    /// # Errors
+    /// Lengths differ from the number of lines, non-finite or negative variances.
+    pub fn with_noise(mut self, noise: NoiseVariances<T>) -> Result<Self> {
+        noise.validate(self.len())?;
+        self.noise = Some(noise);
+        Ok(self)
+    }
+
+    /// Removes the noise (co)variances.
+    pub fn without_noise(mut self) -> Self {
+        self.noise = None;
+        self
+    }
+
+    /// Number of frequency lines.
+    pub fn len(&self) -> usize {
+        self.omega.len()
+    }
+
+    /// Always false for validated data (kept for API symmetry with `len`).
+    pub fn is_empty(&self) -> bool {
+        self.omega.is_empty()
+    }
+
+    /// Angular frequencies ω_k (rad/s).
+    pub fn omega(&self) -> &[T] {
+        &self.omega
+    }
+
+    /// Frequencies in Hz.
+    pub fn freq_hz(&self) -> Vec<T> {
+        let two_pi = T::two_pi();
+        self.omega.iter().map(|w| *w / two_pi).collect()
+    }
+
+    /// Output spectrum Y_k.
+    pub fn y(&self) -> &[Complex<T>] {
+        &self.y
+    }
+
+    /// Input spectrum U_k (ones for FRF data).
+    pub fn u(&self) -> &[Complex<T>] {
+        &self.u
+    }
+
+    /// Noise (co)variances, if known.
+    pub fn noise(&self) -> Option<&NoiseVariances<T>> {
+        self.noise.as_ref()
+    }
+
+    /// Sample time (s), if the data come from a sampled record.
+    pub fn ts(&self) -> Option<T> {
+        self.ts
+    }
+
+    /// Sets or clears the sample time.
+    ///
+    /// # Errors
+    /// `ts ≤ 0` or non-finite.
+    pub fn with_ts(self, ts: Option<T>) -> Result<Self> {
+        let noise = self.noise.clone();
+        let d = Self::new(self.omega, self.y, self.u, ts)?;
+        match noise {
+            Some(n) => d.with_noise(n),
+            None => Ok(d),
+        }
+    }
+
+    /// Empirical transfer function estimate Y_k / U_k.
+    ///
+    /// # Errors
+    /// [`FdidError::ZeroInput`] at the first line where `U_k = 0`.
+    pub fn etfe(&self) -> Result<Vec<Complex<T>>> {
+        self.y
+            .iter()
+            .zip(&self.u)
+            .enumerate()
+            .map(|(k, (y, u))| {
+                if u.norm_sqr() == T::zero() {
+                    Err(FdidError::ZeroInput {
+                        index: k,
+                        omega: self.omega[k].to_f64_lossless(),
+                    })
+                } else {
+                    Ok(*y / *u)
+                }
+            })
+            .collect()
+    }
+
+    /// Keeps the lines with `omega_min ≤ ω_k ≤ omega_max` (rad/s): the ideal band-pass of
+    /// McKelvey section 4.
+    ///
+    /// # Errors
+    /// [`FdidError::EmptyBand`] when no line falls in the band, or bad edges.
+    pub fn band(&self, omega_min: T, omega_max: T) -> Result<Self> {
+        if !(num_traits::Float::is_finite(omega_min) && num_traits::Float::is_finite(omega_max))
+            || omega_min > omega_max
+        {
+            return Err(FdidError::InvalidArgument {
+                name: "band",
+                value: format!("[{omega_min}, {omega_max}]"),
+                reason: "edges must be finite with min ≤ max".into(),
+            });
+        }
+        let keep: Vec<bool> = self
+            .omega
+            .iter()
+            .map(|w| *w >= omega_min && *w <= omega_max)
+            .collect();
+        if !keep.iter().any(|k| *k) {
+            return Err(FdidError::EmptyBand {
+                min: omega_min.to_f64_lossless(),
+                max: omega_max.to_f64_lossless(),
+            });
+        }
+        Ok(self.filter(&keep))
+    }
+
+    /// Keeps the lines with `f_min ≤ f_k ≤ f_max` (Hz).
+    ///
+    /// # Errors
+    /// As [`FrequencyData::band`].
+    pub fn band_hz(&self, f_min: T, f_max: T) -> Result<Self> {
+        self.band(f_min * T::two_pi(), f_max * T::two_pi())
+    }
+
+    /// Keeps the lines where `keep[k]` is true (lengths must match; not checked here).
+    pub(crate) fn filter(&self, keep: &[bool]) -> Self {
+        fn pick<X: Copy>(v: &[X], keep: &[bool]) -> Vec<X> {
+            v.iter()
+                .zip(keep)
+                .filter(|(_, k)| **k)
+                .map(|(x, _)| *x)
+                .collect()
+        }
+        Self {
+            omega: pick(&self.omega, keep),
+            y: pick(&self.y, keep),
+            u: pick(&self.u, keep),
+            noise: self.noise.as_ref().map(|n| n.filter(keep)),
+            ts: self.ts,
+        }
+    }
+
+    /// Assembles data from parts already known to be valid (used by merging and by the
+    /// DFT of validated time records).
+    pub(crate) fn from_parts_unchecked(
+        omega: Vec<T>,
+        y: Vec<Complex<T>>,
+        u: Vec<Complex<T>>,
+        noise: Option<NoiseVariances<T>>,
+        ts: Option<T>,
+    ) -> Self {
+        Self {
+            omega,
+            y,
+            u,
+            noise,
+            ts,
+        }
+    }
+}

@@ -1,0 +1,12 @@
+//! Measured data: time records, their DFT (McKelvey eq. 1), periodic averaging, and
+//! frequency-domain data with band selection and merging of experiments.
+
+mod frequency;
+mod merge;
+mod periodic;
+mod time;
+
+pub use frequency::{FrequencyData, NoiseVariances};
+// pub use merge::merge;
+// pub use periodic::PeriodicAverage;
+// pub use time::TimeData;

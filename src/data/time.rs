@@ -1,0 +1,1 @@
+//! Sampled time records.

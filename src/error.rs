@@ -1,0 +1,167 @@
+//! The crate's error type: every failure is a variant that names the offending value.
+
+use thiserror::Error;
+
+/// Errors returned by data validation, model construction, estimators and readers.
+#[derive(Debug, Error, Clone, PartialEq)]
+pub enum FdidError {
+    /// Two sequences that must have the same length do not.
+    #[error("length mismatch: {what} has {got} entries, expected {expected}")]
+    LengthMismatch {
+        /// What was measured.
+        what: &'static str,
+        /// The required length.
+        expected: usize,
+        /// The length found.
+        got: usize,
+    },
+    /// A value is NaN or infinite.
+    #[error("{what}[{index}] is not finite ({value})")]
+    NonFinite {
+        /// Which sequence.
+        what: &'static str,
+        /// Index of the bad entry.
+        index: usize,
+        /// The value, as text (`NaN`, `inf`, …).
+        value: String,
+    },
+    /// Too few samples or lines.
+    #[error("{what}: {got} given, at least {needed} needed")]
+    TooShort {
+        /// What is too short.
+        what: &'static str,
+        /// What is needed.
+        needed: usize,
+        /// What was given.
+        got: usize,
+    },
+    /// Frequencies are not in increasing order.
+    #[error("frequencies must increase: entry {index} ({value}) follows {previous}")]
+    Unsorted {
+        /// Index of the first out-of-order entry.
+        index: usize,
+        /// Its value.
+        value: f64,
+        /// The value before it.
+        previous: f64,
+    },
+    /// The same frequency appears twice where that is not allowed.
+    #[error("duplicate frequency {value} at entry {index}")]
+    DuplicateFrequency {
+        /// Index of the second occurrence.
+        index: usize,
+        /// The repeated frequency.
+        value: f64,
+    },
+    /// A frequency is negative.
+    #[error("negative frequency {value} at entry {index}")]
+    NegativeFrequency {
+        /// Index of the bad entry.
+        index: usize,
+        /// The value.
+        value: f64,
+    },
+    /// The data hold fewer real equations than the model has parameters.
+    #[error(
+        "too few frequencies for the model: {lines} lines give {equations} real equations for {parameters} parameters"
+    )]
+    TooFewFrequencies {
+        /// Number of frequency lines.
+        lines: usize,
+        /// Number of real equations they give.
+        equations: usize,
+        /// Number of free parameters.
+        parameters: usize,
+    },
+    /// A setting is out of its valid range.
+    #[error("invalid {name} = {value}: {reason}")]
+    InvalidArgument {
+        /// Name of the setting.
+        name: &'static str,
+        /// Its value, as text.
+        value: String,
+        /// What is wrong with it.
+        reason: String,
+    },
+    /// A band selects no frequency lines.
+    #[error("the band [{min}, {max}] rad/s selects no frequency lines")]
+    EmptyBand {
+        /// Lower edge (rad/s).
+        min: f64,
+        /// Upper edge (rad/s).
+        max: f64,
+    },
+    /// The input spectrum is zero where data are used.
+    #[error("input spectrum is zero at line {index} (omega = {omega} rad/s)")]
+    ZeroInput {
+        /// Index of the line.
+        index: usize,
+        /// Its frequency.
+        omega: f64,
+    },
+    /// A linear problem is rank deficient or too ill-conditioned to solve.
+    #[error("singular problem: {what} (condition number {condition:.3e})")]
+    Singular {
+        /// Which problem.
+        what: &'static str,
+        /// Estimated condition number (infinite when exactly singular).
+        condition: f64,
+    },
+    /// An iterative method stopped without converging.
+    #[error("{method} did not converge: {reason}")]
+    NotConverged {
+        /// The method.
+        method: &'static str,
+        /// Why it stopped.
+        reason: String,
+    },
+    /// A numerical failure: the model produced non-finite values.
+    #[error("numerical failure in {what}")]
+    Numerical {
+        /// Where it happened.
+        what: String,
+    },
+    /// A data file could not be read.
+    #[error("{path}: line {line}: {message}")]
+    Parse {
+        /// File name (or `<input>`).
+        path: String,
+        /// 1-based line number (0 for the header or the whole file).
+        line: usize,
+        /// What is wrong.
+        message: String,
+    },
+    /// An I/O error, as text.
+    #[error("{0}")]
+    Io(String),
+}
+
+/// `Result` with [`FdidError`].
+pub type Result<T> = std::result::Result<T, FdidError>;
+
+/// Checks that every value is finite; names the first bad one.
+pub(crate) fn check_finite<T: crate::Real>(what: &'static str, values: &[T]) -> Result<()> {
+    match values.iter().position(|v| !num_traits::Float::is_finite(*v)) {
+        None => Ok(()),
+        Some(index) => Err(FdidError::NonFinite {
+            what,
+            index,
+            value: format!("{}", values[index]),
+        }),
+    }
+}
+
+/// Checks that every complex value is finite; names the first bad one.
+pub(crate) fn check_finite_complex<T: crate::Real>(
+    what: &'static str,
+    values: &[crate::Complex<T>],
+) -> Result<()> {
+    match values.iter().position(|v| !v.is_finite()) {
+        None => Ok(()),
+        Some(index) => Err(FdidError::NonFinite {
+            what,
+            index,
+            value: format!("{}", values[index]),
+        }),
+    }
+}
