@@ -141,7 +141,10 @@ pub type Result<T> = std::result::Result<T, FdidError>;
 
 /// Checks that every value is finite; names the first bad one.
 pub(crate) fn check_finite<T: crate::Real>(what: &'static str, values: &[T]) -> Result<()> {
-    match values.iter().position(|v| !num_traits::Float::is_finite(*v)) {
+    match values
+        .iter()
+        .position(|v| !num_traits::Float::is_finite(*v))
+    {
         None => Ok(()),
         Some(index) => Err(FdidError::NonFinite {
             what,
@@ -156,7 +159,10 @@ pub(crate) fn check_finite_complex<T: crate::Real>(
     what: &'static str,
     values: &[crate::Complex<T>],
 ) -> Result<()> {
-    match values.iter().position(|v| !v.is_finite()) {
+    match values
+        .iter()
+        .position(|v| !(num_traits::Float::is_finite(v.re) && num_traits::Float::is_finite(v.im)))
+    {
         None => Ok(()),
         Some(index) => Err(FdidError::NonFinite {
             what,
