@@ -2,10 +2,13 @@
 
 #![warn(missing_docs)]
 
+pub mod basis;
 pub mod data;
 pub mod error;
 #[cfg(feature = "csv")]
 pub mod io;
+pub mod model;
+pub mod roots;
 pub mod scalar;
 
 pub use data::{FrequencyData, NoiseVariances};

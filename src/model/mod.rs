@@ -1,0 +1,124 @@
+//! Model structures: parameterisations θ ↦ G(θ, ω) with analytic Jacobians.
+//!
+//! [`ModelStructure`] is the one trait every criterion needs. Models whose equation error
+//! A(θ)Y − B(θ)U is affine in θ also implement [`EquationError`], which the linear
+//! criteria (Levy, Sanathanan–Koerner, TLS) require; models with poles and zeros implement
+//! [`PolesZeros`].
+
+mod rational;
+
+pub use rational::{Domain, Rational};
+
+use crate::data::FrequencyData;
+use crate::error::Result;
+use crate::{Complex, Real};
+use nalgebra::DMatrix;
+
+/// A parameterisation θ ∈ ℝᵖ ↦ G(θ, ω) evaluated at angular frequencies ω (rad/s).
+///
+/// Implementations provide the response and its **analytic** Jacobian ∂G/∂θ. The trait is
+/// object safe, so models can be composed at run time.
+pub trait ModelStructure<T: Real> {
+    /// Number of free real parameters p.
+    fn n_params(&self) -> usize;
+
+    /// Writes G(θ, ω_k) into `out` (same length as `omega`).
+    fn response_into(&self, theta: &[T], omega: &[T], out: &mut [Complex<T>]);
+
+    /// Writes G(θ, ω_k) into `g` and ∂G(θ, ω_k)/∂θ_j into `jac[(k, j)]` (`jac` is
+    /// `omega.len() × p`).
+    fn jacobian_into(
+        &self,
+        theta: &[T],
+        omega: &[T],
+        g: &mut [Complex<T>],
+        jac: &mut DMatrix<Complex<T>>,
+    );
+
+    /// Checks that the model can be fitted to `data` (domain, sample time, enough lines).
+    ///
+    /// # Errors
+    /// Model-specific; [`crate::FdidError::TooFewFrequencies`] at least when
+    /// `2·lines < p`.
+    fn check_data(&self, data: &FrequencyData<T>) -> Result<()> {
+        let p = self.n_params();
+        if 2 * data.len() < p {
+            return Err(crate::FdidError::TooFewFrequencies {
+                lines: data.len(),
+                equations: 2 * data.len(),
+                parameters: p,
+            });
+        }
+        Ok(())
+    }
+
+    /// G(θ, ω_k) as a new vector.
+    fn response(&self, theta: &[T], omega: &[T]) -> Vec<Complex<T>> {
+        let mut out = vec![Complex::new(T::zero(), T::zero()); omega.len()];
+        self.response_into(theta, omega, &mut out);
+        out
+    }
+}
+
+/// Models linear in their coefficients in equation-error form.
+///
+/// With the homogeneous coefficient vector c (θ plus the one coefficient fixed by the
+/// normalisation), the equation error at line k is
+/// `e_k(c) = A(c, ω_k) Y_k − B(c, ω_k) U_k = Σ_j R_kj c_j`.
+/// Levy (McKelvey eq. 39) and Sanathanan–Koerner (eq. 41) solve for θ with the normalising
+/// coefficient fixed to one; TLS solves for c with ‖c‖ = 1.
+pub trait EquationError<T: Real>: ModelStructure<T> {
+    /// Length of c: `n_params() + 1`.
+    fn n_coefficients(&self) -> usize {
+        self.n_params() + 1
+    }
+
+    /// Index in c of the coefficient the normalisation fixes to one.
+    fn normalising_index(&self) -> usize;
+
+    /// Writes the regressor R (`data.len() × n_coefficients()`) into `out`.
+    fn regressor_into(&self, data: &FrequencyData<T>, out: &mut DMatrix<Complex<T>>);
+
+    /// Writes the denominator A(θ, ω_k) (the Sanathanan–Koerner weight is 1/|A|²).
+    fn denominator_into(&self, theta: &[T], omega: &[T], out: &mut [Complex<T>]);
+
+    /// θ from a homogeneous coefficient vector: c divided by its normalising entry, which is
+    /// then dropped. `None` when that entry is (numerically) zero.
+    fn theta_from_coefficients(&self, c: &[T]) -> Option<Vec<T>> {
+        let i = self.normalising_index();
+        let n = *c.get(i)?;
+        let max = c.iter().fold(T::zero(), |m, v| {
+            num_traits::Float::max(m, num_traits::Float::abs(*v))
+        });
+        if !(num_traits::Float::abs(n) > max * T::default_epsilon() * T::lit(16.0)) {
+            return None;
+        }
+        Some(
+            c.iter()
+                .enumerate()
+                .filter(|(j, _)| *j != i)
+                .map(|(_, v)| *v / n)
+                .collect(),
+        )
+    }
+}
+
+/// Models with poles, zeros and a gain.
+pub trait PolesZeros<T: Real> {
+    /// Poles: in s (rad/s) for continuous time, in z for discrete time.
+    ///
+    /// # Errors
+    /// Eigenvalue failure or non-finite parameters.
+    fn poles(&self, theta: &[T]) -> Result<Vec<Complex<T>>>;
+
+    /// Zeros, in the same plane as the poles (for z: the roots of z^nb B, zeros at the
+    /// origin left out).
+    ///
+    /// # Errors
+    /// As [`PolesZeros::poles`].
+    fn zeros(&self, theta: &[T]) -> Result<Vec<Complex<T>>>;
+
+    /// Gain k of the factored form G = k Π(v − zᵢ)/Π(v − pⱼ) (v = s or z, up to a power
+    /// of z for discrete time).
+    fn gain(&self, theta: &[T]) -> T;
+}
