@@ -11,6 +11,6 @@ pub mod model;
 pub mod roots;
 pub mod scalar;
 
-pub use data::{FrequencyData, NoiseVariances};
+pub use data::{FrequencyData, NoiseVariances, TimeData};
 pub use error::{FdidError, Result};
 pub use scalar::{Complex, Real};

@@ -156,14 +156,14 @@ impl<T: Real> FrequencyData<T> {
                 previous: omega[i].to_f64_lossless(),
             });
         }
-        if let Some(t) = ts {
-            if !num_traits::Float::is_finite(t) || t <= T::zero() {
-                return Err(FdidError::InvalidArgument {
-                    name: "ts",
-                    value: format!("{t}"),
-                    reason: "the sample time must be positive and finite".into(),
-                });
-            }
+        if let Some(t) = ts
+            && (!num_traits::Float::is_finite(t) || t <= T::zero())
+        {
+            return Err(FdidError::InvalidArgument {
+                name: "ts",
+                value: format!("{t}"),
+                reason: "the sample time must be positive and finite".into(),
+            });
         }
         Ok(Self {
             omega,

@@ -7,6 +7,6 @@ mod periodic;
 mod time;
 
 pub use frequency::{FrequencyData, NoiseVariances};
-// pub use merge::merge;
-// pub use periodic::PeriodicAverage;
-// pub use time::TimeData;
+pub use merge::merge;
+pub use periodic::PeriodicAverage;
+pub use time::{TimeData, dft_lines};
