@@ -1,16 +1,85 @@
-//! # fdid — frequency-domain system identification (being assembled)
+//! # fdid — frequency-domain system identification
+//!
+//! Estimate linear dynamic models (poles, zeros, gain, with uncertainty) from measured
+//! input/output spectra or frequency response data.
+//!
+//! The crate is built from three traits that compose:
+//! - [`ModelStructure`]: a parameterisation θ ↦ G(θ, ω_k) with an analytic Jacobian
+//!   (e.g. [`Rational`] in s or z); models linear in their parameters in equation-error
+//!   form also implement [`EquationError`].
+//! - [`Criterion`]: what is minimised — output-error maximum likelihood
+//!   ([`MaximumLikelihood`], McKelvey eq. 23), Levy linear least squares ([`Levy`],
+//!   eq. 39), Sanathanan–Koerner re-weighting ([`SanathananKoerner`], eq. 41) and total
+//!   least squares ([`TotalLeastSquares`]).
+//! - [`Solver`]: how — Levenberg–Marquardt, QR/SVD linear least squares, SVD null vector,
+//!   the SK fixed-point loop.
+//!
+//! A criterion that needs a linear-in-parameters model only accepts models implementing
+//! [`EquationError`], and each solver only accepts the problem kind it can solve, so a
+//! nonsensical combination does not compile.
+//!
+//! Equation numbers refer to T. McKelvey, *Frequency domain identification methods*
+//! (Circuits Systems Signal Processing, 2002).
+//!
+//! ```
+//! use fdid::prelude::*;
+//!
+//! // noise-free data from G(s) = 2 / (s^2 + 0.4 s + 1)
+//! let omega: Vec<f64> = (1..=200).map(|k| 0.02 * k as f64).collect();
+//! let frf: Vec<Complex<f64>> = omega
+//!     .iter()
+//!     .map(|w| {
+//!         let s = Complex::new(0.0, *w);
+//!         Complex::new(2.0, 0.0) / (s * s + s * 0.4 + 1.0)
+//!     })
+//!     .collect();
+//! let data = FrequencyData::from_frf(omega, frf, None).unwrap();
+//! let model = Rational::continuous(2, 0, data.omega()).unwrap();
+//! let fit = Pipeline::default().fit(&model, &data).unwrap();
+//! let mut poles = fit.poles().unwrap();
+//! poles.sort_by(|a, b| a.im.partial_cmp(&b.im).unwrap());
+//! assert!((poles[1] - Complex::new(-0.2, 0.96f64.sqrt())).norm() < 1e-9);
+//! ```
 
 #![warn(missing_docs)]
 
 pub mod basis;
+pub mod criterion;
 pub mod data;
 pub mod error;
+pub mod fit;
 #[cfg(feature = "csv")]
 pub mod io;
 pub mod model;
+pub mod pipeline;
+pub mod problem;
 pub mod roots;
 pub mod scalar;
+pub mod solver;
 
+pub use criterion::{Criterion, Levy, MaximumLikelihood, SanathananKoerner, TotalLeastSquares};
 pub use data::{FrequencyData, NoiseVariances, TimeData};
 pub use error::{FdidError, Result};
+pub use fit::Fit;
+pub use model::{EquationError, ModelStructure, PolesZeros, Rational};
+pub use pipeline::Pipeline;
 pub use scalar::{Complex, Real};
+pub use solver::{Solution, Solver};
+
+/// The names most programs need.
+pub mod prelude {
+    pub use crate::criterion::NoiseWeighting;
+    pub use crate::criterion::{
+        Criterion, Levy, MaximumLikelihood, SanathananKoerner, TotalLeastSquares,
+    };
+    pub use crate::data::{FrequencyData, NoiseVariances, TimeData};
+    pub use crate::error::{FdidError, Result};
+    pub use crate::fit::Fit;
+    pub use crate::model::{Domain, EquationError, ModelStructure, PolesZeros, Rational};
+    pub use crate::pipeline::Pipeline;
+    pub use crate::pipeline::estimate;
+    pub use crate::scalar::{Complex, Real};
+    pub use crate::solver::{
+        FixedPoint, LevenbergMarquardt, LinearLeastSquares, Solution, Solver, SvdNullVector,
+    };
+}

@@ -1,0 +1,97 @@
+//! Criteria: what an estimator minimises. A criterion binds a model and data into a
+//! problem of one of the kinds in [`crate::problem`].
+//!
+//! | criterion | McKelvey | needs | problem kind | solver |
+//! |---|---|---|---|---|
+//! | [`MaximumLikelihood`] | eq. 23, fixed noise model | [`ModelStructure`](crate::ModelStructure) | nonlinear LS | [`LevenbergMarquardt`](crate::solver::LevenbergMarquardt) |
+//! | [`Levy`] | eq. 39 | [`EquationError`](crate::EquationError) | linear LS | [`LinearLeastSquares`](crate::solver::LinearLeastSquares) |
+//! | [`SanathananKoerner`] | eq. 41 | [`EquationError`](crate::EquationError) | re-weighted LS | [`FixedPoint`](crate::solver::FixedPoint) |
+//! | [`TotalLeastSquares`] | — | [`EquationError`](crate::EquationError) | homogeneous | [`SvdNullVector`](crate::solver::SvdNullVector) |
+
+mod equation_error;
+mod levy;
+mod ml;
+mod sk;
+mod tls;
+
+pub use equation_error::EquationErrorSystem;
+pub use levy::{Levy, LevyProblem};
+pub use ml::{MaximumLikelihood, MlProblem};
+pub use sk::{SanathananKoerner, SkProblem};
+pub use tls::{TlsProblem, TotalLeastSquares};
+
+use crate::Real;
+use crate::data::FrequencyData;
+use crate::error::{FdidError, Result};
+
+/// A criterion for model `M` on data with scalar `T`.
+pub trait Criterion<T: Real, M: ?Sized> {
+    /// The problem this criterion hands to a solver.
+    type Problem<'a>
+    where
+        Self: 'a,
+        M: 'a,
+        T: 'a;
+
+    /// Binds the model and data into a problem, validating both.
+    ///
+    /// # Errors
+    /// Data the model cannot be fitted to (too few lines, wrong sample time, zero input on
+    /// a line, invalid noise variances).
+    fn problem<'a>(&'a self, model: &'a M, data: &'a FrequencyData<T>)
+    -> Result<Self::Problem<'a>>;
+}
+
+/// How lines are weighted by the measurement noise.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+pub enum NoiseWeighting {
+    /// Weight line k by 1/σ_k with σ_k² the output noise variance of the data when the data
+    /// carry noise variances (a fixed noise model |H_ω|² = σ_k², eq. 23); flat otherwise.
+    #[default]
+    Auto,
+    /// All lines weigh the same (H ≡ 1; λ is estimated, eq. 25).
+    Flat,
+}
+
+impl NoiseWeighting {
+    /// Per-line weights w_k = 1/σ_k, or `None` for flat weighting.
+    ///
+    /// # Errors
+    /// A zero output noise variance on some line (the weight would be infinite).
+    pub fn weights<T: Real>(&self, data: &FrequencyData<T>) -> Result<Option<Vec<T>>> {
+        match (self, data.noise()) {
+            (NoiseWeighting::Flat, _) | (NoiseWeighting::Auto, None) => Ok(None),
+            (NoiseWeighting::Auto, Some(noise)) => noise
+                .var_y
+                .iter()
+                .enumerate()
+                .map(|(k, v)| {
+                    if *v > T::zero() {
+                        Ok(T::one() / num_traits::Float::sqrt(*v))
+                    } else {
+                        Err(FdidError::InvalidArgument {
+                            name: "var_y",
+                            value: format!("{v} at line {k}"),
+                            reason: "a zero noise variance gives an infinite weight; use flat \
+                                     weighting or drop the line"
+                                .into(),
+                        })
+                    }
+                })
+                .collect::<Result<Vec<T>>>()
+                .map(Some),
+        }
+    }
+}
+
+/// Checks that no input spectrum line is zero (it would carry no information on G).
+pub(crate) fn check_input<T: Real>(data: &FrequencyData<T>) -> Result<()> {
+    match data.u().iter().position(|u| u.norm_sqr() == T::zero()) {
+        None => Ok(()),
+        Some(index) => Err(FdidError::ZeroInput {
+            index,
+            omega: data.omega()[index].to_f64_lossless(),
+        }),
+    }
+}

@@ -1,0 +1,242 @@
+//! The result of an estimation: θ̂ with its cost, noise level, covariance and the
+//! uncertainty of the fitted frequency response.
+
+use crate::criterion::{MlProblem, NoiseWeighting};
+use crate::data::FrequencyData;
+use crate::error::Result;
+use crate::model::{ModelStructure, PolesZeros};
+use crate::problem::NonlinearProblem;
+use crate::solver::Solution;
+use crate::{Complex, Real};
+use nalgebra::DMatrix;
+use num_traits::Float;
+
+/// What one stage of an estimation did.
+#[derive(Debug, Clone, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+pub struct Stage<T: Real> {
+    /// Name of the stage (`levy`, `sk`, `ml`, `tls`).
+    pub name: String,
+    /// The solver's outcome.
+    pub solution: Solution<T>,
+}
+
+/// A fitted model with its statistics, all evaluated with the output-error (ML) residuals
+/// r_k = (Y_k − G_θ̂ U_k)/σ_k at θ̂ (σ_k = 1 when the data carry no noise variances).
+///
+/// - `cost` V = Σ_k |r_k|² (McKelvey eq. 23 without the constant log term);
+/// - `noise_variance` λ̂ = V/N (eq. 25);
+/// - `covariance` of θ̂: with J the Jacobian of the real-stacked residuals,
+///   Cov θ̂ = (λ/2)(JᵀJ)⁻¹ — the asymptotic covariance of eqs. 32–34 for circular complex
+///   noise of variance λ, whose real and imaginary parts each have variance λ/2. λ = 1 when
+///   the data carry their noise variances, else the degrees-of-freedom corrected
+///   λ̂ = V/(N − p/2);
+/// - `response_std` σ_G(ω_k)² = Σ_ij Cov_ij Re(∂G_k/∂θ_i · conj ∂G_k/∂θ_j).
+///
+/// The covariance is the ML one: for Levy or SK estimates it describes what ML would
+/// achieve, not their own (larger, biased) error.
+#[derive(Debug, Clone)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+pub struct Fit<T: Real, M> {
+    model: M,
+    theta: Vec<T>,
+    omega: Vec<T>,
+    response: Vec<Complex<T>>,
+    cost: T,
+    noise_variance: T,
+    noise_known: bool,
+    covariance: Option<DMatrix<T>>,
+    response_std: Option<Vec<T>>,
+    stages: Vec<Stage<T>>,
+}
+
+impl<T: Real, M: ModelStructure<T>> Fit<T, M> {
+    /// Evaluates the statistics of `theta` for `model` on `data`.
+    ///
+    /// # Errors
+    /// As [`MlProblem::new`]; non-finite model response at θ.
+    pub fn new(
+        model: M,
+        data: &FrequencyData<T>,
+        theta: Vec<T>,
+        weighting: NoiseWeighting,
+        stages: Vec<Stage<T>>,
+    ) -> Result<Self> {
+        let problem = MlProblem::new(&model, data, weighting)?;
+        let (n, p) = (data.len(), model.n_params());
+        let mut r = vec![T::zero(); 2 * n];
+        let mut jac = DMatrix::zeros(2 * n, p);
+        if !problem.jacobian_into(&theta, &mut r, &mut jac) {
+            return Err(crate::FdidError::Numerical {
+                what: "model response or Jacobian at the estimate".into(),
+            });
+        }
+        let cost = r.iter().fold(T::zero(), |s, v| s + *v * *v);
+        let nf = T::from_usize_lossy(n);
+        let noise_variance = cost / nf;
+        let noise_known = problem.weights().is_some();
+        let dof = nf - T::from_usize_lossy(p) / T::lit(2.0);
+        let lambda = if noise_known {
+            Some(T::one())
+        } else if dof > T::zero() {
+            Some(cost / dof)
+        } else {
+            None
+        };
+        let covariance = lambda.and_then(|l| inverse_gram(jac).map(|g| g * (l / T::lit(2.0))));
+        let omega = data.omega().to_vec();
+        let mut response = vec![Complex::new(T::zero(), T::zero()); n];
+        let mut dg = DMatrix::zeros(n, p);
+        model.jacobian_into(&theta, &omega, &mut response, &mut dg);
+        let response_std = covariance.as_ref().map(|cov| {
+            (0..n)
+                .map(|k| {
+                    let mut v = T::zero();
+                    for i in 0..p {
+                        for j in 0..p {
+                            v += cov[(i, j)] * (dg[(k, i)] * dg[(k, j)].conj()).re;
+                        }
+                    }
+                    Float::sqrt(Float::max(v, T::zero()))
+                })
+                .collect()
+        });
+        Ok(Self {
+            model,
+            theta,
+            omega,
+            response,
+            cost,
+            noise_variance,
+            noise_known,
+            covariance,
+            response_std,
+            stages,
+        })
+    }
+
+    /// The model structure.
+    pub fn model(&self) -> &M {
+        &self.model
+    }
+
+    /// The estimate θ̂.
+    pub fn theta(&self) -> &[T] {
+        &self.theta
+    }
+
+    /// The frequencies (rad/s) of the data fitted.
+    pub fn omega(&self) -> &[T] {
+        &self.omega
+    }
+
+    /// The fitted response G(θ̂, ω_k) at the data frequencies.
+    pub fn response(&self) -> &[Complex<T>] {
+        &self.response
+    }
+
+    /// The fitted response at other frequencies (rad/s).
+    pub fn response_at(&self, omega: &[T]) -> Vec<Complex<T>> {
+        self.model.response(&self.theta, omega)
+    }
+
+    /// V(θ̂) = Σ |r_k|².
+    pub fn cost(&self) -> T {
+        self.cost
+    }
+
+    /// λ̂ = V(θ̂)/N (McKelvey eq. 25): the residual variance per line (≈ 1 when the data
+    /// carry correct noise variances).
+    pub fn noise_variance(&self) -> T {
+        self.noise_variance
+    }
+
+    /// True when the statistics use the data's noise variances (λ = 1).
+    pub fn noise_known(&self) -> bool {
+        self.noise_known
+    }
+
+    /// Covariance of θ̂, `None` when JᵀJ is singular or there are no degrees of freedom.
+    pub fn covariance(&self) -> Option<&DMatrix<T>> {
+        self.covariance.as_ref()
+    }
+
+    /// Standard deviations of θ̂.
+    pub fn theta_std(&self) -> Option<Vec<T>> {
+        self.covariance.as_ref().map(|c| {
+            (0..c.nrows())
+                .map(|i| Float::sqrt(Float::max(c[(i, i)], T::zero())))
+                .collect()
+        })
+    }
+
+    /// Standard deviation of Ĝ at each data frequency.
+    pub fn response_std(&self) -> Option<&[T]> {
+        self.response_std.as_deref()
+    }
+
+    /// What each stage did, in order.
+    pub fn stages(&self) -> &[Stage<T>] {
+        &self.stages
+    }
+}
+
+impl<T: Real, M: ModelStructure<T> + PolesZeros<T>> Fit<T, M> {
+    /// Poles of the fitted model.
+    ///
+    /// # Errors
+    /// As [`PolesZeros::poles`].
+    pub fn poles(&self) -> Result<Vec<Complex<T>>> {
+        self.model.poles(&self.theta)
+    }
+
+    /// Zeros of the fitted model.
+    ///
+    /// # Errors
+    /// As [`PolesZeros::zeros`].
+    pub fn zeros(&self) -> Result<Vec<Complex<T>>> {
+        self.model.zeros(&self.theta)
+    }
+
+    /// Gain of the factored form.
+    pub fn gain(&self) -> T {
+        self.model.gain(&self.theta)
+    }
+}
+
+/// (JᵀJ)⁻¹ by a QR of the column-equilibrated J and an SVD of R; `None` when singular.
+fn inverse_gram<T: Real>(mut jac: DMatrix<T>) -> Option<DMatrix<T>> {
+    let p = jac.ncols();
+    if p == 0 || jac.nrows() < p {
+        return None;
+    }
+    let mut scale = vec![T::one(); p];
+    for (j, s) in scale.iter_mut().enumerate() {
+        let n = jac.column(j).norm();
+        if n > T::zero() {
+            *s = n;
+            jac.column_mut(j).unscale_mut(n);
+        }
+    }
+    let r = jac.qr().unpack_r();
+    let svd = nalgebra::SVD::try_new(r, false, true, T::default_epsilon(), 100 * p.max(10))?;
+    let smax = svd.singular_values.max();
+    let smin = svd.singular_values.min();
+    if !(smin > smax * T::default_epsilon() * T::lit(10.0)) {
+        return None;
+    }
+    // (RᵀR)⁻¹ = V Σ⁻² Vᵀ
+    let vt = svd.v_t?;
+    let mut out = DMatrix::zeros(p, p);
+    for i in 0..p {
+        for j in 0..p {
+            let mut v = T::zero();
+            for k in 0..p {
+                let s = svd.singular_values[k];
+                v += vt[(k, i)] * vt[(k, j)] / (s * s);
+            }
+            out[(i, j)] = v / (scale[i] * scale[j]);
+        }
+    }
+    Some(out)
+}

@@ -1,0 +1,145 @@
+//! The standard estimation chain Levy → Sanathanan–Koerner → ML, and the generic
+//! [`estimate`] that composes any criterion with any solver that accepts its problem.
+
+use crate::Real;
+use crate::criterion::{Criterion, Levy, MaximumLikelihood, NoiseWeighting, SanathananKoerner};
+use crate::data::FrequencyData;
+use crate::error::Result;
+use crate::fit::{Fit, Stage};
+use crate::model::EquationError;
+use crate::solver::{FixedPoint, LevenbergMarquardt, LinearLeastSquares, Solution, Solver};
+
+/// Minimises `criterion` for `model` on `data` with `solver`, from `start` where the solver
+/// iterates. Only combinations where the solver accepts the criterion's problem compile:
+///
+/// ```compile_fail
+/// use fdid::prelude::*;
+/// use fdid::pipeline::estimate;
+/// let data = FrequencyData::<f64>::from_frf(vec![1.0, 2.0], vec![Complex::new(1.0, 0.0); 2], None).unwrap();
+/// let model = Rational::continuous(1, 0, data.omega()).unwrap();
+/// // Levy is a linear problem: Levenberg–Marquardt does not accept it
+/// let _ = estimate(&model, &data, &Levy::default(), &LevenbergMarquardt::default(), None);
+/// ```
+///
+/// # Errors
+/// As the criterion's [`Criterion::problem`] and the solver's [`Solver::solve`].
+pub fn estimate<'a, T, M, C, S>(
+    model: &'a M,
+    data: &'a FrequencyData<T>,
+    criterion: &'a C,
+    solver: &S,
+    start: Option<&[T]>,
+) -> Result<Solution<T>>
+where
+    T: Real,
+    M: ?Sized,
+    C: Criterion<T, M>,
+    S: Solver<T, C::Problem<'a>>,
+{
+    let problem = criterion.problem(model, data)?;
+    solver.solve(&problem, start)
+}
+
+/// Levy → Sanathanan–Koerner → maximum likelihood, each stage starting from the previous.
+///
+/// | setting | default | meaning |
+/// |---|---|---|
+/// | `weighting` | [`NoiseWeighting::Auto`] | line weights from the data's noise variances |
+/// | `sk` | `Some(FixedPoint::default())` | SK iterations; `None` skips SK |
+/// | `ml` | `Some(LevenbergMarquardt::default())` | ML refinement; `None` stops after SK |
+/// | `linear` | [`LinearLeastSquares::default`] | the Levy solve |
+///
+/// If ML fails from the SK estimate it is retried from the Levy estimate; the better
+/// result (lower cost) is kept.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Pipeline {
+    /// Line weighting used by every stage.
+    pub weighting: NoiseWeighting,
+    /// The Levy solve.
+    pub linear: LinearLeastSquares,
+    /// SK iterations (`None`: skip).
+    pub sk: Option<FixedPoint>,
+    /// ML refinement (`None`: skip).
+    pub ml: Option<LevenbergMarquardt>,
+}
+
+impl Default for Pipeline {
+    fn default() -> Self {
+        Self {
+            weighting: NoiseWeighting::Auto,
+            linear: LinearLeastSquares::default(),
+            sk: Some(FixedPoint::default()),
+            ml: Some(LevenbergMarquardt::default()),
+        }
+    }
+}
+
+impl Pipeline {
+    /// Only Levy.
+    pub fn levy() -> Self {
+        Self {
+            sk: None,
+            ml: None,
+            ..Self::default()
+        }
+    }
+
+    /// Levy then SK.
+    pub fn sk() -> Self {
+        Self {
+            ml: None,
+            ..Self::default()
+        }
+    }
+
+    /// Runs the chain on `model` and `data`.
+    ///
+    /// # Errors
+    /// Invalid data for the model, singular linear problems, numerical failure.
+    pub fn fit<T: Real, M: EquationError<T> + Clone>(
+        &self,
+        model: &M,
+        data: &FrequencyData<T>,
+    ) -> Result<Fit<T, M>> {
+        let w = self.weighting;
+        let levy = estimate(model, data, &Levy { weighting: w }, &self.linear, None)?;
+        let mut stages = vec![Stage {
+            name: "levy".into(),
+            solution: levy.clone(),
+        }];
+        let mut current = levy.theta.clone();
+        if let Some(fp) = &self.sk {
+            let sk = estimate(
+                model,
+                data,
+                &SanathananKoerner { weighting: w },
+                fp,
+                Some(&levy.theta),
+            )?;
+            current = sk.theta.clone();
+            stages.push(Stage {
+                name: "sk".into(),
+                solution: sk,
+            });
+        }
+        if let Some(lm) = &self.ml {
+            let ml = MaximumLikelihood { weighting: w };
+            let first = estimate(model, data, &ml, lm, Some(&current));
+            let retry = || estimate(model, data, &ml, lm, Some(&levy.theta));
+            let best = match first {
+                Ok(a) if current == levy.theta => a,
+                Ok(a) => match retry() {
+                    Ok(b) if b.cost < a.cost * T::lit(0.999) => b,
+                    _ => a,
+                },
+                Err(e) => retry().map_err(|_| e)?,
+            };
+            current = best.theta.clone();
+            stages.push(Stage {
+                name: "ml".into(),
+                solution: best,
+            });
+        }
+        Fit::new(model.clone(), data, current, w, stages)
+    }
+}

@@ -1,0 +1,67 @@
+//! The problem kinds a [`crate::Criterion`] produces and a [`crate::Solver`] consumes.
+//!
+//! Each kind is a small trait; a solver is implemented only for the kinds it can solve, so a
+//! criterion paired with the wrong solver does not compile. Complex equations are stacked as
+//! real ones (real and imaginary parts, line by line) so parameters stay real.
+
+use crate::Real;
+use nalgebra::{DMatrix, DVector};
+
+/// A nonlinear least-squares problem: minimise ‖r(θ)‖² over θ ∈ ℝᵖ.
+pub trait NonlinearProblem<T: Real> {
+    /// Number of parameters p.
+    fn n_params(&self) -> usize;
+    /// Number of real residuals m.
+    fn n_residuals(&self) -> usize;
+    /// Writes r(θ) (length m). Returns false if the residuals are not finite.
+    fn residuals_into(&self, theta: &[T], r: &mut [T]) -> bool;
+    /// Writes r(θ) and its Jacobian ∂r/∂θ (m × p). Returns false if not finite.
+    fn jacobian_into(&self, theta: &[T], r: &mut [T], jac: &mut DMatrix<T>) -> bool;
+}
+
+/// A linear least-squares problem: minimise ‖Aθ − b‖².
+pub trait LinearProblem<T: Real> {
+    /// The real-stacked system (A, b).
+    fn system(&self) -> (DMatrix<T>, DVector<T>);
+}
+
+/// A homogeneous problem: minimise ‖M c‖ subject to ‖c‖ = 1, then map c to θ.
+pub trait HomogeneousProblem<T: Real> {
+    /// The real-stacked matrix M.
+    fn matrix(&self) -> DMatrix<T>;
+    /// θ from the unit-norm minimiser c; `None` if c does not define a model (e.g. its
+    /// normalising coefficient is zero).
+    fn theta_from_null_vector(&self, c: &[T]) -> Option<Vec<T>>;
+}
+
+/// A linear problem whose weights depend on the previous estimate (iteratively re-weighted
+/// least squares, e.g. Sanathanan–Koerner).
+pub trait ReweightedProblem<T: Real> {
+    /// The real-stacked system at iteration m, with weights from θ^(m−1) (`None` for the
+    /// first iteration).
+    fn system(&self, previous: Option<&[T]>) -> (DMatrix<T>, DVector<T>);
+    /// A scale-free measure of the change between two estimates (e.g. relative change of
+    /// the model response), used for the convergence test.
+    fn change(&self, old: &[T], new: &[T]) -> T;
+    /// The criterion value at θ, reported with the solution.
+    fn cost(&self, theta: &[T]) -> T;
+}
+
+/// Copies complex rows into real-stacked form: row k becomes rows 2k (real part) and 2k + 1
+/// (imaginary part), each scaled by `weight[k]`.
+pub(crate) fn stack_rows<T: Real>(
+    m: &DMatrix<crate::Complex<T>>,
+    weight: Option<&[T]>,
+) -> DMatrix<T> {
+    let (n, p) = m.shape();
+    let mut out = DMatrix::<T>::zeros(2 * n, p);
+    for j in 0..p {
+        for k in 0..n {
+            let w = weight.map_or(T::one(), |w| w[k]);
+            let v = m[(k, j)];
+            out[(2 * k, j)] = v.re * w;
+            out[(2 * k + 1, j)] = v.im * w;
+        }
+    }
+    out
+}

@@ -1,0 +1,148 @@
+//! Levenberg–Marquardt through the `levenberg-marquardt` crate.
+
+use super::{Solution, Solver, Termination};
+use crate::Real;
+use crate::error::{FdidError, Result};
+use crate::problem::NonlinearProblem;
+use levenberg_marquardt::{LeastSquaresProblem, TerminationReason};
+use nalgebra::{DMatrix, DVector, Dyn, Owned};
+
+/// Levenberg–Marquardt (MINPACK's trust-region variant, via the `levenberg-marquardt`
+/// crate) on the real-stacked residuals of a [`NonlinearProblem`]. Needs a start.
+///
+/// | setting | default | meaning |
+/// |---|---|---|
+/// | `tolerance` | 30 ε | relative reduction of the cost (ftol), of the step (xtol) and orthogonality of residual and Jacobian (gtol) that count as converged |
+/// | `patience` | 100 | at most `patience·(p + 1)` residual evaluations |
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LevenbergMarquardt {
+    /// Convergence tolerance (`None`: 30 ε of the scalar type).
+    pub tolerance: Option<f64>,
+    /// Evaluation budget factor.
+    pub patience: usize,
+}
+
+impl Default for LevenbergMarquardt {
+    fn default() -> Self {
+        Self {
+            tolerance: None,
+            patience: 100,
+        }
+    }
+}
+
+/// The adapter the crate's stateful trait needs; kept private.
+struct Adapter<'p, T: Real, P: ?Sized> {
+    problem: &'p P,
+    x: DVector<T>,
+    evaluations: std::cell::Cell<usize>,
+}
+
+impl<T: Real, P: NonlinearProblem<T> + ?Sized> LeastSquaresProblem<T, Dyn, Dyn>
+    for Adapter<'_, T, P>
+{
+    type ResidualStorage = Owned<T, Dyn>;
+    type JacobianStorage = Owned<T, Dyn, Dyn>;
+    type ParameterStorage = Owned<T, Dyn>;
+
+    fn set_params(&mut self, x: &DVector<T>) {
+        self.x.copy_from(x);
+    }
+
+    fn params(&self) -> DVector<T> {
+        self.x.clone()
+    }
+
+    fn residuals(&self) -> Option<DVector<T>> {
+        self.evaluations.set(self.evaluations.get() + 1);
+        let mut r = DVector::zeros(self.problem.n_residuals());
+        if !self
+            .problem
+            .residuals_into(self.x.as_slice(), r.as_mut_slice())
+        {
+            // a step into a region where the model blows up: make it unattractive so the
+            // trust region shrinks, rather than aborting
+            let big = num_traits::Float::sqrt(<T as num_traits::Float>::max_value()) / T::lit(1e3);
+            r.fill(big / T::from_usize_lossy(r.len().max(1)));
+        }
+        Some(r)
+    }
+
+    fn jacobian(&self) -> Option<DMatrix<T>> {
+        let (m, p) = (self.problem.n_residuals(), self.problem.n_params());
+        let mut r = vec![T::zero(); m];
+        let mut jac = DMatrix::zeros(m, p);
+        if self
+            .problem
+            .jacobian_into(self.x.as_slice(), &mut r, &mut jac)
+        {
+            Some(jac)
+        } else {
+            None
+        }
+    }
+}
+
+impl<T: Real, P: NonlinearProblem<T> + ?Sized> Solver<T, P> for LevenbergMarquardt {
+    fn solve(&self, problem: &P, start: Option<&[T]>) -> Result<Solution<T>> {
+        let p = problem.n_params();
+        let start = start.ok_or(FdidError::InvalidArgument {
+            name: "start",
+            value: "none".into(),
+            reason: "Levenberg–Marquardt needs a starting point (e.g. from SK)".into(),
+        })?;
+        if start.len() != p {
+            return Err(FdidError::LengthMismatch {
+                what: "start",
+                expected: p,
+                got: start.len(),
+            });
+        }
+        crate::error::check_finite("start", start)?;
+        if problem.n_residuals() < p {
+            return Err(FdidError::TooFewFrequencies {
+                lines: problem.n_residuals() / 2,
+                equations: problem.n_residuals(),
+                parameters: p,
+            });
+        }
+        let tol = self
+            .tolerance
+            .map_or(T::default_epsilon() * T::lit(30.0), T::lit);
+        let lm = levenberg_marquardt::LevenbergMarquardt::new()
+            .with_tol(tol)
+            .with_patience(self.patience.max(1));
+        let adapter = Adapter {
+            problem,
+            x: DVector::from_column_slice(start),
+            evaluations: std::cell::Cell::new(0),
+        };
+        let (adapter, report) = lm.minimize(adapter);
+        let theta = adapter.x.as_slice().to_vec();
+        let termination = match report.termination {
+            TerminationReason::ResidualsZero
+            | TerminationReason::Orthogonal
+            | TerminationReason::Converged { .. }
+            | TerminationReason::NoImprovementPossible(_) => Termination::Converged,
+            TerminationReason::LostPatience => Termination::MaxIterations,
+            other => {
+                return Err(FdidError::NotConverged {
+                    method: "Levenberg–Marquardt",
+                    reason: format!("{other:?}"),
+                });
+            }
+        };
+        let mut r = vec![T::zero(); problem.n_residuals()];
+        if !problem.residuals_into(&theta, &mut r) {
+            return Err(FdidError::Numerical {
+                what: "model response at the Levenberg–Marquardt solution".into(),
+            });
+        }
+        Ok(Solution {
+            cost: r.iter().fold(T::zero(), |s, v| s + *v * *v),
+            theta,
+            iterations: adapter.evaluations.get(),
+            termination,
+        })
+    }
+}
