@@ -1,1 +1,38 @@
-//! Readers.
+//! Readers for the data files of the `fdid` command (feature `csv`).
+//!
+//! A file holds one [`Measurement`]: frequency-domain data (an FRF or input/output
+//! spectra) or a uniformly sampled time record. See [`parse_csv`] for the format.
+
+mod csv;
+
+pub use self::csv::{parse_csv, read_csv};
+
+use crate::Real;
+use crate::data::{FrequencyData, TimeData};
+
+/// The content of a data file.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Measurement<T: Real> {
+    /// Frequency-domain data: an FRF `G_k` (stored with `U_k = 1`) or spectra `Y_k`, `U_k`,
+    /// at `ω_k = 2π f_k` rad/s, without a sample time.
+    Frequency(FrequencyData<T>),
+    /// A uniformly sampled time record `u(t)`, `y(t)` with sample time `Ts`.
+    Time(TimeData<T>),
+}
+
+impl<T: Real> Measurement<T> {
+    /// The frequency-domain form: frequency data unchanged, a time record through its DFT
+    /// `X(ω_k) = (1/√N) Σ_t x(t Ts) e^{−i 2π k t / N}` on `ω_k = 2πk/(N Ts)`,
+    /// `k = 0, …, ⌊N/2⌋` (see [`TimeData::dft`]).
+    pub fn into_frequency_data(self) -> FrequencyData<T> {
+        match self {
+            Self::Frequency(d) => d,
+            Self::Time(t) => t.dft(),
+        }
+    }
+
+    /// True for a time record.
+    pub fn is_time(&self) -> bool {
+        matches!(self, Self::Time(_))
+    }
+}
