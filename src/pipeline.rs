@@ -49,8 +49,7 @@ where
 /// | `ml` | `Some(LevenbergMarquardt::default())` | ML refinement; `None` stops after SK |
 /// | `linear` | [`LinearLeastSquares::default`] | the Levy solve |
 ///
-/// If ML fails from the SK estimate it is retried from the Levy estimate; the better
-/// result (lower cost) is kept.
+/// If ML fails from the SK estimate it is retried from the Levy estimate.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Pipeline {
     /// Line weighting used by every stage.
@@ -127,12 +126,9 @@ impl Pipeline {
             let first = estimate(model, data, &ml, lm, Some(&current));
             let retry = || estimate(model, data, &ml, lm, Some(&levy.theta));
             let best = match first {
-                Ok(a) if current == levy.theta => a,
-                Ok(a) => match retry() {
-                    Ok(b) if b.cost < a.cost * T::lit(0.999) => b,
-                    _ => a,
-                },
-                Err(e) => retry().map_err(|_| e)?,
+                Ok(a) => a,
+                Err(e) if current != levy.theta => retry().map_err(|_| e)?,
+                Err(e) => return Err(e),
             };
             current = best.theta.clone();
             stages.push(Stage {

@@ -9,18 +9,19 @@ use num_traits::Float;
 
 /// Least squares min ‖Aθ − b‖² by QR of the column-equilibrated A followed by an SVD of the
 /// small triangular factor R: never the normal equations.
+///
+/// Singular values below `rcond_eps · ε · σ_max` are truncated (the minimum-norm solution
+/// along directions the data do not determine, as `numpy.linalg.lstsq` does); the solve
+/// fails with [`FdidError::Singular`] only when nothing is left (A = 0).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct LinearLeastSquares {
-    /// Largest accepted condition number of the equilibrated A, relative to 1/ε: the solve
-    /// fails with [`FdidError::Singular`] above `max_condition_eps / ε` (default 0.1).
-    pub max_condition_eps: f64,
+    /// Truncation threshold in units of ε (default 1000).
+    pub rcond_eps: f64,
 }
 
 impl Default for LinearLeastSquares {
     fn default() -> Self {
-        Self {
-            max_condition_eps: 0.1,
-        }
+        Self { rcond_eps: 1e3 }
     }
 }
 
@@ -58,12 +59,11 @@ fn check_shape<T: Real>(a: &DMatrix<T>, what: &'static str) -> Result<()> {
 /// Solves min ‖Aθ − b‖² (see [`LinearLeastSquares`]); returns θ and the residual norm².
 ///
 /// # Errors
-/// Fewer rows than columns, non-finite entries, or a condition number above
-/// `max_condition_eps / ε`.
+/// Fewer rows than columns, non-finite entries, A = 0.
 pub fn least_squares<T: Real>(
     mut a: DMatrix<T>,
     mut b: DVector<T>,
-    max_condition_eps: f64,
+    rcond_eps: f64,
 ) -> Result<(DVector<T>, T)> {
     check_shape(&a, "least squares")?;
     let p = a.ncols();
@@ -85,21 +85,26 @@ pub fn least_squares<T: Real>(
     let (smax, smin) = sv.iter().fold((T::zero(), T::infinity()), |(mx, mn), s| {
         (Float::max(mx, *s), Float::min(mn, *s))
     });
-    let cond = smax / smin;
-    let limit = T::lit(max_condition_eps) / T::default_epsilon();
-    if !(cond < limit) {
+    if !(smax > T::zero()) {
         return Err(FdidError::Singular {
-            what: "linear least-squares problem",
-            condition: cond.to_f64_lossless(),
+            what: "linear least-squares problem (zero matrix)",
+            condition: (smax / smin).to_f64_lossless(),
         });
     }
+    let cut = smax * T::lit(rcond_eps) * T::default_epsilon();
     let qtb = b.rows(0, p).into_owned();
-    let x = svd
-        .solve(&qtb, T::zero())
-        .map_err(|e| FdidError::Numerical {
-            what: e.to_string(),
-        })?;
-    let resid = Float::max(a_copy_norm - qtb.norm_squared(), T::zero());
+    let x = svd.solve(&qtb, cut).map_err(|e| FdidError::Numerical {
+        what: e.to_string(),
+    })?;
+    // residual: ‖b‖² minus the part of Q₁ᵀb explained by the kept singular directions
+    let fitted = svd.u.as_ref().map_or(qtb.norm_squared(), |u| {
+        (u.transpose() * &qtb)
+            .iter()
+            .zip(sv.iter())
+            .filter(|(_, s)| **s > cut)
+            .fold(T::zero(), |acc, (v, _)| acc + *v * *v)
+    });
+    let resid = Float::max(a_copy_norm - fitted, T::zero());
     let theta = DVector::from_iterator(p, x.iter().zip(&scale).map(|(v, s)| *v / *s));
     Ok((theta, resid))
 }
@@ -107,7 +112,7 @@ pub fn least_squares<T: Real>(
 impl<T: Real, P: LinearProblem<T> + ?Sized> Solver<T, P> for LinearLeastSquares {
     fn solve(&self, problem: &P, _start: Option<&[T]>) -> Result<Solution<T>> {
         let (a, b) = problem.system();
-        let (theta, cost) = least_squares(a, b, self.max_condition_eps)?;
+        let (theta, cost) = least_squares(a, b, self.rcond_eps)?;
         Ok(Solution {
             theta: theta.as_slice().to_vec(),
             cost,
