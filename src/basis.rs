@@ -224,21 +224,17 @@ mod tests {
         let mut phi = vec![Complex::new(0.0, 0.0); 21];
         for w in &omega {
             b.eval_into(b.variable(*w), &mut phi);
-            for i in 0..21 {
-                for j in 0..21 {
-                    gram[i][j] += (phi[i] * phi[j].conj()).re / omega.len() as f64;
+            for (row, pi) in gram.iter_mut().zip(&phi) {
+                for (g, pj) in row.iter_mut().zip(&phi) {
+                    *g += (pi * pj.conj()).re / omega.len() as f64;
                 }
             }
         }
-        for i in 0..21 {
-            for j in 0..21 {
+        for (i, row) in gram.iter().enumerate() {
+            for (j, g) in row.iter().enumerate() {
                 // the symmetric measure makes Re⟨φi, φj⟩ = δij on the positive half
                 let want = if i == j { 1.0 } else { 0.0 };
-                assert!(
-                    (gram[i][j] - want).abs() < 1e-9,
-                    "gram[{i}][{j}] = {}",
-                    gram[i][j]
-                );
+                assert!((g - want).abs() < 1e-9, "gram[{i}][{j}] = {g}");
             }
         }
     }

@@ -42,6 +42,8 @@
 //! ```
 
 #![warn(missing_docs)]
+// `!(x > tol)` is deliberate throughout: it also rejects NaN.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod basis;
 pub mod criterion;

@@ -26,12 +26,15 @@ pub struct MaximumLikelihood {
     pub weighting: NoiseWeighting,
 }
 
+/// Buffers for the model response and its complex Jacobian.
+type Scratch<T> = (Vec<Complex<T>>, DMatrix<Complex<T>>);
+
 /// The ML criterion bound to a model and data.
 pub struct MlProblem<'a, T: Real, M: ?Sized> {
     model: &'a M,
     data: &'a FrequencyData<T>,
     weight: Option<Vec<T>>,
-    scratch: RefCell<(Vec<Complex<T>>, DMatrix<Complex<T>>)>,
+    scratch: RefCell<Scratch<T>>,
 }
 
 impl<T: Real, M: ModelStructure<T> + ?Sized> Criterion<T, M> for MaximumLikelihood {

@@ -185,7 +185,7 @@ impl<T: Real> Rational<T> {
             .map(|p| match self.basis {
                 PolyBasis::Orthonormal { .. } if p.re > T::zero() => Complex::new(-p.re, p.im),
                 PolyBasis::DelayPowers { .. } if p.norm() > T::one() => {
-                    gain_fix = gain_fix / p.norm();
+                    gain_fix /= p.norm();
                     p.conj().inv()
                 }
                 _ => *p,
@@ -193,7 +193,7 @@ impl<T: Real> Rational<T> {
             .collect();
         let a = self.poly_from_roots(&reflected);
         for v in b.iter_mut() {
-            *v = *v * gain_fix;
+            *v *= gain_fix;
         }
         self.theta_from_polys(&a, &b)
     }
@@ -479,11 +479,11 @@ impl<T: Real> PolesZeros<T> for Rational<T> {
                 // ratio of leading coefficients: Π_{j≤db} 1/(ω_s γ_j) / Π_{j≤da} 1/(ω_s γ_j)
                 if da > db {
                     for g in &gamma[db..da] {
-                        k = k * (*scale * *g);
+                        k *= *scale * *g;
                     }
                 } else {
                     for g in &gamma[da..db] {
-                        k = k / (*scale * *g);
+                        k /= *scale * *g;
                     }
                 }
                 k

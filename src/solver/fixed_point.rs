@@ -66,8 +66,10 @@ impl<T: Real, P: ReweightedProblem<T> + ?Sized> Solver<T, P> for FixedPoint {
                 num_traits::Float::abs(c - cost) <= ctol * num_traits::Float::max(c, cost)
             });
             last_cost = Some(cost);
-            if let Some(ch) = change {
-                if ch < tol || stalled {
+            if let Some(ch) = change
+                && (ch < tol || stalled)
+            {
+                {
                     return Ok(Solution {
                         theta,
                         cost,
