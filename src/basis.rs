@@ -39,6 +39,15 @@ pub enum PolyBasis<T: Real> {
         /// Sample time (s).
         ts: T,
     },
+    /// Partial fractions in s with fixed basis poles qⱼ (the barycentric form of vector
+    /// fitting): φ₀ = 1, φ = 1/(s − q) for a real q, and for a complex pair (q, q̄) the two
+    /// real rational functions 1/(s − q) + 1/(s − q̄) and i/(s − q) − i/(s − q̄).
+    /// A "polynomial" Σ cₙ φₙ is then a rational function with poles at the qⱼ; the ratio of
+    /// two of them is a rational model whose poles are the zeros of the denominator.
+    PartialFractions {
+        /// Basis poles: real ones (im = 0) and one member (im > 0) of each complex pair.
+        poles: Vec<Complex<T>>,
+    },
 }
 
 impl<T: Real> PolyBasis<T> {
@@ -108,19 +117,96 @@ impl<T: Real> PolyBasis<T> {
         Ok(Self::DelayPowers { ts })
     }
 
+    /// Partial fractions with the given basis poles (real ones, and one member of each
+    /// complex pair with im > 0).
+    ///
+    /// # Errors
+    /// Non-finite poles, a pole on the imaginary axis (it would make the basis infinite at a
+    /// data frequency), or repeated poles.
+    pub fn partial_fractions(poles: Vec<Complex<T>>) -> Result<Self> {
+        for (i, q) in poles.iter().enumerate() {
+            if !(Float::is_finite(q.re) && Float::is_finite(q.im)) || q.im < T::zero() {
+                return Err(FdidError::InvalidArgument {
+                    name: "basis pole",
+                    value: format!("{q} at entry {i}"),
+                    reason: "basis poles must be finite, given once per conjugate pair (im ≥ 0)"
+                        .into(),
+                });
+            }
+            if q.re == T::zero() {
+                return Err(FdidError::InvalidArgument {
+                    name: "basis pole",
+                    value: format!("{q} at entry {i}"),
+                    reason: "a basis pole on the imaginary axis".into(),
+                });
+            }
+            for (j, r) in poles[..i].iter().enumerate() {
+                if (*q - *r).norm() <= T::default_epsilon() * q.norm() {
+                    return Err(FdidError::InvalidArgument {
+                        name: "basis pole",
+                        value: format!("{q} at entries {j} and {i}"),
+                        reason: "repeated basis poles".into(),
+                    });
+                }
+            }
+        }
+        Ok(Self::PartialFractions { poles })
+    }
+
+    /// Number of basis functions besides φ₀ that a partial-fraction basis holds (a complex
+    /// pair counts twice).
+    fn fraction_count(poles: &[Complex<T>]) -> usize {
+        poles
+            .iter()
+            .map(|q| if q.im == T::zero() { 1 } else { 2 })
+            .sum()
+    }
+
     /// Highest degree the basis can evaluate (`usize::MAX` for powers of z⁻¹).
     pub fn max_degree(&self) -> usize {
         match self {
             Self::Orthonormal { gamma, .. } => gamma.len(),
             Self::DelayPowers { .. } => usize::MAX,
+            Self::PartialFractions { poles } => Self::fraction_count(poles),
         }
+    }
+
+    /// The real state-space realisation (Q, b) of the partial fractions: φ₁…φ_n of
+    /// [`PolyBasis::PartialFractions`] are the entries of (sI − Q)⁻¹b. A real pole q gives
+    /// Q = q, b = 1; a pair σ ± iω gives the block [[σ, ω], [−ω, σ]] with b = [2, 0].
+    /// `None` for the polynomial bases.
+    pub fn realisation(&self) -> Option<(nalgebra::DMatrix<T>, nalgebra::DVector<T>)> {
+        let Self::PartialFractions { poles } = self else {
+            return None;
+        };
+        let n = Self::fraction_count(poles);
+        let mut q = nalgebra::DMatrix::zeros(n, n);
+        let mut b = nalgebra::DVector::zeros(n);
+        let mut i = 0;
+        for p in poles {
+            if p.im == T::zero() {
+                q[(i, i)] = p.re;
+                b[i] = T::one();
+                i += 1;
+            } else {
+                q[(i, i)] = p.re;
+                q[(i + 1, i + 1)] = p.re;
+                q[(i, i + 1)] = p.im;
+                q[(i + 1, i)] = -p.im;
+                b[i] = T::lit(2.0);
+                i += 2;
+            }
+        }
+        Some((q, b))
     }
 
     /// The complex frequency variable at angular frequency ω: s = iω (continuous time) or
     /// z = e^{iωTs} (discrete time).
     pub fn variable(&self, omega: T) -> Complex<T> {
         match self {
-            Self::Orthonormal { .. } => Complex::new(T::zero(), omega),
+            Self::Orthonormal { .. } | Self::PartialFractions { .. } => {
+                Complex::new(T::zero(), omega)
+            }
             Self::DelayPowers { ts } => Complex::new(T::zero(), omega * *ts).exp(),
         }
     }
@@ -150,6 +236,27 @@ impl<T: Real> PolyBasis<T> {
                     out[k] = out[k - 1] * zinv;
                 }
             }
+            Self::PartialFractions { poles } => {
+                let mut k = 1;
+                let i = Complex::new(T::zero(), T::one());
+                for q in poles {
+                    if k >= out.len() {
+                        break;
+                    }
+                    let t1 = (v - *q).inv();
+                    if q.im == T::zero() {
+                        out[k] = t1;
+                        k += 1;
+                    } else {
+                        let t2 = (v - q.conj()).inv();
+                        out[k] = t1 + t2;
+                        if k + 1 < out.len() {
+                            out[k + 1] = (t1 - t2) * i;
+                        }
+                        k += 2;
+                    }
+                }
+            }
         }
     }
 
@@ -173,6 +280,58 @@ impl<T: Real> PolyBasis<T> {
     pub fn to_monomial(&self, coeffs: &[T]) -> Vec<T> {
         match self {
             Self::DelayPowers { .. } => coeffs.to_vec(),
+            Self::PartialFractions { poles } => {
+                // numerator of Σ cₙ φₙ over Π(s − qⱼ), ascending powers of s
+                let mul = |p: &[T], f: &[T]| {
+                    let mut out = vec![T::zero(); p.len() + f.len() - 1];
+                    for (i, x) in p.iter().enumerate() {
+                        for (j, y) in f.iter().enumerate() {
+                            out[i + j] += *x * *y;
+                        }
+                    }
+                    out
+                };
+                let factors: Vec<Vec<T>> = poles
+                    .iter()
+                    .map(|q| {
+                        if q.im == T::zero() {
+                            vec![-q.re, T::one()]
+                        } else {
+                            vec![q.norm_sqr(), -(q.re + q.re), T::one()]
+                        }
+                    })
+                    .collect();
+                let product = |skip: Option<usize>| {
+                    factors
+                        .iter()
+                        .enumerate()
+                        .filter(|(j, _)| Some(*j) != skip)
+                        .fold(vec![T::one()], |acc, (_, f)| mul(&acc, f))
+                };
+                let n = Self::fraction_count(poles);
+                let mut out = vec![T::zero(); n + 1];
+                let get = |k: usize| coeffs.get(k).copied().unwrap_or_else(T::zero);
+                for (j, v) in product(None).iter().enumerate() {
+                    out[j] += get(0) * *v;
+                }
+                let mut k = 1;
+                let two = T::lit(2.0);
+                for (j, q) in poles.iter().enumerate() {
+                    let rest = product(Some(j));
+                    let num: Vec<T> = if q.im == T::zero() {
+                        vec![get(k)]
+                    } else {
+                        // 2c_a(s − σ) − 2c_b ω
+                        vec![-two * get(k) * q.re - two * get(k + 1) * q.im, two * get(k)]
+                    };
+                    for (i, v) in mul(&rest, &num).iter().enumerate() {
+                        out[i] += *v;
+                    }
+                    k += if q.im == T::zero() { 1 } else { 2 };
+                }
+                out.truncate(coeffs.len().max(1));
+                out
+            }
             Self::Orthonormal { scale, gamma } => {
                 let d = coeffs.len();
                 let mut out = vec![T::zero(); d];
@@ -260,6 +419,42 @@ mod tests {
         // real argument gives a real value
         let v = b.eval_poly(&c, Complex::new(0.7, 0.0));
         assert!(v.im.abs() < 1e-12);
+    }
+
+    #[test]
+    fn partial_fractions_realisation_and_monomials() {
+        let b = PolyBasis::partial_fractions(vec![
+            Complex::new(-0.3, 2.0),
+            Complex::new(-1.5, 0.0),
+            Complex::new(-0.1, 7.0),
+        ])
+        .unwrap();
+        assert_eq!(b.max_degree(), 5);
+        let (q, bv) = b.realisation().unwrap();
+        let c = [0.7, 1.0, -0.5, 2.0, 0.25, -1.25];
+        let mono = b.to_monomial(&c);
+        let den = b.to_monomial(&[1.0, 0.0, 0.0, 0.0, 0.0, 0.0]);
+        for s in [Complex::new(0.0, 1.3), Complex::new(0.4, -2.0)] {
+            let direct = b.eval_poly(&c, s);
+            // c₀ + cᵀ(sI − Q)⁻¹b
+            let m = nalgebra::DMatrix::<Complex<f64>>::from_fn(5, 5, |i, j| {
+                let d = if i == j { s } else { Complex::new(0.0, 0.0) };
+                d - Complex::new(q[(i, j)], 0.0)
+            });
+            let rhs = nalgebra::DVector::from_fn(5, |i, _| Complex::new(bv[i], 0.0));
+            let x = m.lu().solve(&rhs).unwrap();
+            let ss = (1..6).fold(Complex::new(c[0], 0.0), |acc, k| acc + x[k - 1] * c[k]);
+            assert!((direct - ss).norm() < 1e-12 * direct.norm().max(1.0));
+            let horner = |p: &[f64]| {
+                p.iter()
+                    .rev()
+                    .fold(Complex::new(0.0, 0.0), |acc, m| acc * s + *m)
+            };
+            let via = horner(&mono) / horner(&den);
+            assert!((direct - via).norm() < 1e-10 * direct.norm().max(1.0));
+        }
+        assert!(PolyBasis::partial_fractions(vec![Complex::new(0.0, 1.0)]).is_err());
+        assert!(PolyBasis::partial_fractions(vec![Complex::new(-1.0, -1.0)]).is_err());
     }
 
     #[test]

@@ -107,9 +107,18 @@ impl Pipeline {
             solution: levy.clone(),
         }];
         let mut current = levy.theta.clone();
-        if let Some(fp) = &self.sk {
+        let mut model = model.clone();
+        if let (Some(fp), true) = (&self.sk, model.relocated(&levy.theta).is_some()) {
+            let (m, sk) = self.relocate(model, data, levy.theta.clone(), fp)?;
+            model = m;
+            current = sk.theta.clone();
+            stages.push(Stage {
+                name: "sk".into(),
+                solution: sk,
+            });
+        } else if let Some(fp) = &self.sk {
             let sk = estimate(
-                model,
+                &model,
                 data,
                 &SanathananKoerner { weighting: w },
                 fp,
@@ -121,6 +130,7 @@ impl Pipeline {
                 solution: sk,
             });
         }
+        let model = &model;
         if let Some(lm) = &self.ml {
             let ml = MaximumLikelihood { weighting: w };
             let first = estimate(model, data, &ml, lm, Some(&current));
@@ -137,5 +147,73 @@ impl Pipeline {
             });
         }
         Fit::new(model.clone(), data, current, w, stages)
+    }
+
+    /// Sanathanan–Koerner by basis relocation (vector fitting): a Levy solve in a basis
+    /// whose poles are the previous estimate's, until the model stops changing (the tests
+    /// of [`FixedPoint`]). Returns the model in its final basis and the estimate in it.
+    fn relocate<T: Real, M: EquationError<T> + Clone>(
+        &self,
+        mut model: M,
+        data: &FrequencyData<T>,
+        mut theta: Vec<T>,
+        fp: &FixedPoint,
+    ) -> Result<(M, Solution<T>)> {
+        let w = self.weighting;
+        let tol = fp.tolerance.map_or_else(
+            || num_traits::Float::sqrt(T::default_epsilon()) * T::lit(0.1),
+            T::lit,
+        );
+        let ctol = T::lit(fp.cost_tolerance);
+        let oe_cost = |m: &M, th: &[T]| -> Result<T> {
+            Ok(crate::criterion::MlProblem::new(m, data, w)?.cost(th))
+        };
+        let mut cost = oe_cost(&model, &theta)?;
+        let mut g_old = model.response(&theta, data.omega());
+        let linear = LinearLeastSquares {
+            rcond_eps: fp.rcond_eps,
+        };
+        for it in 1..=fp.max_iterations.max(1) {
+            let Some(next) = model.relocated(&theta) else {
+                break;
+            };
+            let next = next?;
+            let sol = estimate(&next, data, &Levy { weighting: w }, &linear, None)?;
+            let new_cost = oe_cost(&next, &sol.theta)?;
+            let g_new = next.response(&sol.theta, data.omega());
+            let (num, den) = g_old
+                .iter()
+                .zip(&g_new)
+                .fold((T::zero(), T::zero()), |(n, d), (a, b)| {
+                    (n + (*a - *b).norm_sqr(), d + b.norm_sqr())
+                });
+            let change = num_traits::Float::sqrt(num / den);
+            let stalled = num_traits::Float::abs(new_cost - cost)
+                <= ctol * num_traits::Float::max(new_cost, cost);
+            model = next;
+            theta = sol.theta;
+            cost = new_cost;
+            g_old = g_new;
+            if change < tol || stalled {
+                return Ok((
+                    model,
+                    Solution {
+                        theta,
+                        cost,
+                        iterations: it,
+                        termination: crate::solver::Termination::Converged,
+                    },
+                ));
+            }
+        }
+        Ok((
+            model,
+            Solution {
+                theta,
+                cost,
+                iterations: fp.max_iterations.max(1),
+                termination: crate::solver::Termination::MaxIterations,
+            },
+        ))
     }
 }

@@ -51,6 +51,66 @@ pub fn roots<T: Real>(basis: &PolyBasis<T>, coeffs: &[T]) -> Result<Vec<Complex<
             }
             Ok(eigenvalues(m)?.into_iter().map(|x| x * *scale).collect())
         }
+        PolyBasis::PartialFractions { .. } => {
+            let Some((q, b)) = basis.realisation() else {
+                return Ok(vec![]);
+            };
+            let n = q.nrows();
+            let c = nalgebra::DVector::from_iterator(
+                n,
+                (1..=n).map(|k| coeffs.get(k).copied().unwrap_or_else(T::zero)),
+            );
+            let c0 = coeffs.first().copied().unwrap_or_else(T::zero);
+            if Float::abs(c0) > tol {
+                // zeros of c₀ + cᵀ(sI − Q)⁻¹b: eigenvalues of Q − b cᵀ/c₀
+                return eigenvalues(q - &b * c.transpose() / c0);
+            }
+            // strictly proper, relative degree r: with Q_σ = Q − σI (σ away from the
+            // spectrum) and m = cᵀQ_σ^{r−1}b the first non-zero Markov parameter, the zeros
+            // are the eigenvalues of (I − b cᵀQ_σ^{r−1}/m) Q_σ, shifted back by σ, except r
+            // spurious ones at 0 (the span of cᵀ, …, cᵀQ_σ^{r−1} is a left-invariant subspace
+            // on which the matrix is nilpotent)
+            let radius = q
+                .iter()
+                .fold(T::one(), |m, v| Float::max(m, Float::abs(*v)));
+            let sigma = -radius * T::lit(7.3);
+            let eye = nalgebra::DMatrix::<T>::identity(n, n);
+            let shifted = &q - &eye * sigma;
+            let qn = shifted.norm();
+            let mut row = c.transpose(); // cᵀQ_σ^k
+            let mut r = 0;
+            let mut m = T::zero();
+            for k in 0..n {
+                let mk = (&row * &b)[(0, 0)];
+                let scale = c.norm() * b.norm() * Float::powi(qn, k as i32);
+                if Float::abs(mk) > T::lit(1e3) * T::default_epsilon() * scale {
+                    r = k + 1;
+                    m = mk;
+                    break;
+                }
+                row = &row * &shifted;
+            }
+            if r == 0 {
+                return Ok(vec![]); // N ≡ 0 numerically
+            }
+            let proj = &eye - &b * &row / m;
+            let mut ev = eigenvalues(proj * shifted)?;
+            for _ in 0..r {
+                if let Some(i) = ev
+                    .iter()
+                    .enumerate()
+                    .min_by(|x, y| {
+                        x.1.norm()
+                            .partial_cmp(&y.1.norm())
+                            .unwrap_or(std::cmp::Ordering::Equal)
+                    })
+                    .map(|(i, _)| i)
+                {
+                    ev.remove(i);
+                }
+            }
+            Ok(ev.into_iter().map(|z| z + sigma).collect())
+        }
         PolyBasis::DelayPowers { .. } => {
             // z^n Σ c_k z^{-k} = c_0 z^n + c_1 z^{n-1} + … + c_n
             let mut hi = coeffs.len();
@@ -141,6 +201,60 @@ mod tests {
         let r = sorted(roots(&b, c.as_slice()).unwrap());
         for (x, y) in r.iter().zip(sorted(want.to_vec())) {
             assert!((x - y).norm() < 1e-9, "{x} vs {y}");
+        }
+    }
+
+    #[test]
+    fn partial_fraction_roots_any_relative_degree() {
+        let b = PolyBasis::partial_fractions(vec![
+            Complex::new(-0.3, 2.0),
+            Complex::new(-1.5, 0.0),
+            Complex::new(-0.1, 7.0),
+        ])
+        .unwrap();
+        let n = 5;
+        // coefficients of the polynomial with the given roots, via monomials: solve for c
+        // from the numerator polynomial through to_monomial's columns
+        let cols: Vec<Vec<f64>> = (0..=n)
+            .map(|k| {
+                let mut e = vec![0.0; n + 1];
+                e[k] = 1.0;
+                b.to_monomial(&e)
+            })
+            .collect();
+        for want in [
+            vec![
+                Complex::new(-2.0, 0.0),
+                Complex::new(-1.0, 3.0),
+                Complex::new(-1.0, -3.0),
+            ],
+            vec![
+                Complex::new(-2.0, 0.0),
+                Complex::new(-1.0, 3.0),
+                Complex::new(-1.0, -3.0),
+                Complex::new(0.5, 0.0),
+            ],
+        ] {
+            let mut p = vec![Complex::new(1.0, 0.0)];
+            for r in &want {
+                let mut q = vec![Complex::new(0.0, 0.0); p.len() + 1];
+                for (i, c) in p.iter().enumerate() {
+                    q[i + 1] += *c;
+                    q[i] -= *c * *r;
+                }
+                p = q;
+            }
+            // strictly proper numerator: c₀ = 0, solve the 5 remaining from degrees 0..4
+            let a = DMatrix::from_fn(n, n, |i, j| cols[j + 1][i]);
+            let rhs = nalgebra::DVector::from_fn(n, |i, _| p.get(i).map_or(0.0, |c| c.re));
+            let c = a.lu().solve(&rhs).unwrap();
+            let mut full = vec![0.0];
+            full.extend(c.iter());
+            let r = sorted(roots(&b, &full).unwrap());
+            assert_eq!(r.len(), want.len());
+            for (x, y) in r.iter().zip(sorted(want.clone())) {
+                assert!((x - y).norm() < 1e-8, "{x} vs {y}");
+            }
         }
     }
 

@@ -82,6 +82,21 @@ pub trait EquationError<T: Real>: ModelStructure<T> {
     /// Writes the denominator A(θ, ω_k) (the Sanathanan–Koerner weight is 1/|A|²).
     fn denominator_into(&self, theta: &[T], omega: &[T], out: &mut [Complex<T>]);
 
+    /// A model of the same structure with its basis adapted to θ — e.g. partial fractions
+    /// whose basis poles are moved to the poles of θ (vector fitting's relocation) — or
+    /// `None` when the basis is fixed. A Levy solve in the relocated basis is then one
+    /// Sanathanan–Koerner iteration.
+    ///
+    /// # Errors
+    /// When θ does not define a valid new basis.
+    fn relocated(&self, theta: &[T]) -> Option<Result<Self>>
+    where
+        Self: Sized,
+    {
+        let _ = theta;
+        None
+    }
+
     /// θ from a homogeneous coefficient vector: c divided by its normalising entry, which is
     /// then dropped. `None` when that entry is (numerically) zero.
     fn theta_from_coefficients(&self, c: &[T]) -> Option<Vec<T>> {

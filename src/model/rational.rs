@@ -24,8 +24,13 @@ pub enum Domain<T: Real> {
 
 /// A rational model G(θ) = B(θ)/A(θ).
 ///
-/// **Continuous time** (McKelvey eq. 7): A(s) of degree `na` and B(s) of degree `nb`, both
-/// expanded in the basis φₙ(s) orthonormal on the data grid ([`PolyBasis::Orthonormal`]):
+/// **Continuous time, partial fractions** ([`Rational::partial_fractions`], chosen by
+/// [`Rational::continuous`] when nb ≥ na − 1): A and B are rational functions over fixed
+/// basis poles, D = 1 + Σ dₙφₙ and N = Σ cₙφₙ (vector fitting's barycentric form).
+///
+/// **Continuous time, polynomial** (McKelvey eq. 7; [`Rational::polynomial`]): A(s) of
+/// degree `na` and B(s) of degree `nb`, both expanded in the basis φₙ(s) orthonormal on the
+/// data grid ([`PolyBasis::Orthonormal`]):
 ///
 /// ```text
 /// A(s) = φ_na(s) + Σ_{n<na} aₙ φₙ(s),   B(s) = Σ_{n≤nb} bₙ φₙ(s),
@@ -52,12 +57,34 @@ pub struct Rational<T: Real> {
 }
 
 impl<T: Real> Rational<T> {
-    /// A continuous-time model with denominator degree `na`, numerator degree `nb`, in the
-    /// basis orthonormal on the frequency grid `omega` (rad/s) — normally the data's.
+    /// A continuous-time model with denominator degree `na` and numerator degree `nb` for
+    /// data on the frequency grid `omega` (rad/s), in the best-conditioned form the orders
+    /// allow:
+    /// - `nb = na` or `nb = na − 1` (`na ≥ 1`): the partial-fraction (barycentric) form of
+    ///   [`Rational::partial_fractions_on`], whose basis poles the [`crate::Pipeline`] moves
+    ///   to the estimated poles — accurate to machine precision at order 20 over several
+    ///   decades;
+    /// - otherwise: polynomials in the basis orthonormal on the grid
+    ///   ([`Rational::polynomial`]), adequate up to about order 10 over two decades.
     ///
     /// # Errors
     /// No positive frequency, or too few distinct frequencies for the degrees.
     pub fn continuous(na: usize, nb: usize, omega: &[T]) -> Result<Self> {
+        if na >= 1 && (nb == na || nb + 1 == na) {
+            Self::partial_fractions_on(na, nb, omega)
+        } else {
+            Self::polynomial(na, nb, omega)
+        }
+    }
+
+    /// A continuous-time model with A and B expanded in the polynomial basis orthonormal on
+    /// the frequency grid `omega` (rad/s) — normally the data's. Any orders; the dynamic
+    /// range of a polynomial over a wide band limits it to about order 10 over two decades
+    /// in f64.
+    ///
+    /// # Errors
+    /// No positive frequency, or too few distinct frequencies for the degrees.
+    pub fn polynomial(na: usize, nb: usize, omega: &[T]) -> Result<Self> {
         crate::error::check_finite("omega", omega)?;
         let basis = PolyBasis::orthonormal(omega, na.max(nb))?;
         Ok(Self { na, nb, basis })
@@ -91,12 +118,143 @@ impl<T: Real> Rational<T> {
         &self.basis
     }
 
+    /// A continuous-time model in the barycentric (vector-fitting) form with basis poles
+    /// `poles` (real ones, and one member with im > 0 of each complex pair):
+    ///
+    /// ```text
+    /// G(s) = N(s)/D(s),  D(s) = 1 + Σ_{n≥1} dₙ φₙ(s),  N(s) = Σ cₙ φₙ(s),
+    /// θ = [d₁ … d_na, c_{na−nb} … c_na],
+    /// ```
+    ///
+    /// with φₙ the partial fractions of [`PolyBasis::PartialFractions`]; `na` is the number
+    /// of basis functions besides φ₀ (a pair counts twice) and `nb` is `na` (direct
+    /// feedthrough, c₀ free) or `na − 1` (strictly proper, c₀ = 0). The poles of G are the
+    /// zeros of D. With basis poles close to the poles of G the columns of the Jacobian are
+    /// nearly orthogonal, which keeps high orders over many decades well conditioned; see
+    /// [`Rational::relocated`] and [`crate::Pipeline`] for the relocation iterations that put
+    /// them there.
+    ///
+    /// # Errors
+    /// Invalid basis poles (see [`PolyBasis::partial_fractions`]), `nb` not in
+    /// {na − 1, na}, or no pole.
+    pub fn partial_fractions(poles: Vec<Complex<T>>, nb: usize) -> Result<Self> {
+        let basis = PolyBasis::partial_fractions(poles)?;
+        let na = basis.max_degree();
+        if na == 0 || !(nb == na || nb + 1 == na) {
+            return Err(FdidError::InvalidArgument {
+                name: "nb",
+                value: format!("{nb} (na = {na})"),
+                reason: "the partial-fraction form needs at least one pole and nb = na or na − 1"
+                    .into(),
+            });
+        }
+        Ok(Self { na, nb, basis })
+    }
+
+    /// A partial-fraction model (see [`Rational::partial_fractions`]) with `na` starting
+    /// basis poles spread log-uniformly over the positive frequencies of `omega` (rad/s),
+    /// lightly damped (qₖ = −ωₖ/100 ± iωₖ), plus one real pole −ω_max when `na` is odd: the
+    /// usual vector-fitting start.
+    ///
+    /// # Errors
+    /// `na = 0`, `nb` not in {na − 1, na}, no positive frequency.
+    pub fn partial_fractions_on(na: usize, nb: usize, omega: &[T]) -> Result<Self> {
+        crate::error::check_finite("omega", omega)?;
+        let lo = omega
+            .iter()
+            .copied()
+            .filter(|w| *w > T::zero())
+            .fold(T::infinity(), Float::min);
+        let hi = omega.iter().copied().fold(T::zero(), Float::max);
+        if !(hi > T::zero()) {
+            return Err(FdidError::InvalidArgument {
+                name: "omega",
+                value: format!("max {hi}"),
+                reason: "a continuous-time model needs at least one positive frequency".into(),
+            });
+        }
+        let pairs = na / 2;
+        let (llo, lhi) = (Float::ln(lo), Float::ln(hi));
+        let mut poles: Vec<Complex<T>> = (0..pairs)
+            .map(|k| {
+                let f = if pairs == 1 {
+                    T::lit(0.5)
+                } else {
+                    T::from_usize_lossy(k) / T::from_usize_lossy(pairs - 1)
+                };
+                let w = Float::exp(llo + (lhi - llo) * f);
+                Complex::new(-w / T::lit(100.0), w)
+            })
+            .collect();
+        if na % 2 == 1 {
+            poles.push(Complex::new(-hi, T::zero()));
+        }
+        Self::partial_fractions(poles, nb)
+    }
+
+    /// The same kind of partial-fraction model with its basis poles moved to the poles of
+    /// θ, unstable ones reflected into the left half-plane (the pole relocation step of
+    /// vector fitting; with the denominator D = A/Π(s − qⱼ), one Levy solve in the new basis
+    /// is one Sanathanan–Koerner iteration). `None` for the polynomial bases.
+    /// This is [`EquationError::relocated`].
+    fn relocate(&self, theta: &[T]) -> Option<Result<Self>> {
+        let PolyBasis::PartialFractions { .. } = self.basis else {
+            return None;
+        };
+        Some(self.poles(theta).and_then(|p| {
+            let mut basis_poles = vec![];
+            for q in p {
+                let q = if q.re > T::zero() {
+                    Complex::new(-q.re, q.im)
+                } else {
+                    q
+                };
+                // real eigenvalues come out with im exactly zero from the real Schur form
+                if q.im > T::zero() {
+                    basis_poles.push(q);
+                } else if q.im == T::zero() {
+                    let re = if q.re == T::zero() {
+                        -T::default_epsilon()
+                    } else {
+                        q.re
+                    };
+                    basis_poles.push(Complex::new(re, T::zero()));
+                }
+            }
+            Self::partial_fractions(basis_poles, self.nb)
+        }))
+    }
+
     /// Continuous or discrete time.
     pub fn domain(&self) -> Domain<T> {
         match self.basis {
-            PolyBasis::Orthonormal { .. } => Domain::Continuous,
+            PolyBasis::Orthonormal { .. } | PolyBasis::PartialFractions { .. } => {
+                Domain::Continuous
+            }
             PolyBasis::DelayPowers { ts } => Domain::Discrete { ts },
         }
+    }
+
+    /// True for bases normalised by their constant coefficient (z⁻¹ powers, partial
+    /// fractions), false for the orthonormal basis (normalised by the leading one).
+    fn constant_normalised(&self) -> bool {
+        !matches!(self.basis, PolyBasis::Orthonormal { .. })
+    }
+
+    /// Index of the first numerator basis function (1 for a strictly proper
+    /// partial-fraction model, else 0).
+    fn b_offset(&self) -> usize {
+        match self.basis {
+            PolyBasis::PartialFractions { .. } => self.na - self.nb,
+            _ => 0,
+        }
+    }
+
+    /// Numerator coefficients over the full basis (zeros below the offset).
+    fn b_in_basis(&self, b: &[T]) -> Vec<T> {
+        let mut full = vec![T::zero(); self.b_offset()];
+        full.extend_from_slice(b);
+        full
     }
 
     /// The complex frequency variable at ω (s = iω or z = e^{iωTs}).
@@ -113,15 +271,12 @@ impl<T: Real> Rational<T> {
         let na = self.na;
         let get = |i: usize| theta.get(i).copied().unwrap_or_else(T::zero);
         let mut a = Vec::with_capacity(na + 1);
-        match self.basis {
-            PolyBasis::Orthonormal { .. } => {
-                a.extend((0..na).map(get));
-                a.push(T::one());
-            }
-            PolyBasis::DelayPowers { .. } => {
-                a.push(T::one());
-                a.extend((0..na).map(get));
-            }
+        if self.constant_normalised() {
+            a.push(T::one());
+            a.extend((0..na).map(get));
+        } else {
+            a.extend((0..na).map(get));
+            a.push(T::one());
         }
         let b = (na..na + self.nb + 1).map(get).collect();
         (a, b)
@@ -154,7 +309,10 @@ impl<T: Real> Rational<T> {
     /// arithmetic but ill-conditioned for high orders over wide bands: for display.
     pub fn monomial_coefficients(&self, theta: &[T]) -> (Vec<T>, Vec<T>) {
         let (a, b) = self.coefficients(theta);
-        (self.basis.to_monomial(&a), self.basis.to_monomial(&b))
+        (
+            self.basis.to_monomial(&a),
+            self.basis.to_monomial(&self.b_in_basis(&b)),
+        )
     }
 
     /// True when every pole is strictly stable (Re p < 0, or |p| < 1).
@@ -164,8 +322,8 @@ impl<T: Real> Rational<T> {
     pub fn is_stable(&self, theta: &[T]) -> Result<bool> {
         let poles = self.poles(theta)?;
         Ok(match self.basis {
-            PolyBasis::Orthonormal { .. } => poles.iter().all(|p| p.re < T::zero()),
             PolyBasis::DelayPowers { .. } => poles.iter().all(|p| p.norm() < T::one()),
+            _ => poles.iter().all(|p| p.re < T::zero()),
         })
     }
 
@@ -183,7 +341,11 @@ impl<T: Real> Rational<T> {
         let reflected: Vec<Complex<T>> = poles
             .iter()
             .map(|p| match self.basis {
-                PolyBasis::Orthonormal { .. } if p.re > T::zero() => Complex::new(-p.re, p.im),
+                PolyBasis::Orthonormal { .. } | PolyBasis::PartialFractions { .. }
+                    if p.re > T::zero() =>
+                {
+                    Complex::new(-p.re, p.im)
+                }
                 PolyBasis::DelayPowers { .. } if p.norm() > T::one() => {
                     gain_fix /= p.norm();
                     p.conj().inv()
@@ -248,6 +410,39 @@ impl<T: Real> Rational<T> {
                 c.resize(n + 1, T::zero());
                 c
             }
+            PolyBasis::PartialFractions { poles: q } => {
+                // D(s) = Π(s − rᵢ)/Π(s − qⱼ) = 1 + Σ ρⱼ/(s − qⱼ), ρⱼ = Π(qⱼ − rᵢ)/Π_{l≠j}(qⱼ − q_l)
+                let all_q: Vec<Complex<T>> = q
+                    .iter()
+                    .flat_map(|p| {
+                        if p.im == T::zero() {
+                            vec![*p]
+                        } else {
+                            vec![*p, p.conj()]
+                        }
+                    })
+                    .collect();
+                let one = Complex::new(T::one(), T::zero());
+                let residue = |qj: Complex<T>| {
+                    let num = r.iter().fold(one, |acc, ri| acc * (qj - *ri));
+                    let den = all_q
+                        .iter()
+                        .filter(|ql| (**ql - qj).norm() > T::zero())
+                        .fold(one, |acc, ql| acc * (qj - *ql));
+                    num / den
+                };
+                let mut c = vec![T::one()];
+                for p in q {
+                    let rho = residue(*p);
+                    // ρ/(s − q) + ρ̄/(s − q̄) = Re ρ · φ_a + Im ρ · φ_b
+                    c.push(rho.re);
+                    if p.im != T::zero() {
+                        c.push(rho.im);
+                    }
+                }
+                c.resize(n + 1, T::zero());
+                c
+            }
             PolyBasis::Orthonormal { scale, gamma } => {
                 // work in x = s/ω_s; multiply by x using x φ_k = γ_{k+1} φ_{k+1} − γ_k φ_{k−1}
                 let times_x = |c: &[T]| {
@@ -300,22 +495,20 @@ impl<T: Real> Rational<T> {
         let na = self.na;
         let mut a = zero;
         let mut b = zero;
-        match self.basis {
-            PolyBasis::Orthonormal { .. } => {
-                for k in 0..na {
-                    a += phi[k] * theta[k];
-                }
-                a += phi[na];
+        if self.constant_normalised() {
+            a = phi[0];
+            for k in 1..=na {
+                a += phi[k] * theta[k - 1];
             }
-            PolyBasis::DelayPowers { .. } => {
-                a = phi[0];
-                for k in 1..=na {
-                    a += phi[k] * theta[k - 1];
-                }
+        } else {
+            for k in 0..na {
+                a += phi[k] * theta[k];
             }
+            a += phi[na];
         }
+        let off = self.b_offset();
         for k in 0..=self.nb {
-            b += phi[k] * theta[na + k];
+            b += phi[k + off] * theta[na + k];
         }
         (a, b)
     }
@@ -324,12 +517,10 @@ impl<T: Real> Rational<T> {
         vec![Complex::new(T::zero(), T::zero()); self.na.max(self.nb) + 1]
     }
 
-    /// Offset of the free denominator parameters in the basis index (0 in s, 1 in z).
+    /// Offset of the free denominator parameters in the basis index (0 for the orthonormal
+    /// basis, 1 for the constant-normalised ones).
     fn a_offset(&self) -> usize {
-        match self.basis {
-            PolyBasis::Orthonormal { .. } => 0,
-            PolyBasis::DelayPowers { .. } => 1,
-        }
+        usize::from(self.constant_normalised())
     }
 }
 
@@ -365,8 +556,9 @@ impl<T: Real> ModelStructure<T> for Rational<T> {
             for j in 0..na {
                 jac[(k, j)] = phi[j + off] * minus_g_over_a;
             }
+            let boff = self.b_offset();
             for j in 0..=self.nb {
-                jac[(k, na + j)] = phi[j] * inv_a;
+                jac[(k, na + j)] = phi[j + boff] * inv_a;
             }
         }
     }
@@ -412,10 +604,17 @@ impl<T: Real> ModelStructure<T> for Rational<T> {
 }
 
 impl<T: Real> EquationError<T> for Rational<T> {
+    /// See [`Rational::partial_fractions`]: basis poles moved to the poles of θ (unstable
+    /// ones reflected); `None` for the polynomial bases.
+    fn relocated(&self, theta: &[T]) -> Option<Result<Self>> {
+        self.relocate(theta)
+    }
+
     fn normalising_index(&self) -> usize {
-        match self.basis {
-            PolyBasis::Orthonormal { .. } => self.na,
-            PolyBasis::DelayPowers { .. } => 0,
+        if self.constant_normalised() {
+            0
+        } else {
+            self.na
         }
     }
 
@@ -429,8 +628,9 @@ impl<T: Real> EquationError<T> for Rational<T> {
             for j in 0..=na {
                 out[(k, j)] = phi[j] * *y;
             }
+            let boff = self.b_offset();
             for j in 0..=self.nb {
-                out[(k, na + 1 + j)] = -(phi[j] * *u);
+                out[(k, na + 1 + j)] = -(phi[j + boff] * *u);
             }
         }
     }
@@ -451,7 +651,7 @@ impl<T: Real> PolesZeros<T> for Rational<T> {
 
     fn zeros(&self, theta: &[T]) -> Result<Vec<Complex<T>>> {
         let (_, b) = self.coefficients(theta);
-        roots(&self.basis, &b)
+        roots(&self.basis, &self.b_in_basis(&b))
     }
 
     fn gain(&self, theta: &[T]) -> T {
@@ -462,6 +662,26 @@ impl<T: Real> PolesZeros<T> for Rational<T> {
                 .copied()
                 .find(|v| *v != T::zero())
                 .unwrap_or_else(T::zero),
+            PolyBasis::PartialFractions { .. } => {
+                // D·Π(s − q) is monic; N·Π(s − q) leads with c₀ sⁿᵃ, or with (cᵀb) sⁿᵃ⁻¹
+                let full = self.b_in_basis(&b);
+                let tol = T::default_epsilon()
+                    * T::lit(8.0)
+                    * Float::sqrt(full.iter().fold(T::zero(), |s, v| s + *v * *v));
+                if Float::abs(full[0]) > tol {
+                    full[0]
+                } else {
+                    let bv = self
+                        .basis
+                        .realisation()
+                        .map(|(_, bv)| bv)
+                        .unwrap_or_else(|| nalgebra::DVector::zeros(0));
+                    full[1..]
+                        .iter()
+                        .zip(bv.iter())
+                        .fold(T::zero(), |s, (c, b)| s + *c * *b)
+                }
+            }
             PolyBasis::Orthonormal { scale, gamma } => {
                 // leading coefficient of φ_n is 1/(ω_s^n Π_{j≤n} γ_j); use the degrees that
                 // survive trimming in the root finder
