@@ -52,49 +52,27 @@ pub fn roots<T: Real>(basis: &PolyBasis<T>, coeffs: &[T]) -> Result<Vec<Complex<
             Ok(eigenvalues(m)?.into_iter().map(|x| x * *scale).collect())
         }
         PolyBasis::PartialFractions { .. } => {
-            let Some((q, b)) = basis.realisation() else {
+            let Some(pf) = PartialFractionNumerator::new(basis, coeffs) else {
                 return Ok(vec![]);
             };
+            let (q, b, c, c0) = (&pf.q, &pf.b, &pf.c, pf.c0);
             let n = q.nrows();
-            let c = nalgebra::DVector::from_iterator(
-                n,
-                (1..=n).map(|k| coeffs.get(k).copied().unwrap_or_else(T::zero)),
-            );
-            let c0 = coeffs.first().copied().unwrap_or_else(T::zero);
             if Float::abs(c0) > tol {
                 // zeros of c₀ + cᵀ(sI − Q)⁻¹b: eigenvalues of Q − b cᵀ/c₀
-                return eigenvalues(q - &b * c.transpose() / c0);
+                return eigenvalues(q - b * c.transpose() / c0);
             }
             // strictly proper, relative degree r: with Q_σ = Q − σI (σ away from the
             // spectrum) and m = cᵀQ_σ^{r−1}b the first non-zero Markov parameter, the zeros
             // are the eigenvalues of (I − b cᵀQ_σ^{r−1}/m) Q_σ, shifted back by σ, except r
             // spurious ones at 0 (the span of cᵀ, …, cᵀQ_σ^{r−1} is a left-invariant subspace
             // on which the matrix is nilpotent)
-            let radius = q
-                .iter()
-                .fold(T::one(), |m, v| Float::max(m, Float::abs(*v)));
-            let sigma = -radius * T::lit(7.3);
-            let eye = nalgebra::DMatrix::<T>::identity(n, n);
-            let shifted = &q - &eye * sigma;
-            let qn = shifted.norm();
-            let mut row = c.transpose(); // cᵀQ_σ^k
-            let mut r = 0;
-            let mut m = T::zero();
-            for k in 0..n {
-                let mk = (&row * &b)[(0, 0)];
-                let scale = c.norm() * b.norm() * Float::powi(qn, k as i32);
-                if Float::abs(mk) > T::lit(1e3) * T::default_epsilon() * scale {
-                    r = k + 1;
-                    m = mk;
-                    break;
-                }
-                row = &row * &shifted;
-            }
+            let (r, m, row) = pf.markov();
             if r == 0 {
                 return Ok(vec![]); // N ≡ 0 numerically
             }
-            let proj = &eye - &b * &row / m;
-            let mut ev = eigenvalues(proj * shifted)?;
+            let eye = nalgebra::DMatrix::<T>::identity(n, n);
+            let proj = &eye - b * &row / m;
+            let mut ev = eigenvalues(proj * &pf.shifted)?;
             for _ in 0..r {
                 if let Some(i) = ev
                     .iter()
@@ -109,7 +87,7 @@ pub fn roots<T: Real>(basis: &PolyBasis<T>, coeffs: &[T]) -> Result<Vec<Complex<
                     ev.remove(i);
                 }
             }
-            Ok(ev.into_iter().map(|z| z + sigma).collect())
+            Ok(ev.into_iter().map(|z| z + pf.sigma).collect())
         }
         PolyBasis::DelayPowers { .. } => {
             // z^n Σ c_k z^{-k} = c_0 z^n + c_1 z^{n-1} + … + c_n
@@ -136,6 +114,72 @@ pub fn roots<T: Real>(basis: &PolyBasis<T>, coeffs: &[T]) -> Result<Vec<Complex<
             eigenvalues(m)
         }
     }
+}
+
+/// The numerator N(s) = c₀ + cᵀ(sI − Q)⁻¹b of a partial-fraction expansion, with the shift
+/// σ used to separate its zeros from the spurious eigenvalues.
+struct PartialFractionNumerator<T: Real> {
+    q: DMatrix<T>,
+    b: nalgebra::DVector<T>,
+    c: nalgebra::DVector<T>,
+    c0: T,
+    shifted: DMatrix<T>,
+    sigma: T,
+}
+
+impl<T: Real> PartialFractionNumerator<T> {
+    fn new(basis: &PolyBasis<T>, coeffs: &[T]) -> Option<Self> {
+        let (q, b) = basis.realisation()?;
+        let n = q.nrows();
+        let c = nalgebra::DVector::from_iterator(
+            n,
+            (1..=n).map(|k| coeffs.get(k).copied().unwrap_or_else(T::zero)),
+        );
+        let c0 = coeffs.first().copied().unwrap_or_else(T::zero);
+        let radius = q
+            .iter()
+            .fold(T::one(), |m, v| Float::max(m, Float::abs(*v)));
+        let sigma = -radius * T::lit(7.3);
+        let shifted = &q - DMatrix::<T>::identity(n, n) * sigma;
+        Some(Self {
+            q,
+            b,
+            c,
+            c0,
+            shifted,
+            sigma,
+        })
+    }
+
+    /// Relative degree r ≥ 1 of the strictly proper part, its first non-negligible Markov
+    /// parameter m = cᵀQ_σ^{r−1}b (= cᵀQ^{r−1}b, the leading coefficient of N·Π(s − q)) and
+    /// the row cᵀQ_σ^{r−1}; r = 0 when N ≡ 0 numerically.
+    fn markov(&self) -> (usize, T, nalgebra::RowDVector<T>) {
+        let qn = self.shifted.norm();
+        let mut row = self.c.transpose();
+        for k in 0..self.q.nrows() {
+            let mk = (&row * &self.b)[(0, 0)];
+            let scale = self.c.norm() * self.b.norm() * Float::powi(qn, k as i32);
+            if Float::abs(mk) > T::lit(1e3) * T::default_epsilon() * scale {
+                return (k + 1, mk, row);
+            }
+            row = &row * &self.shifted;
+        }
+        (0, T::zero(), row)
+    }
+}
+
+/// Leading coefficient of the numerator of Σ cₙφₙ written over Π(s − qⱼ) (partial-fraction
+/// basis): c₀ when it is not negligible, else the first non-negligible Markov parameter.
+/// `None` for the polynomial bases.
+pub(crate) fn partial_fraction_leading<T: Real>(basis: &PolyBasis<T>, coeffs: &[T]) -> Option<T> {
+    let norm = Float::sqrt(coeffs.iter().fold(T::zero(), |a, c| a + *c * *c));
+    let tol = norm * T::default_epsilon() * T::lit(8.0);
+    let pf = PartialFractionNumerator::new(basis, coeffs)?;
+    if Float::abs(pf.c0) > tol {
+        return Some(pf.c0);
+    }
+    Some(pf.markov().1)
 }
 
 fn eigenvalues<T: Real>(m: DMatrix<T>) -> Result<Vec<Complex<T>>> {

@@ -657,30 +657,21 @@ impl<T: Real> PolesZeros<T> for Rational<T> {
     fn gain(&self, theta: &[T]) -> T {
         let (a, b) = self.coefficients(theta);
         match &self.basis {
-            PolyBasis::DelayPowers { .. } => b
-                .iter()
-                .copied()
-                .find(|v| *v != T::zero())
-                .unwrap_or_else(T::zero),
-            PolyBasis::PartialFractions { .. } => {
-                // D·Π(s − q) is monic; N·Π(s − q) leads with c₀ sⁿᵃ, or with (cᵀb) sⁿᵃ⁻¹
-                let full = self.b_in_basis(&b);
+            PolyBasis::DelayPowers { .. } => {
+                // the first coefficient the root finder does not treat as zero
                 let tol = T::default_epsilon()
                     * T::lit(8.0)
-                    * Float::sqrt(full.iter().fold(T::zero(), |s, v| s + *v * *v));
-                if Float::abs(full[0]) > tol {
-                    full[0]
-                } else {
-                    let bv = self
-                        .basis
-                        .realisation()
-                        .map(|(_, bv)| bv)
-                        .unwrap_or_else(|| nalgebra::DVector::zeros(0));
-                    full[1..]
-                        .iter()
-                        .zip(bv.iter())
-                        .fold(T::zero(), |s, (c, b)| s + *c * *b)
-                }
+                    * Float::sqrt(b.iter().fold(T::zero(), |s, v| s + *v * *v));
+                b.iter()
+                    .copied()
+                    .find(|v| Float::abs(*v) > tol)
+                    .unwrap_or_else(T::zero)
+            }
+            PolyBasis::PartialFractions { .. } => {
+                // D·Π(s − q) is monic; N·Π(s − q) leads with c₀, or with its first Markov
+                // parameter when strictly proper
+                crate::roots::partial_fraction_leading(&self.basis, &self.b_in_basis(&b))
+                    .unwrap_or_else(T::zero)
             }
             PolyBasis::Orthonormal { scale, gamma } => {
                 // leading coefficient of φ_n is 1/(ω_s^n Π_{j≤n} γ_j); use the degrees that
