@@ -1,1 +1,67 @@
-fn main() {}
+//! `fdid`: the command-line front end of the `fdid` crate.
+//!
+//! `fdid fit DATA --domain s|z --na N --nb M …` reads a CSV file (frequency response,
+//! input/output spectra or a time record), fits a rational model and prints poles, zeros,
+//! gain, cost, noise level and θ with standard deviations, as text or as one JSON object.
+
+mod cli;
+
+use clap::Parser;
+use std::io::Write;
+use std::process::ExitCode;
+
+use cli::Failure;
+use cli::args::Cli;
+
+fn main() -> ExitCode {
+    // A bug anywhere below must still end in one `error:` line, not a backtrace.
+    std::panic::set_hook(Box::new(|info| {
+        let what = info
+            .payload()
+            .downcast_ref::<&str>()
+            .map(|s| s.to_string())
+            .or_else(|| info.payload().downcast_ref::<String>().cloned())
+            .unwrap_or_else(|| "unknown failure".into());
+        let at = info
+            .location()
+            .map(|l| format!(" at {}:{}", l.file(), l.line()))
+            .unwrap_or_default();
+        eprintln!("error: internal error: {}{at}", one_line(&what));
+    }));
+
+    let cli = match Cli::try_parse() {
+        Ok(c) => c,
+        Err(e) => return cli::args::clap_failure(e),
+    };
+    match std::panic::catch_unwind(|| cli::run(&cli)) {
+        Ok(Ok(out)) => {
+            let mut stdout = std::io::stdout().lock();
+            match stdout
+                .write_all(out.as_bytes())
+                .and_then(|()| stdout.flush())
+            {
+                Ok(()) => ExitCode::SUCCESS,
+                // `fdid … | head`: the reader went away; not an error of ours
+                Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => ExitCode::SUCCESS,
+                Err(e) => report(&Failure::runtime(format!("cannot write the output: {e}"))),
+            }
+        }
+        Ok(Err(f)) => report(&f),
+        Err(_) => ExitCode::from(70),
+    }
+}
+
+/// Prints the one-line error and returns its exit code.
+fn report(f: &Failure) -> ExitCode {
+    eprintln!("error: {}", one_line(&f.message));
+    ExitCode::from(f.code)
+}
+
+/// Joins the lines of a message so it always prints as one line.
+fn one_line(s: &str) -> String {
+    s.split(['\n', '\r'])
+        .map(str::trim)
+        .filter(|l| !l.is_empty())
+        .collect::<Vec<_>>()
+        .join(" ")
+}

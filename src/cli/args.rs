@@ -1,0 +1,249 @@
+//! Command-line syntax (clap derive) and the translation of clap's errors into one line.
+
+use clap::{Args, Parser, Subcommand, ValueEnum};
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+/// Highest model order `--na`/`--nb` accepted.
+pub const MAX_ORDER: usize = 100;
+
+const MAIN_HELP: &str = "\
+Examples:
+  fdid fit data/eis_battery.csv --domain s --na 4 --nb 4 --band :1000
+  fdid fit data/robot_arm.csv --domain z --na 4 --nb 4 --periods 1
+  fdid fit frf.csv --domain z --ts 0.001 --na 2 --nb 2 --json
+
+Run `fdid fit --help` for the data file formats and every option.";
+
+const FIT_HELP: &str = "\
+Data files (CSV, header names the columns, any order, case-insensitive; `#` lines are comments):
+  f,re,im[,var]                         frequency response G(f) = re + i im, f in Hz;
+                                        var = noise variance E|N_G|^2 of each line
+  f,u_re,u_im,y_re,y_im[,var_u,var_y]   input and output spectra U(f), Y(f), f in Hz
+  t,u,y                                 time record, uniform t in s (sets Ts)
+Frequencies must be non-negative and strictly increasing; every value finite.
+
+Time records are transformed by the DFT (or averaged over --periods P periods, which
+also estimates per-line noise variances when P >= 2). The DC line (f = 0) and every
+line where the input spectrum |U| is exactly zero are dropped: the input carries no
+information about G there. --domain s on a time record fits a continuous-time model to
+the DFT lines; this is an approximation, valid for band-limited data well below Nyquist.
+
+Frequency data carry no sample time: --domain z needs --ts. For a time record Ts comes
+from the t column; --ts may only repeat it.
+
+Output: domain, orders, criterion, lines used, cost V = sum |Y - G U|^2 / sigma^2,
+noise variance lambda = V/N, poles (rad/s, or z-plane for z, with natural frequency in
+Hz and damping ratio), zeros, gain, what each estimation stage did, and theta with
+standard deviations. With --json one JSON object:
+  {\"domain\":\"s\"|\"z\", \"poles\":[[re,im],..], \"zeros\":[[re,im],..], \"cost\":x,
+   \"noise_variance\":x, \"frf\":[[f_hz,re,im],..], ...}
+where poles and zeros are in rad/s (s) or in the z-plane (z; zeros at the origin left
+out) and frf is the fitted model at the frequencies (Hz) used in the fit. Further keys:
+na, nb, criterion, ts, lines, gain, stable, theta, theta_std, frf_std, stages,
+weighting, noise_known, relative_residual, notes. Values that are not finite are
+written as null.
+
+Errors are reported on one line starting with `error:`; the exit status is 1 for bad
+data or a failed fit and 2 for bad usage.
+
+Examples:
+  fdid fit data/eis_battery.csv --domain s --na 4 --nb 4 --band :1000
+  fdid fit data/robot_arm.csv --domain z --na 4 --nb 4 --periods 1
+  fdid fit record.csv --domain z --na 2 --nb 1 --periods 4 --json";
+
+/// Frequency-domain system identification: fit rational transfer functions in s or z to
+/// measured frequency responses, spectra or periodic time records.
+#[derive(Debug, Parser)]
+#[command(name = "fdid", version, after_help = MAIN_HELP)]
+pub struct Cli {
+    /// What to do.
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+/// The subcommands.
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Fit a rational model G = B/A to a data file and print poles, zeros, gain, cost,
+    /// noise level and parameters with standard deviations.
+    #[command(after_help = FIT_HELP)]
+    Fit(FitArgs),
+}
+
+/// Options of `fdid fit`.
+#[derive(Debug, Args)]
+pub struct FitArgs {
+    /// CSV data file (see the formats below)
+    #[arg(value_name = "DATA")]
+    pub data: PathBuf,
+
+    /// Model domain: s (continuous time, poles in rad/s) or z (discrete time, needs Ts)
+    #[arg(long, value_enum)]
+    pub domain: DomainArg,
+
+    /// Denominator degree (number of poles), at most 100
+    #[arg(long, value_name = "N")]
+    pub na: usize,
+
+    /// Numerator degree: in s, nb = na gives a feedthrough, nb < na a strictly proper
+    /// model; in z, B = b0 + b1 z^-1 + ... + b_nb z^-nb. At most 100
+    #[arg(long, value_name = "M")]
+    pub nb: usize,
+
+    /// Sample time in seconds, for --domain z with frequency data
+    #[arg(long, value_name = "S", allow_negative_numbers = true)]
+    pub ts: Option<f64>,
+
+    /// Estimator: ml = Levy, then Sanathanan-Koerner, then maximum likelihood
+    /// (Levenberg-Marquardt); levy = Levy linear least squares only; sk = Levy, then
+    /// Sanathanan-Koerner; tls = total least squares on the equation error
+    #[arg(long, value_enum, default_value_t = CriterionArg::Ml)]
+    pub criterion: CriterionArg,
+
+    /// Keep only lines with FMIN <= f <= FMAX (Hz); either side may be empty (`:100`,
+    /// `0.5:`)
+    #[arg(long, value_name = "FMIN:FMAX", allow_hyphen_values = true)]
+    pub band: Option<String>,
+
+    /// Time records: number of periods P in the record; the DFT is averaged over them
+    /// (P >= 2 also estimates noise variances used to weight the lines). Without it the
+    /// whole record is transformed
+    #[arg(long, value_name = "P")]
+    pub periods: Option<usize>,
+
+    /// Print one JSON object instead of text
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// Model domain.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum DomainArg {
+    /// Continuous time (Laplace variable s)
+    S,
+    /// Discrete time (z = exp(i w Ts))
+    Z,
+}
+
+/// Estimation criterion.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum CriterionArg {
+    /// Levy -> Sanathanan-Koerner -> maximum likelihood
+    Ml,
+    /// Levy linear least squares
+    Levy,
+    /// Levy -> Sanathanan-Koerner
+    Sk,
+    /// Total least squares (SVD null vector)
+    Tls,
+}
+
+impl CriterionArg {
+    /// The name used in the output.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Ml => "ml",
+            Self::Levy => "levy",
+            Self::Sk => "sk",
+            Self::Tls => "tls",
+        }
+    }
+
+    /// What the criterion runs.
+    pub fn description(self) -> &'static str {
+        match self {
+            Self::Ml => "Levy -> Sanathanan-Koerner -> maximum likelihood",
+            Self::Levy => "Levy linear least squares",
+            Self::Sk => "Levy -> Sanathanan-Koerner",
+            Self::Tls => "total least squares",
+        }
+    }
+}
+
+/// Parses `FMIN:FMAX` (Hz); an empty side is `None`.
+pub fn parse_band(text: &str) -> Result<(Option<f64>, Option<f64>), String> {
+    let bad = |why: &str| format!("invalid --band `{text}`: {why} (expected FMIN:FMAX in Hz)");
+    let (lo, hi) = text
+        .split_once(':')
+        .ok_or_else(|| bad("missing `:` separator"))?;
+    let side = |s: &str, name: &str| -> Result<Option<f64>, String> {
+        let s = s.trim();
+        if s.is_empty() {
+            return Ok(None);
+        }
+        let v: f64 = s
+            .parse()
+            .map_err(|_| bad(&format!("{name} `{s}` is not a number")))?;
+        if !v.is_finite() || v < 0.0 {
+            return Err(bad(&format!(
+                "{name} = {s} must be finite and non-negative"
+            )));
+        }
+        Ok(Some(v))
+    };
+    let (lo, hi) = (side(lo, "FMIN")?, side(hi, "FMAX")?);
+    if let (Some(a), Some(b)) = (lo, hi)
+        && a > b
+    {
+        return Err(bad(&format!("FMIN = {a} exceeds FMAX = {b}")));
+    }
+    Ok((lo, hi))
+}
+
+/// Prints clap's help or version, or its error condensed to one `error:` line.
+pub fn clap_failure(e: clap::Error) -> ExitCode {
+    use clap::error::ErrorKind;
+    match e.kind() {
+        ErrorKind::DisplayHelp
+        | ErrorKind::DisplayVersion
+        | ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand => {
+            // `fdid` alone shows the help (on stderr) and fails; --help succeeds
+            let _ = e.print();
+            return if e.kind() == ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand {
+                ExitCode::from(2)
+            } else {
+                ExitCode::SUCCESS
+            };
+        }
+        _ => {}
+    }
+    let text = e.to_string();
+    let mut parts: Vec<&str> = Vec::new();
+    for line in text.lines().map(str::trim) {
+        if line.starts_with("Usage:") || line.starts_with("For more information") {
+            break;
+        }
+        if line.is_empty() || line.starts_with("tip:") {
+            continue;
+        }
+        parts.push(line);
+    }
+    let msg = parts.join(" ");
+    let msg = msg.strip_prefix("error:").unwrap_or(&msg).trim();
+    eprintln!("error: {msg} (see `fdid fit --help`)");
+    ExitCode::from(2)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn band_syntax() {
+        assert_eq!(parse_band("1:10"), Ok((Some(1.0), Some(10.0))));
+        assert_eq!(parse_band(":10"), Ok((None, Some(10.0))));
+        assert_eq!(parse_band("0.5:"), Ok((Some(0.5), None)));
+        assert!(parse_band("10").is_err());
+        assert!(parse_band("a:b").is_err());
+        assert!(parse_band("10:1").is_err());
+        assert!(parse_band("-1:1").is_err());
+        assert!(parse_band("1:inf").is_err());
+    }
+
+    #[test]
+    fn cli_is_consistent() {
+        use clap::CommandFactory;
+        Cli::command().debug_assert();
+    }
+}

@@ -1,0 +1,217 @@
+//! Reading the data file and turning it into the frequency lines that are fitted.
+
+use super::Failure;
+use super::args::{DomainArg, FitArgs, parse_band};
+use fdid::io::{Measurement, read_csv};
+use fdid::prelude::*;
+use std::result::Result;
+
+/// The frequency lines to fit, with a description of where they came from.
+pub struct Prepared {
+    /// The lines fitted.
+    pub data: FrequencyData<f64>,
+    /// Sample time of the model (z only).
+    pub ts: Option<f64>,
+    /// One-line description of the source.
+    pub source: String,
+    /// How the lines are weighted.
+    pub weighting: String,
+    /// Remarks for the text output.
+    pub notes: Vec<String>,
+}
+
+/// Reads `args.data` and applies --periods, --ts and --band.
+pub fn prepare(args: &FitArgs) -> Result<Prepared, Failure> {
+    let measurement = read_csv::<f64>(&args.data).map_err(|e| match e {
+        // these already name the file
+        FdidError::Parse { .. } | FdidError::Io(_) => Failure::from(e),
+        e => Failure::runtime(format!("{}: {e}", args.data.display())),
+    })?;
+    let mut notes = Vec::new();
+    let (data, ts, mut source) = match measurement {
+        Measurement::Frequency(data) => {
+            if let Some(p) = args.periods {
+                return Err(Failure::usage(format!(
+                    "--periods {p} applies to time records only, but {} holds frequency data",
+                    args.data.display()
+                )));
+            }
+            let ts = match (args.domain, args.ts) {
+                (_, Some(ts)) if !(ts.is_finite() && ts > 0.0) => {
+                    return Err(Failure::usage(format!(
+                        "invalid --ts {ts}: the sample time must be positive and finite"
+                    )));
+                }
+                (DomainArg::Z, None) => {
+                    return Err(Failure::usage(format!(
+                        "--domain z needs the sample time of the frequency data in {}: pass --ts SECONDS",
+                        args.data.display()
+                    )));
+                }
+                (DomainArg::Z, Some(ts)) => Some(ts),
+                (DomainArg::S, _) => None,
+            };
+            let n = data.len();
+            let data = data.with_ts(ts)?;
+            let kind = if data.u().iter().all(|u| *u == Complex::new(1.0, 0.0)) {
+                "frequency response"
+            } else {
+                "input/output spectra"
+            };
+            (data, ts, format!("{kind}, {n} lines"))
+        }
+        Measurement::Time(record) => {
+            let ts = record.ts();
+            if let Some(given) = args.ts
+                && (given.is_nan() || (given - ts).abs() > 1e-6 * ts)
+            {
+                return Err(Failure::usage(format!(
+                    "--ts {given} contradicts the time record, whose t column gives Ts = {ts} s \
+                     (--ts is for frequency data; rescale t to change Ts)"
+                )));
+            }
+            let n = record.len();
+            let (data, how) = match args.periods {
+                Some(p) => (
+                    record.average_periods(p)?,
+                    format!(
+                        "averaged over {p} period{} of {} samples",
+                        if p == 1 { "" } else { "s" },
+                        n / p.max(1)
+                    ),
+                ),
+                None => (record.dft(), "DFT of the whole record".to_string()),
+            };
+            let total = data.len();
+            let data = drop_uninformative(data)?;
+            let dropped = total - data.len();
+            if args.domain == DomainArg::S {
+                notes.push(
+                    "continuous-time model fitted to the DFT lines of a sampled record: an \
+                     approximation, valid for band-limited data"
+                        .into(),
+                );
+            }
+            (
+                data,
+                match args.domain {
+                    DomainArg::Z => Some(ts),
+                    DomainArg::S => None,
+                },
+                format!(
+                    "time record, {n} samples, Ts = {ts} s, {how}; {total} lines, {dropped} \
+                     dropped (DC or zero input)"
+                ),
+            )
+        }
+    };
+
+    let data = match &args.band {
+        None => data,
+        Some(text) => {
+            let (lo, hi) = parse_band(text).map_err(Failure::usage)?;
+            let f = data.freq_hz();
+            let lo = lo.unwrap_or(0.0);
+            let hi = hi.unwrap_or_else(|| f.last().copied().unwrap_or(0.0));
+            let before = data.len();
+            let banded = data.band_hz(lo, hi).map_err(|e| match e {
+                FdidError::EmptyBand { .. } => Failure::runtime(format!(
+                    "--band {text} selects no frequency lines: the data span {} .. {} Hz",
+                    f.first().copied().unwrap_or(f64::NAN),
+                    f.last().copied().unwrap_or(f64::NAN)
+                )),
+                e => Failure::from(e),
+            })?;
+            source.push_str(&format!(
+                "; band {lo}..{hi} Hz keeps {} of {before}",
+                banded.len()
+            ));
+            banded
+        }
+    };
+
+    let (data, weighting) = weighting(data, &mut notes)?;
+    Ok(Prepared {
+        data,
+        ts,
+        source,
+        weighting,
+        notes,
+    })
+}
+
+/// Drops the DC line and every line with an exactly zero input spectrum.
+fn drop_uninformative(data: FrequencyData<f64>) -> Result<FrequencyData<f64>, Failure> {
+    let keep: Vec<bool> = data
+        .omega()
+        .iter()
+        .zip(data.u())
+        .map(|(w, u)| *w > 0.0 && u.norm_sqr() > 0.0)
+        .collect();
+    if !keep.iter().any(|k| *k) {
+        return Err(Failure::runtime(
+            "the input spectrum is zero on every line above DC: the record carries no \
+             information about the system"
+                .into(),
+        ));
+    }
+    select(&data, &keep)
+}
+
+/// The lines where `keep` is true, with their noise variances and sample time.
+fn select(data: &FrequencyData<f64>, keep: &[bool]) -> Result<FrequencyData<f64>, Failure> {
+    fn pick<X: Copy>(v: &[X], keep: &[bool]) -> Vec<X> {
+        v.iter()
+            .zip(keep)
+            .filter(|(_, k)| **k)
+            .map(|(x, _)| *x)
+            .collect()
+    }
+    let out = FrequencyData::new(
+        pick(data.omega(), keep),
+        pick(data.y(), keep),
+        pick(data.u(), keep),
+        data.ts(),
+    )?;
+    Ok(match data.noise() {
+        None => out,
+        Some(n) => out.with_noise(NoiseVariances {
+            var_y: pick(&n.var_y, keep),
+            var_u: pick(&n.var_u, keep),
+            cov_yu: pick(&n.cov_yu, keep),
+        })?,
+    })
+}
+
+/// Decides the line weighting: the output noise variances when every line has a positive
+/// one, flat otherwise.
+fn weighting(
+    data: FrequencyData<f64>,
+    notes: &mut Vec<String>,
+) -> Result<(FrequencyData<f64>, String), Failure> {
+    let Some(noise) = data.noise() else {
+        return Ok((
+            data,
+            "flat (noise variance estimated from the residuals)".into(),
+        ));
+    };
+    if noise.var_y.iter().all(|v| *v > 0.0) {
+        return Ok((
+            data,
+            "1/sigma_k from the per-line output noise variance".into(),
+        ));
+    }
+    let zeros = noise
+        .var_y
+        .iter()
+        .filter(|v| v.is_nan() || **v <= 0.0)
+        .count();
+    notes.push(format!(
+        "the output noise variance is zero on {zeros} line(s): noise variances ignored, flat \
+         weighting used"
+    ));
+    Ok((
+        data.without_noise(),
+        "flat (noise variance estimated from the residuals)".into(),
+    ))
+}

@@ -1,0 +1,414 @@
+//! The results of a fit, as text or as one JSON object.
+
+use super::Failure;
+use super::args::{DomainArg, FitArgs};
+use super::data::Prepared;
+use fdid::prelude::*;
+use fdid::solver::Termination;
+use serde_json::{Value, json};
+use std::fmt::Write as _;
+use std::result::Result;
+
+/// One estimation stage.
+struct StageRow {
+    name: String,
+    iterations: usize,
+    termination: &'static str,
+    cost: f64,
+}
+
+/// Everything printed about a fit.
+pub struct Report {
+    domain: DomainArg,
+    ts: Option<f64>,
+    na: usize,
+    nb: usize,
+    criterion: &'static str,
+    criterion_description: &'static str,
+    file: String,
+    source: String,
+    weighting: String,
+    notes: Vec<String>,
+    f_hz: Vec<f64>,
+    frf: Vec<Complex<f64>>,
+    frf_std: Option<Vec<f64>>,
+    cost: f64,
+    noise_variance: f64,
+    noise_known: bool,
+    relative_residual: f64,
+    poles: Vec<Complex<f64>>,
+    zeros: Vec<Complex<f64>>,
+    gain: f64,
+    stable: bool,
+    theta: Vec<f64>,
+    theta_std: Option<Vec<f64>>,
+    stages: Vec<StageRow>,
+}
+
+impl Report {
+    /// Collects the results of `fit`.
+    pub fn new(
+        args: &FitArgs,
+        prepared: &Prepared,
+        fit: &Fit<f64, Rational<f64>>,
+    ) -> Result<Self, Failure> {
+        let ts = prepared.ts;
+        let key = |z: &Complex<f64>| {
+            let (wn, _) = natural(args.domain, ts, *z);
+            (if wn.is_finite() { wn } else { -1.0 }, z.im)
+        };
+        let sort = |mut v: Vec<Complex<f64>>| {
+            v.sort_by(|a, b| {
+                key(a)
+                    .partial_cmp(&key(b))
+                    .unwrap_or(std::cmp::Ordering::Equal)
+            });
+            v
+        };
+        let poles = sort(fit.poles()?);
+        let zeros = sort(fit.zeros()?);
+        let stable = match args.domain {
+            DomainArg::S => poles.iter().all(|p| p.re < 0.0),
+            DomainArg::Z => poles.iter().all(|p| p.norm() < 1.0),
+        };
+        let stages = fit
+            .stages()
+            .iter()
+            .map(|s| StageRow {
+                name: s.name.clone(),
+                iterations: s.solution.iterations,
+                termination: match s.solution.termination {
+                    Termination::Direct => "direct",
+                    Termination::Converged => "converged",
+                    Termination::MaxIterations => "iteration cap reached",
+                },
+                cost: s.solution.cost,
+            })
+            .collect();
+        Ok(Self {
+            domain: args.domain,
+            ts,
+            na: args.na,
+            nb: args.nb,
+            criterion: args.criterion.name(),
+            criterion_description: args.criterion.description(),
+            file: args.data.display().to_string(),
+            source: prepared.source.clone(),
+            weighting: prepared.weighting.clone(),
+            notes: prepared.notes.clone(),
+            f_hz: prepared.data.freq_hz(),
+            frf: fit.response().to_vec(),
+            frf_std: fit.response_std().map(<[f64]>::to_vec),
+            cost: fit.cost(),
+            noise_variance: fit.noise_variance(),
+            noise_known: fit.noise_known(),
+            relative_residual: relative_residual(&prepared.data, fit.response()),
+            poles,
+            zeros,
+            gain: fit.gain(),
+            stable,
+            theta: fit.theta().to_vec(),
+            theta_std: fit.theta_std(),
+            stages,
+        })
+    }
+
+    fn domain_name(&self) -> &'static str {
+        match self.domain {
+            DomainArg::S => "s",
+            DomainArg::Z => "z",
+        }
+    }
+
+    /// Names of the parameters θ.
+    fn theta_names(&self) -> Vec<String> {
+        let a = match self.domain {
+            // coefficients of the data-orthonormal basis φ_0 … φ_{na-1}
+            DomainArg::S => (0..self.na).map(|k| format!("a{k}")).collect::<Vec<_>>(),
+            DomainArg::Z => (1..=self.na).map(|k| format!("a{k}")).collect(),
+        };
+        a.into_iter()
+            .chain((0..=self.nb).map(|k| format!("b{k}")))
+            .collect()
+    }
+
+    /// The JSON object (one line).
+    pub fn json(&self) -> String {
+        let pairs = |v: &[Complex<f64>]| -> Value {
+            Value::Array(v.iter().map(|z| json!([num(z.re), num(z.im)])).collect())
+        };
+        let frf: Vec<Value> = self
+            .f_hz
+            .iter()
+            .zip(&self.frf)
+            .map(|(f, g)| json!([num(*f), num(g.re), num(g.im)]))
+            .collect();
+        let nums = |v: &[f64]| Value::Array(v.iter().map(|x| num(*x)).collect());
+        let stages: Vec<Value> = self
+            .stages
+            .iter()
+            .map(|s| {
+                json!({
+                    "name": s.name,
+                    "iterations": s.iterations,
+                    "termination": s.termination,
+                    "cost": num(s.cost),
+                })
+            })
+            .collect();
+        let obj = json!({
+            "domain": self.domain_name(),
+            "poles": pairs(&self.poles),
+            "zeros": pairs(&self.zeros),
+            "cost": num(self.cost),
+            "noise_variance": num(self.noise_variance),
+            "frf": frf,
+            "na": self.na,
+            "nb": self.nb,
+            "ts": self.ts.map_or(Value::Null, num),
+            "criterion": self.criterion,
+            "lines": self.f_hz.len(),
+            "gain": num(self.gain),
+            "stable": self.stable,
+            "theta": nums(&self.theta),
+            "theta_std": self.theta_std.as_deref().map_or(Value::Null, nums),
+            "frf_std": self.frf_std.as_deref().map_or(Value::Null, nums),
+            "noise_known": self.noise_known,
+            "relative_residual": num(self.relative_residual),
+            "weighting": self.weighting,
+            "notes": self.notes,
+            "stages": stages,
+        });
+        let mut s = obj.to_string();
+        s.push('\n');
+        s
+    }
+
+    /// The human-readable report.
+    pub fn text(&self) -> String {
+        let mut o = String::new();
+        let w = &mut o;
+        let (fmin, fmax) = (
+            self.f_hz.first().copied().unwrap_or(f64::NAN),
+            self.f_hz.last().copied().unwrap_or(f64::NAN),
+        );
+        let _ = writeln!(w, "data         {}: {}", self.file, self.source);
+        match (self.domain, self.ts) {
+            (DomainArg::Z, Some(ts)) => {
+                let _ = writeln!(w, "domain       z (discrete time, Ts = {} s)", g(ts));
+            }
+            _ => {
+                let _ = writeln!(w, "domain       s (continuous time)");
+            }
+        }
+        let _ = writeln!(
+            w,
+            "orders       na = {}, nb = {} ({} parameters)",
+            self.na,
+            self.nb,
+            self.theta.len()
+        );
+        let _ = writeln!(
+            w,
+            "criterion    {} ({})",
+            self.criterion, self.criterion_description
+        );
+        let _ = writeln!(
+            w,
+            "lines        {} used, {} .. {} Hz",
+            self.f_hz.len(),
+            g(fmin),
+            g(fmax)
+        );
+        let _ = writeln!(w, "weighting    {}", self.weighting);
+        let _ = writeln!(
+            w,
+            "cost         V = {}{}",
+            g(self.cost),
+            if self.noise_known {
+                " (sum of |Y - G U|^2 / sigma_k^2)"
+            } else {
+                " (sum of |Y - G U|^2)"
+            }
+        );
+        let _ = writeln!(w, "noise var.   lambda = V/N = {}", g(self.noise_variance));
+        let _ = writeln!(
+            w,
+            "rel. resid.  {} (sqrt(sum |Y - G U|^2 / sum |Y|^2), unweighted)",
+            g(self.relative_residual)
+        );
+        let _ = writeln!(
+            w,
+            "gain         {}{}",
+            g(self.gain),
+            match self.domain {
+                DomainArg::S => "  (G = gain * prod(s - zero) / prod(s - pole))",
+                DomainArg::Z =>
+                    "  (first nonzero b coefficient: G = gain * z^k * prod(z - zero) / prod(z - pole))",
+            }
+        );
+        let _ = writeln!(w, "stable       {}", if self.stable { "yes" } else { "no" });
+        for n in &self.notes {
+            let _ = writeln!(w, "note         {n}");
+        }
+
+        let plane = match self.domain {
+            DomainArg::S => "rad/s",
+            DomainArg::Z => "z-plane",
+        };
+        for (title, roots) in [("poles", &self.poles), ("zeros", &self.zeros)] {
+            let _ = writeln!(w);
+            if roots.is_empty() {
+                let _ = writeln!(w, "{title} ({plane}): none");
+                continue;
+            }
+            let _ = writeln!(
+                w,
+                "{title} ({plane}){}",
+                match self.domain {
+                    DomainArg::S => "",
+                    DomainArg::Z => "; f_n and damping of s = ln(z)/Ts",
+                }
+            );
+            let _ = writeln!(
+                w,
+                "  {:>14} {:>14}  {:>12} {:>10}",
+                "re", "im", "f_n (Hz)", "damping"
+            );
+            for z in roots.iter() {
+                let (wn, zeta) = natural(self.domain, self.ts, *z);
+                let _ = writeln!(
+                    w,
+                    "  {:>14} {:>14}  {:>12} {:>10}",
+                    g(z.re),
+                    g(z.im),
+                    if wn.is_finite() {
+                        g(wn / std::f64::consts::TAU)
+                    } else {
+                        "-".into()
+                    },
+                    if zeta.is_finite() {
+                        format!("{zeta:.4}")
+                    } else {
+                        "-".into()
+                    }
+                );
+            }
+        }
+
+        let _ = writeln!(w);
+        let _ = writeln!(w, "stages");
+        for s in &self.stages {
+            let _ = writeln!(
+                w,
+                "  {:<6} {:>5} iterations  {:<22} cost {}",
+                s.name,
+                s.iterations,
+                s.termination,
+                g(s.cost)
+            );
+        }
+
+        let _ = writeln!(w);
+        let _ = writeln!(
+            w,
+            "parameters theta{}",
+            match self.domain {
+                DomainArg::S => " (coefficients in the data-orthonormal polynomial basis)",
+                DomainArg::Z => " (A = 1 + a1 z^-1 + ..., B = b0 + b1 z^-1 + ...)",
+            }
+        );
+        let _ = writeln!(w, "  {:<6} {:>14} {:>14}", "", "value", "std");
+        for (i, name) in self.theta_names().iter().enumerate() {
+            let std = self
+                .theta_std
+                .as_ref()
+                .map_or_else(|| "-".to_string(), |s| g(s[i]));
+            let _ = writeln!(w, "  {:<6} {:>14} {:>14}", name, g(self.theta[i]), std);
+        }
+        if self.theta_std.is_none() {
+            let _ = writeln!(
+                w,
+                "  (no standard deviations: the Jacobian is singular or there are no degrees of freedom)"
+            );
+        }
+        o
+    }
+}
+
+/// sqrt(Σ|Y − G U|² / Σ|Y|²) over the lines fitted.
+fn relative_residual(data: &FrequencyData<f64>, g: &[Complex<f64>]) -> f64 {
+    let (mut r, mut y) = (0.0, 0.0);
+    for ((gk, yk), uk) in g.iter().zip(data.y()).zip(data.u()) {
+        r += (*yk - *gk * *uk).norm_sqr();
+        y += yk.norm_sqr();
+    }
+    (r / y).sqrt()
+}
+
+/// Natural frequency (rad/s) and damping ratio of a root: of s itself, or of s = ln(z)/Ts.
+fn natural(domain: DomainArg, ts: Option<f64>, z: Complex<f64>) -> (f64, f64) {
+    let s = match (domain, ts) {
+        (DomainArg::S, _) => z,
+        (DomainArg::Z, Some(ts)) if z.norm() > 0.0 => z.ln() / ts,
+        _ => return (f64::NAN, f64::NAN),
+    };
+    let wn = s.norm();
+    if wn > 0.0 {
+        (wn, -s.re / wn)
+    } else {
+        (0.0, f64::NAN)
+    }
+}
+
+/// A JSON number, or null when not finite.
+fn num(x: f64) -> Value {
+    serde_json::Number::from_f64(x).map_or(Value::Null, Value::Number)
+}
+
+/// About seven significant digits, fixed-point when reasonable.
+fn g(x: f64) -> String {
+    if !x.is_finite() {
+        return format!("{x}");
+    }
+    if x == 0.0 {
+        return "0".into();
+    }
+    let a = x.abs();
+    if (1e-3..1e6).contains(&a) {
+        let digits = (6 - a.log10().floor() as i32).max(0) as usize;
+        format!("{x:.digits$}")
+    } else {
+        format!("{x:.6e}")
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn number_format() {
+        assert_eq!(g(0.0), "0");
+        assert_eq!(g(1.5), "1.500000");
+        assert_eq!(g(-123.25), "-123.2500");
+        assert_eq!(g(1e-7), "1.000000e-7");
+        assert_eq!(g(f64::NAN), "NaN");
+    }
+
+    #[test]
+    fn json_never_holds_non_finite_numbers() {
+        assert_eq!(num(f64::NAN), Value::Null);
+        assert_eq!(num(f64::INFINITY), Value::Null);
+        assert_eq!(num(2.0), json!(2.0));
+    }
+
+    #[test]
+    fn natural_frequency_and_damping() {
+        let (wn, zeta) = natural(DomainArg::S, None, Complex::new(-0.2, 0.96f64.sqrt()));
+        assert!((wn - 1.0).abs() < 1e-12 && (zeta - 0.2).abs() < 1e-12);
+        let z = (Complex::new(-0.2, 0.96f64.sqrt()) * 0.1).exp();
+        let (wn, zeta) = natural(DomainArg::Z, Some(0.1), z);
+        assert!((wn - 1.0).abs() < 1e-12 && (zeta - 0.2).abs() < 1e-12);
+    }
+}

@@ -1,0 +1,624 @@
+//! Integration tests of the `fdid` command: the built binary on CSV files in a temporary
+//! directory.
+#![cfg(feature = "cli")]
+
+use serde_json::Value;
+use std::f64::consts::TAU;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+/// A scratch directory removed on drop.
+struct Scratch(PathBuf);
+
+impl Scratch {
+    fn new(name: &str) -> Self {
+        static COUNTER: AtomicUsize = AtomicUsize::new(0);
+        let n = COUNTER.fetch_add(1, Ordering::Relaxed);
+        let dir =
+            std::env::temp_dir().join(format!("fdid-cli-test-{}-{n}-{name}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        Self(dir)
+    }
+
+    fn file(&self, name: &str, contents: &str) -> PathBuf {
+        let p = self.0.join(name);
+        std::fs::write(&p, contents).unwrap();
+        p
+    }
+}
+
+impl Drop for Scratch {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}
+
+fn fdid(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_fdid"))
+        .args(args)
+        .output()
+        .expect("run fdid")
+}
+
+fn fdid_path(path: &Path, args: &[&str]) -> Output {
+    let mut all = vec!["fit", path.to_str().unwrap()];
+    all.extend_from_slice(args);
+    fdid(&all)
+}
+
+fn stdout(o: &Output) -> String {
+    String::from_utf8(o.stdout.clone()).unwrap()
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8(o.stderr.clone()).unwrap()
+}
+
+/// Runs `fdid` expecting success and one JSON object on stdout.
+fn json(path: &Path, args: &[&str]) -> Value {
+    let mut a = args.to_vec();
+    a.push("--json");
+    let o = fdid_path(path, &a);
+    assert!(o.status.success(), "fdid failed: {}", stderr(&o));
+    let text = stdout(&o);
+    assert_eq!(
+        text.trim().lines().count(),
+        1,
+        "one JSON line expected: {text}"
+    );
+    serde_json::from_str(&text).expect("valid JSON")
+}
+
+/// `[[re, im], …]` as pairs sorted by imaginary part.
+fn pairs(v: &Value) -> Vec<(f64, f64)> {
+    let mut out: Vec<(f64, f64)> = v
+        .as_array()
+        .expect("array")
+        .iter()
+        .map(|p| (p[0].as_f64().unwrap(), p[1].as_f64().unwrap()))
+        .collect();
+    out.sort_by(|a, b| a.1.partial_cmp(&b.1).unwrap());
+    out
+}
+
+fn close(a: (f64, f64), b: (f64, f64), tol: f64) -> bool {
+    ((a.0 - b.0).powi(2) + (a.1 - b.1).powi(2)).sqrt() < tol
+}
+
+/// G(s) = 2/(s² + 0.4 s + 1) at s = iω.
+fn g_ct(w: f64) -> (f64, f64) {
+    // 2 / ((1 − ω²) + 0.4 i ω)
+    let (re, im) = (1.0 - w * w, 0.4 * w);
+    let d = re * re + im * im;
+    (2.0 * re / d, -2.0 * im / d)
+}
+
+/// The noise-free FRF file: 200 lines, ω = 0.02 k rad/s.
+fn ct_frf_csv() -> (String, Vec<(f64, f64, f64)>) {
+    let mut text = String::from("f,re,im\n");
+    let mut rows = Vec::new();
+    for k in 1..=200 {
+        let w = 0.02 * k as f64;
+        let f = w / TAU;
+        let (re, im) = g_ct(w);
+        text.push_str(&format!("{f:e},{re:e},{im:e}\n"));
+        rows.push((f, re, im));
+    }
+    (text, rows)
+}
+
+const CT_POLES: [(f64, f64); 2] = [(-0.2, -0.9797958971132712), (-0.2, 0.9797958971132712)];
+
+#[test]
+fn ct_frf_json_poles_and_frf() {
+    let dir = Scratch::new("ct");
+    let (text, rows) = ct_frf_csv();
+    let path = dir.file("frf.csv", &text);
+    let v = json(&path, &["--domain", "s", "--na", "2", "--nb", "0"]);
+    assert_eq!(v["domain"], "s");
+    let poles = pairs(&v["poles"]);
+    assert_eq!(poles.len(), 2);
+    for (p, e) in poles.iter().zip(CT_POLES) {
+        assert!(close(*p, e, 1e-6), "pole {p:?}, expected {e:?}");
+    }
+    assert_eq!(v["zeros"].as_array().unwrap().len(), 0);
+    assert!(v["cost"].as_f64().unwrap() < 1e-12);
+    assert!(v["noise_variance"].as_f64().unwrap() < 1e-12);
+    assert!((v["gain"].as_f64().unwrap() - 2.0).abs() < 1e-6);
+    let frf = v["frf"].as_array().unwrap();
+    assert_eq!(frf.len(), 200);
+    for (row, (f, re, im)) in frf.iter().zip(&rows) {
+        let r: Vec<f64> = row
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|x| x.as_f64().unwrap())
+            .collect();
+        assert_eq!(r.len(), 3);
+        assert!((r[0] - f).abs() <= 1e-12 * f, "frequency {} vs {f}", r[0]);
+        let scale = (re * re + im * im).sqrt();
+        assert!(
+            ((r[1] - re).powi(2) + (r[2] - im).powi(2)).sqrt() < 1e-8 * scale,
+            "frf at {f} Hz: {r:?} vs ({re}, {im})"
+        );
+    }
+}
+
+#[test]
+fn ct_frf_every_criterion_finds_the_poles() {
+    let dir = Scratch::new("crit");
+    let path = dir.file("frf.csv", &ct_frf_csv().0);
+    for c in ["ml", "levy", "sk", "tls"] {
+        let v = json(
+            &path,
+            &["--domain", "s", "--na", "2", "--nb", "0", "--criterion", c],
+        );
+        assert_eq!(v["criterion"], c);
+        let poles = pairs(&v["poles"]);
+        for (p, e) in poles.iter().zip(CT_POLES) {
+            assert!(close(*p, e, 1e-6), "{c}: pole {p:?}, expected {e:?}");
+        }
+    }
+}
+
+#[test]
+fn band_selects_lines() {
+    let dir = Scratch::new("band");
+    let (text, rows) = ct_frf_csv();
+    let path = dir.file("frf.csv", &text);
+    let (lo, hi) = (0.1, 0.4);
+    let inside = rows.iter().filter(|r| r.0 >= lo && r.0 <= hi).count();
+    let v = json(
+        &path,
+        &[
+            "--domain", "s", "--na", "2", "--nb", "0", "--band", "0.1:0.4",
+        ],
+    );
+    let frf = v["frf"].as_array().unwrap();
+    assert_eq!(frf.len(), inside);
+    assert!(frf.iter().all(|r| {
+        let f = r[0].as_f64().unwrap();
+        (lo..=hi).contains(&f)
+    }));
+    for (p, e) in pairs(&v["poles"]).iter().zip(CT_POLES) {
+        assert!(close(*p, e, 1e-6));
+    }
+}
+
+#[test]
+fn text_output_reports_poles() {
+    let dir = Scratch::new("text");
+    let path = dir.file("frf.csv", &ct_frf_csv().0);
+    let o = fdid_path(&path, &["--domain", "s", "--na", "2", "--nb", "0"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = stdout(&o);
+    for needle in [
+        "poles",
+        "zeros",
+        "gain",
+        "cost",
+        "lambda",
+        "-0.2000000",
+        "0.9797959",
+        "damping",
+        "levy",
+        "sk",
+        "ml",
+        "std",
+    ] {
+        assert!(out.contains(needle), "`{needle}` missing from:\n{out}");
+    }
+}
+
+/// A deterministic pseudo-random sequence in [−0.5, 0.5).
+struct Lcg(u64);
+
+impl Lcg {
+    fn next(&mut self) -> f64 {
+        self.0 = self
+            .0
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (self.0 >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+    }
+}
+
+/// DT system A = 1 + a1 z⁻¹ + a2 z⁻², B = b0 + b1 z⁻¹ with poles 0.9 e^{±0.5i}.
+const R: f64 = 0.9;
+const ANGLE: f64 = 0.5;
+const TS: f64 = 0.01;
+
+fn dt_poles() -> [(f64, f64); 2] {
+    [
+        (R * ANGLE.cos(), -R * ANGLE.sin()),
+        (R * ANGLE.cos(), R * ANGLE.sin()),
+    ]
+}
+
+/// A time record of `periods` periods of `m` samples of the DT system driven by a
+/// periodic pseudo-random input, after a transient that is discarded; `noise` is the
+/// amplitude of uniform output noise.
+fn dt_record(m: usize, periods: usize, noise: f64) -> String {
+    let (a1, a2) = (-2.0 * R * ANGLE.cos(), R * R);
+    let (b0, b1) = (1.0, 0.5);
+    let mut rng = Lcg(12345);
+    let period: Vec<f64> = (0..m).map(|_| rng.next()).collect();
+    let warm = 20;
+    let total = (warm + periods) * m;
+    let (mut y1, mut y2, mut u1) = (0.0, 0.0, 0.0);
+    let mut text = String::from("t,u,y\n");
+    for t in 0..total {
+        let u = period[t % m];
+        let y = -a1 * y1 - a2 * y2 + b0 * u + b1 * u1;
+        (y2, y1, u1) = (y1, y, u);
+        if t >= warm * m {
+            let k = t - warm * m;
+            let yn = y + noise * rng.next();
+            text.push_str(&format!("{:e},{u:e},{yn:e}\n", k as f64 * TS));
+        }
+    }
+    text
+}
+
+#[test]
+fn dt_time_record_periods_noise_free() {
+    let dir = Scratch::new("dt");
+    let path = dir.file("record.csv", &dt_record(256, 4, 0.0));
+    let v = json(
+        &path,
+        &["--domain", "z", "--na", "2", "--nb", "1", "--periods", "4"],
+    );
+    assert_eq!(v["domain"], "z");
+    assert!((v["ts"].as_f64().unwrap() - TS).abs() < 1e-12);
+    let poles = pairs(&v["poles"]);
+    assert_eq!(poles.len(), 2);
+    for (p, e) in poles.iter().zip(dt_poles()) {
+        assert!(close(*p, e, 1e-6), "pole {p:?}, expected {e:?}");
+    }
+    let zeros = pairs(&v["zeros"]);
+    assert_eq!(zeros.len(), 1);
+    assert!(close(zeros[0], (-0.5, 0.0), 1e-6), "zero {:?}", zeros[0]);
+    // 256-sample periods: lines 1..=128 (DC dropped)
+    let frf = v["frf"].as_array().unwrap();
+    assert_eq!(frf.len(), 128);
+    let f1 = frf[0][0].as_f64().unwrap();
+    assert!((f1 - 1.0 / (256.0 * TS)).abs() < 1e-9);
+}
+
+#[test]
+fn dt_time_record_periods_with_noise() {
+    let dir = Scratch::new("dtn");
+    let path = dir.file("record.csv", &dt_record(256, 4, 1e-3));
+    let v = json(
+        &path,
+        &["--domain", "z", "--na", "2", "--nb", "1", "--periods", "4"],
+    );
+    assert_eq!(v["noise_known"], true, "weighting: {}", v["weighting"]);
+    for (p, e) in pairs(&v["poles"]).iter().zip(dt_poles()) {
+        assert!(close(*p, e, 1e-3), "pole {p:?}, expected {e:?}");
+    }
+    // with the noise variances known, λ̂ = V/N should be of order one
+    let lambda = v["noise_variance"].as_f64().unwrap();
+    assert!(lambda > 0.2 && lambda < 5.0, "lambda = {lambda}");
+    assert!(
+        v["theta_std"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .all(|s| s.as_f64().unwrap() > 0.0)
+    );
+    // text output mentions the poles too
+    let o = fdid_path(
+        &path,
+        &["--domain", "z", "--na", "2", "--nb", "1", "--periods", "4"],
+    );
+    assert!(o.status.success());
+    assert!(stdout(&o).contains("poles (z-plane)"));
+}
+
+#[test]
+fn dt_whole_record_dft_and_spectra_file() {
+    let dir = Scratch::new("dft");
+    // one period: the DFT of the whole record is the same as averaging one period
+    let path = dir.file("record.csv", &dt_record(512, 1, 0.0));
+    let v = json(&path, &["--domain", "z", "--na", "2", "--nb", "1"]);
+    for (p, e) in pairs(&v["poles"]).iter().zip(dt_poles()) {
+        assert!(close(*p, e, 1e-6), "pole {p:?}, expected {e:?}");
+    }
+    // the same system as input/output spectra (U = 1 + 0.5 i, Y = G U), with --ts
+    let mut text = String::from("f,u_re,u_im,y_re,y_im\n");
+    for k in 1..=100 {
+        let f = k as f64 * 0.45 / (100.0 * TS);
+        let wt = TAU * f * TS;
+        let zi = (wt.cos(), -wt.sin()); // z^-1
+        let mul = |a: (f64, f64), b: (f64, f64)| (a.0 * b.0 - a.1 * b.1, a.0 * b.1 + a.1 * b.0);
+        let zi2 = mul(zi, zi);
+        let (a1, a2) = (-2.0 * R * ANGLE.cos(), R * R);
+        let a = (1.0 + a1 * zi.0 + a2 * zi2.0, a1 * zi.1 + a2 * zi2.1);
+        let b = (1.0 + 0.5 * zi.0, 0.5 * zi.1);
+        let d = a.0 * a.0 + a.1 * a.1;
+        let g = mul(b, (a.0 / d, -a.1 / d));
+        let y = mul(g, (1.0, 0.5));
+        text.push_str(&format!("{f:e},1,0.5,{:e},{:e}\n", y.0, y.1));
+    }
+    let path = dir.file("spectra.csv", &text);
+    let v = json(
+        &path,
+        &["--domain", "z", "--ts", "0.01", "--na", "2", "--nb", "1"],
+    );
+    for (p, e) in pairs(&v["poles"]).iter().zip(dt_poles()) {
+        assert!(close(*p, e, 1e-6), "pole {p:?}, expected {e:?}");
+    }
+}
+
+/// Runs `fdid` expecting failure with one `error:` line on stderr containing `needle`.
+fn expect_error(args: &[&str], needle: &str) {
+    let o = fdid(args);
+    let err = stderr(&o);
+    assert!(
+        !o.status.success(),
+        "{args:?} should fail; stdout: {}",
+        stdout(&o)
+    );
+    assert!(o.stdout.is_empty(), "{args:?}: nothing on stdout expected");
+    assert_eq!(err.lines().count(), 1, "{args:?}: one line expected: {err}");
+    assert!(err.starts_with("error:"), "{args:?}: {err}");
+    assert!(!err.contains("panicked"), "{args:?}: {err}");
+    assert!(
+        err.to_lowercase().contains(&needle.to_lowercase()),
+        "{args:?}: `{needle}` not in {err}"
+    );
+}
+
+#[test]
+fn bad_inputs_give_one_error_line() {
+    let dir = Scratch::new("bad");
+    let s = |p: &PathBuf| p.to_str().unwrap().to_string();
+    let good = s(&dir.file("good.csv", "f,re,im\n1,1,0\n2,0.5,-0.5\n3,0.2,-0.4\n"));
+    let missing = s(&dir.0.join("does-not-exist.csv"));
+    let no_col = s(&dir.file("nocol.csv", "f,re\n1,1\n2,0.5\n"));
+    let nan = s(&dir.file("nan.csv", "f,re,im\n1,1,0\n2,NaN,0\n"));
+    let unsorted = s(&dir.file("unsorted.csv", "f,re,im\n2,1,0\n1,0.5,0\n"));
+    let dup = s(&dir.file("dup.csv", "f,re,im\n1,1,0\n1,0.5,0\n"));
+    let empty = s(&dir.file("empty.csv", ""));
+    let ct = ["--domain", "s", "--na", "1", "--nb", "0"];
+    let with = |file: &str, extra: &[&'static str]| -> Vec<String> {
+        let mut v = vec!["fit".to_string(), file.to_string()];
+        v.extend(extra.iter().map(|x| x.to_string()));
+        v
+    };
+    let cases: Vec<(Vec<String>, &str)> = vec![
+        (with(&missing, &ct), "does-not-exist.csv"),
+        (with(&no_col, &ct), "im"),
+        (with(&nan, &ct), "not finite"),
+        (with(&unsorted, &ct), "increase"),
+        (with(&dup, &ct), "duplicate"),
+        (with(&empty, &ct), "empty"),
+        (
+            with(&good, &["--domain", "s", "--na", "4", "--nb", "3"]),
+            "too few frequencies",
+        ),
+        (
+            with(
+                &good,
+                &["--domain", "s", "--na", "1", "--nb", "0", "--bogus"],
+            ),
+            "--bogus",
+        ),
+        (
+            with(
+                &good,
+                &["--domain", "s", "--na", "1", "--nb", "0", "--band", "1-2"],
+            ),
+            "--band",
+        ),
+        (
+            with(
+                &good,
+                &["--domain", "s", "--na", "1", "--nb", "0", "--band", "a:2"],
+            ),
+            "--band",
+        ),
+        (
+            with(
+                &good,
+                &["--domain", "s", "--na", "1", "--nb", "0", "--band", "3:1"],
+            ),
+            "--band",
+        ),
+        (
+            with(
+                &good,
+                &["--domain", "s", "--na", "1", "--nb", "0", "--band", "10:20"],
+            ),
+            "no frequency lines",
+        ),
+        (
+            with(&good, &["--domain", "z", "--na", "1", "--nb", "0"]),
+            "--ts",
+        ),
+        (
+            with(
+                &good,
+                &["--domain", "z", "--ts", "1", "--na", "1", "--nb", "0"],
+            ),
+            "nyquist",
+        ),
+        (
+            with(
+                &good,
+                &["--domain", "z", "--ts", "-1", "--na", "1", "--nb", "0"],
+            ),
+            "--ts",
+        ),
+        (
+            with(&good, &["--domain", "s", "--na", "1000000", "--nb", "0"]),
+            "--na",
+        ),
+        (
+            with(&good, &["--domain", "s", "--na", "1", "--nb", "100000"]),
+            "--nb",
+        ),
+        (
+            with(
+                &good,
+                &[
+                    "--domain",
+                    "s",
+                    "--na",
+                    "99999999999999999999999",
+                    "--nb",
+                    "0",
+                ],
+            ),
+            "--na",
+        ),
+        (
+            with(
+                &good,
+                &["--domain", "s", "--na", "1", "--nb", "0", "--periods", "2"],
+            ),
+            "--periods",
+        ),
+        (
+            with(&good, &["--domain", "q", "--na", "1", "--nb", "0"]),
+            "--domain",
+        ),
+        (
+            with(
+                &good,
+                &[
+                    "--domain",
+                    "s",
+                    "--na",
+                    "1",
+                    "--nb",
+                    "0",
+                    "--criterion",
+                    "x",
+                ],
+            ),
+            "--criterion",
+        ),
+        (with(&good, &["--na", "1", "--nb", "0"]), "--domain"),
+        (vec!["frobnicate".into()], "frobnicate"),
+    ];
+    for (args, needle) in cases {
+        let a: Vec<&str> = args.iter().map(String::as_str).collect();
+        expect_error(&a, needle);
+    }
+}
+
+#[test]
+fn time_record_errors() {
+    let dir = Scratch::new("tbad");
+    let rec = dir.file("record.csv", &dt_record(100, 3, 0.0));
+    let p = rec.to_str().unwrap();
+    // 300 samples are not a multiple of 7 periods
+    expect_error(
+        &[
+            "fit",
+            p,
+            "--domain",
+            "z",
+            "--na",
+            "2",
+            "--nb",
+            "1",
+            "--periods",
+            "7",
+        ],
+        "periods",
+    );
+    expect_error(
+        &[
+            "fit",
+            p,
+            "--domain",
+            "z",
+            "--na",
+            "2",
+            "--nb",
+            "1",
+            "--periods",
+            "0",
+        ],
+        "periods",
+    );
+    // --ts contradicting the t column
+    expect_error(
+        &[
+            "fit", p, "--domain", "z", "--ts", "1", "--na", "2", "--nb", "1",
+        ],
+        "--ts",
+    );
+    // a zero input carries no information
+    let mut zero = String::from("t,u,y\n");
+    for k in 0..16 {
+        zero.push_str(&format!("{k},0,{}\n", k % 3));
+    }
+    let z = dir.file("zero.csv", &zero);
+    expect_error(
+        &[
+            "fit",
+            z.to_str().unwrap(),
+            "--domain",
+            "z",
+            "--na",
+            "1",
+            "--nb",
+            "0",
+        ],
+        "input",
+    );
+}
+
+#[test]
+fn help_is_complete() {
+    let o = fdid(&["--help"]);
+    assert!(o.status.success());
+    let top = stdout(&o);
+    assert!(top.contains("fit") && top.contains("Examples:"), "{top}");
+    let o = fdid(&["fit", "--help"]);
+    assert!(o.status.success());
+    let h = stdout(&o);
+    for needle in [
+        "--domain",
+        "--na",
+        "--nb",
+        "--ts",
+        "--criterion",
+        "--band",
+        "--periods",
+        "--json",
+        "f,re,im",
+        "t,u,y",
+        "u_re",
+        "DC line",
+        "Examples:",
+        "\"frf\"",
+    ] {
+        assert!(h.contains(needle), "`{needle}` missing from fit --help");
+    }
+}
+
+/// The bundled data sets run with the README's commands.
+#[test]
+fn bundled_data_sets_fit() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let v = json(
+        &root.join("data/robot_arm.csv"),
+        &["--domain", "z", "--na", "4", "--nb", "4", "--periods", "1"],
+    );
+    assert_eq!(v["poles"].as_array().unwrap().len(), 4);
+    assert_eq!(v["stable"], true);
+    assert!(v["relative_residual"].as_f64().unwrap() < 0.1);
+    let v = json(
+        &root.join("data/eis_battery.csv"),
+        &["--domain", "s", "--na", "4", "--nb", "4", "--band", ":1000"],
+    );
+    assert_eq!(v["frf"].as_array().unwrap().len(), 56);
+    assert_eq!(v["stable"], true);
+    assert!(v["relative_residual"].as_f64().unwrap() < 0.1);
+}
