@@ -83,22 +83,20 @@ impl<T: Real, M: ModelStructure<T>> Fit<T, M> {
         } else {
             None
         };
-        let covariance = lambda.and_then(|l| inverse_gram(jac).map(|g| g * (l / T::lit(2.0))));
+        // Cov = (λ/2)(JᵀJ)⁻¹ = F Fᵀ with F = √(λ/2) D⁻¹VΣ⁻¹ from the QR/SVD of J
+        let factor =
+            lambda.and_then(|l| gram_inverse_factor(jac).map(|f| f * Float::sqrt(l / T::lit(2.0))));
+        let covariance = factor.as_ref().map(|f| f * f.transpose());
         let omega = data.omega().to_vec();
         let mut response = vec![Complex::new(T::zero(), T::zero()); n];
         let mut dg = DMatrix::zeros(n, p);
         model.jacobian_into(&theta, &omega, &mut response, &mut dg);
-        let response_std = covariance.as_ref().map(|cov| {
-            (0..n)
-                .map(|k| {
-                    let mut v = T::zero();
-                    for i in 0..p {
-                        for j in 0..p {
-                            v += cov[(i, j)] * (dg[(k, i)] * dg[(k, j)].conj()).re;
-                        }
-                    }
-                    Float::sqrt(Float::max(v, T::zero()))
-                })
+        // σ_G(ω_k)² = Σ_ij Cov_ij Re(∂G_k/∂θ_i conj ∂G_k/∂θ_j) = ‖(∂G_k/∂θ) F‖²
+        let response_std = factor.map(|f| {
+            let fc = f.map(|v| Complex::new(v, T::zero()));
+            let m = dg * fc;
+            m.row_iter()
+                .map(|row| Float::sqrt(row.iter().fold(T::zero(), |s, v| s + v.norm_sqr())))
                 .collect()
         });
         Ok(Self {
@@ -204,8 +202,9 @@ impl<T: Real, M: ModelStructure<T> + PolesZeros<T>> Fit<T, M> {
     }
 }
 
-/// (JᵀJ)⁻¹ by a QR of the column-equilibrated J and an SVD of R; `None` when singular.
-fn inverse_gram<T: Real>(mut jac: DMatrix<T>) -> Option<DMatrix<T>> {
+/// F with (JᵀJ)⁻¹ = F Fᵀ, from a QR of the column-equilibrated J = Q R D and an SVD
+/// R = UΣVᵀ: F = D⁻¹VΣ⁻¹. `None` when J is (numerically) rank deficient.
+fn gram_inverse_factor<T: Real>(mut jac: DMatrix<T>) -> Option<DMatrix<T>> {
     let p = jac.ncols();
     if p == 0 || jac.nrows() < p {
         return None;
@@ -225,18 +224,8 @@ fn inverse_gram<T: Real>(mut jac: DMatrix<T>) -> Option<DMatrix<T>> {
     if !(smin > smax * T::default_epsilon() * T::lit(10.0)) {
         return None;
     }
-    // (RᵀR)⁻¹ = V Σ⁻² Vᵀ
     let vt = svd.v_t?;
-    let mut out = DMatrix::zeros(p, p);
-    for i in 0..p {
-        for j in 0..p {
-            let mut v = T::zero();
-            for k in 0..p {
-                let s = svd.singular_values[k];
-                v += vt[(k, i)] * vt[(k, j)] / (s * s);
-            }
-            out[(i, j)] = v / (scale[i] * scale[j]);
-        }
-    }
-    Some(out)
+    Some(DMatrix::from_fn(p, p, |i, k| {
+        vt[(k, i)] / (svd.singular_values[k] * scale[i])
+    }))
 }
