@@ -149,15 +149,24 @@ fn ct_frf_json_poles_and_frf() {
 fn ct_frf_every_criterion_finds_the_poles() {
     let dir = Scratch::new("crit");
     let path = dir.file("frf.csv", &ct_frf_csv().0);
-    for c in ["ml", "levy", "sk", "tls"] {
-        let v = json(
-            &path,
-            &["--domain", "s", "--na", "2", "--nb", "0", "--criterion", c],
-        );
-        assert_eq!(v["criterion"], c);
-        let poles = pairs(&v["poles"]);
-        for (p, e) in poles.iter().zip(CT_POLES) {
-            assert!(close(*p, e, 1e-6), "{c}: pole {p:?}, expected {e:?}");
+    // nb = 0: polynomial form; nb = 1 = na - 1: partial-fraction form
+    for (nb, form) in [("0", "orthonormal_polynomials"), ("1", "partial_fractions")] {
+        for c in ["ml", "levy", "sk", "tls"] {
+            let v = json(
+                &path,
+                &["--domain", "s", "--na", "2", "--nb", nb, "--criterion", c],
+            );
+            assert_eq!(v["criterion"], c);
+            assert_eq!(v["form"], form);
+            let nbv: usize = nb.parse().unwrap();
+            assert_eq!(v["theta"].as_array().unwrap().len(), 3 + nbv);
+            let poles = pairs(&v["poles"]);
+            for (p, e) in poles.iter().zip(CT_POLES) {
+                assert!(
+                    close(*p, e, 1e-6),
+                    "{c}, nb = {nb}: pole {p:?}, expected {e:?}"
+                );
+            }
         }
     }
 }
@@ -614,11 +623,22 @@ fn bundled_data_sets_fit() {
     assert_eq!(v["poles"].as_array().unwrap().len(), 4);
     assert_eq!(v["stable"], true);
     assert!(v["relative_residual"].as_f64().unwrap() < 0.1);
-    let v = json(
-        &root.join("data/eis_battery.csv"),
-        &["--domain", "s", "--na", "4", "--nb", "4", "--band", ":1000"],
-    );
-    assert_eq!(v["frf"].as_array().unwrap().len(), 56);
-    assert_eq!(v["stable"], true);
-    assert!(v["relative_residual"].as_f64().unwrap() < 0.1);
+    for (order, worst) in [("4", 0.05), ("6", 0.02)] {
+        let v = json(
+            &root.join("data/eis_battery.csv"),
+            &[
+                "--domain", "s", "--na", order, "--nb", order, "--band", ":1000",
+            ],
+        );
+        assert_eq!(v["frf"].as_array().unwrap().len(), 56);
+        assert_eq!(v["stable"], true, "order {order}");
+        // an RC-ladder-like impedance: real poles
+        assert!(
+            pairs(&v["poles"])
+                .iter()
+                .all(|p| p.0 < 0.0 && p.1.abs() <= 1e-9 * p.0.abs())
+        );
+        let r = v["relative_residual"].as_f64().unwrap();
+        assert!(r < worst, "order {order}: relative residual {r}");
+    }
 }

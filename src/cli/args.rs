@@ -9,7 +9,7 @@ pub const MAX_ORDER: usize = 100;
 
 const MAIN_HELP: &str = "\
 Examples:
-  fdid fit data/eis_battery.csv --domain s --na 4 --nb 4 --band :1000
+  fdid fit data/eis_battery.csv --domain s --na 6 --nb 6 --band :1000
   fdid fit data/robot_arm.csv --domain z --na 4 --nb 4 --periods 1
   fdid fit frf.csv --domain z --ts 0.001 --na 2 --nb 2 --json
 
@@ -41,14 +41,14 @@ standard deviations. With --json one JSON object:
 where poles and zeros are in rad/s (s) or in the z-plane (z; zeros at the origin left
 out) and frf is the fitted model at the frequencies (Hz) used in the fit. Further keys:
 na, nb, criterion, ts, lines, gain, stable, theta, theta_std, frf_std, stages,
-weighting, noise_known, relative_residual, notes. Values that are not finite are
-written as null.
+weighting, noise_known, relative_residual, notes, form (how theta parameterises the
+model), basis_poles. Values that are not finite are written as null.
 
 Errors are reported on one line starting with `error:`; the exit status is 1 for bad
 data or a failed fit and 2 for bad usage.
 
 Examples:
-  fdid fit data/eis_battery.csv --domain s --na 4 --nb 4 --band :1000
+  fdid fit data/eis_battery.csv --domain s --na 6 --nb 6 --band :1000
   fdid fit data/robot_arm.csv --domain z --na 4 --nb 4 --periods 1
   fdid fit record.csv --domain z --na 2 --nb 1 --periods 4 --json";
 
@@ -87,7 +87,9 @@ pub struct FitArgs {
     pub na: usize,
 
     /// Numerator degree: in s, nb = na gives a feedthrough, nb < na a strictly proper
-    /// model; in z, B = b0 + b1 z^-1 + ... + b_nb z^-nb. At most 100
+    /// model, and nb = na or na - 1 selects the partial-fraction form (well conditioned
+    /// over many decades; other orders use polynomials orthonormal on the data grid); in
+    /// z, B = b0 + b1 z^-1 + ... + b_nb z^-nb. At most 100
     #[arg(long, value_name = "M")]
     pub nb: usize,
 

@@ -3,6 +3,7 @@
 use super::Failure;
 use super::args::{DomainArg, FitArgs};
 use super::data::Prepared;
+use fdid::basis::PolyBasis;
 use fdid::prelude::*;
 use fdid::solver::Termination;
 use serde_json::{Value, json};
@@ -17,8 +18,37 @@ struct StageRow {
     cost: f64,
 }
 
+/// How θ parameterises the fitted model.
+enum Form {
+    /// Polynomials in the basis orthonormal on the data grid (s).
+    Orthonormal,
+    /// Partial fractions over fixed basis poles (s; the barycentric form).
+    PartialFractions(Vec<Complex<f64>>),
+    /// Polynomials in z⁻¹.
+    DelayPowers,
+}
+
+impl Form {
+    fn of(basis: &PolyBasis<f64>) -> Self {
+        match basis {
+            PolyBasis::Orthonormal { .. } => Self::Orthonormal,
+            PolyBasis::PartialFractions { poles } => Self::PartialFractions(poles.clone()),
+            PolyBasis::DelayPowers { .. } => Self::DelayPowers,
+        }
+    }
+
+    fn name(&self) -> &'static str {
+        match self {
+            Self::Orthonormal => "orthonormal_polynomials",
+            Self::PartialFractions(_) => "partial_fractions",
+            Self::DelayPowers => "delay_powers",
+        }
+    }
+}
+
 /// Everything printed about a fit.
 pub struct Report {
+    form: Form,
     domain: DomainArg,
     ts: Option<f64>,
     na: usize,
@@ -86,6 +116,7 @@ impl Report {
             })
             .collect();
         Ok(Self {
+            form: Form::of(fit.model().basis()),
             domain: args.domain,
             ts,
             na: args.na,
@@ -120,16 +151,39 @@ impl Report {
         }
     }
 
-    /// Names of the parameters θ.
-    fn theta_names(&self) -> Vec<String> {
-        let a = match self.domain {
-            // coefficients of the data-orthonormal basis φ_0 … φ_{na-1}
-            DomainArg::S => (0..self.na).map(|k| format!("a{k}")).collect::<Vec<_>>(),
-            DomainArg::Z => (1..=self.na).map(|k| format!("a{k}")).collect(),
+    /// Names of the parameters θ, and what they are.
+    fn theta_names(&self) -> (Vec<String>, &'static str) {
+        let (na, nb) = (self.na, self.nb);
+        let (a, b, caption): (Vec<String>, Vec<String>, _) = match self.form {
+            Form::Orthonormal => (
+                (0..na).map(|k| format!("a{k}")).collect(),
+                (0..=nb).map(|k| format!("b{k}")).collect(),
+                "polynomials in the basis phi_n orthonormal on the data grid: \
+                 A = phi_na + sum a_n phi_n, B = sum b_n phi_n",
+            ),
+            Form::PartialFractions(_) => (
+                (1..=na).map(|k| format!("d{k}")).collect(),
+                (na.saturating_sub(nb)..=na)
+                    .map(|k| format!("c{k}"))
+                    .collect(),
+                "partial fractions phi_n over the basis poles: G = N/D, \
+                 D = 1 + sum d_n phi_n, N = sum c_n phi_n",
+            ),
+            Form::DelayPowers => (
+                (1..=na).map(|k| format!("a{k}")).collect(),
+                (0..=nb).map(|k| format!("b{k}")).collect(),
+                "A = 1 + a1 z^-1 + ..., B = b0 + b1 z^-1 + ...",
+            ),
         };
-        a.into_iter()
-            .chain((0..=self.nb).map(|k| format!("b{k}")))
-            .collect()
+        let names: Vec<String> = a.into_iter().chain(b).collect();
+        if names.len() == self.theta.len() {
+            (names, caption)
+        } else {
+            (
+                (1..=self.theta.len()).map(|k| format!("p{k}")).collect(),
+                caption,
+            )
+        }
     }
 
     /// The JSON object (one line).
@@ -177,6 +231,11 @@ impl Report {
             "relative_residual": num(self.relative_residual),
             "weighting": self.weighting,
             "notes": self.notes,
+            "form": self.form.name(),
+            "basis_poles": match &self.form {
+                Form::PartialFractions(q) => pairs(q),
+                _ => Value::Null,
+            },
             "stages": stages,
         });
         let mut s = obj.to_string();
@@ -310,16 +369,23 @@ impl Report {
         }
 
         let _ = writeln!(w);
-        let _ = writeln!(
-            w,
-            "parameters theta{}",
-            match self.domain {
-                DomainArg::S => " (coefficients in the data-orthonormal polynomial basis)",
-                DomainArg::Z => " (A = 1 + a1 z^-1 + ..., B = b0 + b1 z^-1 + ...)",
-            }
-        );
+        let (names, caption) = self.theta_names();
+        let _ = writeln!(w, "parameters theta ({caption})");
+        if let Form::PartialFractions(q) = &self.form {
+            let list: Vec<String> = q
+                .iter()
+                .map(|q| {
+                    if q.im == 0.0 {
+                        g(q.re)
+                    } else {
+                        format!("{} +/- {}i", g(q.re), g(q.im))
+                    }
+                })
+                .collect();
+            let _ = writeln!(w, "  basis poles (rad/s): {}", list.join(", "));
+        }
         let _ = writeln!(w, "  {:<6} {:>14} {:>14}", "", "value", "std");
-        for (i, name) in self.theta_names().iter().enumerate() {
+        for (i, name) in names.iter().enumerate() {
             let std = self
                 .theta_std
                 .as_ref()
