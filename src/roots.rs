@@ -206,6 +206,20 @@ fn eigenvalues<T: Real>(m: DMatrix<T>) -> Result<Vec<Complex<T>>> {
 mod tests {
     use super::*;
 
+    /// Ascending monomial coefficients of Π(s − rᵢ).
+    fn monic_from_roots(roots: &[Complex<f64>]) -> Vec<Complex<f64>> {
+        let mut p = vec![Complex::new(1.0, 0.0)];
+        for r in roots {
+            let mut q = vec![Complex::new(0.0, 0.0); p.len() + 1];
+            for (i, c) in p.iter().enumerate() {
+                q[i + 1] += *c;
+                q[i] -= *c * *r;
+            }
+            p = q;
+        }
+        p
+    }
+
     fn sorted(mut v: Vec<Complex<f64>>) -> Vec<Complex<f64>> {
         v.sort_by(|a, b| (a.re, a.im).partial_cmp(&(b.re, b.im)).unwrap());
         v
@@ -230,15 +244,7 @@ mod tests {
             cols.push(b.to_monomial(&e));
         }
         // target monomial (ascending): expand the product
-        let mut p = vec![Complex::new(1.0, 0.0)];
-        for r in &want {
-            let mut q = vec![Complex::new(0.0, 0.0); p.len() + 1];
-            for (i, c) in p.iter().enumerate() {
-                q[i + 1] += *c;
-                q[i] -= *c * *r;
-            }
-            p = q;
-        }
+        let p = monic_from_roots(&want);
         let a = DMatrix::from_fn(5, 5, |i, j| cols[j][i]);
         let rhs = nalgebra::DVector::from_fn(5, |i, _| p[i].re);
         let c = a.lu().solve(&rhs).unwrap();
@@ -279,15 +285,7 @@ mod tests {
                 Complex::new(0.5, 0.0),
             ],
         ] {
-            let mut p = vec![Complex::new(1.0, 0.0)];
-            for r in &want {
-                let mut q = vec![Complex::new(0.0, 0.0); p.len() + 1];
-                for (i, c) in p.iter().enumerate() {
-                    q[i + 1] += *c;
-                    q[i] -= *c * *r;
-                }
-                p = q;
-            }
+            let p = monic_from_roots(&want);
             // strictly proper numerator: c₀ = 0, solve the 5 remaining from degrees 0..4
             let a = DMatrix::from_fn(n, n, |i, j| cols[j + 1][i]);
             let rhs = nalgebra::DVector::from_fn(n, |i, _| p.get(i).map_or(0.0, |c| c.re));

@@ -160,27 +160,7 @@ fn drop_uninformative(data: FrequencyData<f64>) -> Result<FrequencyData<f64>, Fa
 
 /// The lines where `keep` is true, with their noise variances and sample time.
 fn select(data: &FrequencyData<f64>, keep: &[bool]) -> Result<FrequencyData<f64>, Failure> {
-    fn pick<X: Copy>(v: &[X], keep: &[bool]) -> Vec<X> {
-        v.iter()
-            .zip(keep)
-            .filter(|(_, k)| **k)
-            .map(|(x, _)| *x)
-            .collect()
-    }
-    let out = FrequencyData::new(
-        pick(data.omega(), keep),
-        pick(data.y(), keep),
-        pick(data.u(), keep),
-        data.ts(),
-    )?;
-    Ok(match data.noise() {
-        None => out,
-        Some(n) => out.with_noise(NoiseVariances {
-            var_y: pick(&n.var_y, keep),
-            var_u: pick(&n.var_u, keep),
-            cov_yu: pick(&n.cov_yu, keep),
-        })?,
-    })
+    Ok(data.select_lines(keep)?)
 }
 
 /// Decides the line weighting: the output noise variances when every line has a positive

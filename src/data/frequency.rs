@@ -71,25 +71,12 @@ impl<T: Real> NoiseVariances<T> {
         Ok(())
     }
 
-    /// Keeps the lines whose index satisfies `keep`.
+    /// Keeps the lines where `keep` is true.
     pub(crate) fn filter(&self, keep: &[bool]) -> Self {
-        let pick = |v: &[T]| {
-            v.iter()
-                .zip(keep)
-                .filter(|(_, k)| **k)
-                .map(|(x, _)| *x)
-                .collect::<Vec<_>>()
-        };
         Self {
-            var_y: pick(&self.var_y),
-            var_u: pick(&self.var_u),
-            cov_yu: self
-                .cov_yu
-                .iter()
-                .zip(keep)
-                .filter(|(_, k)| **k)
-                .map(|(x, _)| *x)
-                .collect(),
+            var_y: pick(&self.var_y, keep),
+            var_u: pick(&self.var_u, keep),
+            cov_yu: pick(&self.cov_yu, keep),
         }
     }
 }
@@ -312,15 +299,30 @@ impl<T: Real> FrequencyData<T> {
         self.band(f_min * T::two_pi(), f_max * T::two_pi())
     }
 
+    /// Keeps the lines where `keep[k]` is true, with their noise variances and sample time.
+    ///
+    /// # Errors
+    /// `keep` has the wrong length, or keeps no line.
+    pub fn select_lines(&self, keep: &[bool]) -> Result<Self> {
+        if keep.len() != self.len() {
+            return Err(FdidError::LengthMismatch {
+                what: "line selection",
+                expected: self.len(),
+                got: keep.len(),
+            });
+        }
+        if !keep.iter().any(|k| *k) {
+            return Err(FdidError::TooShort {
+                what: "selected frequency lines",
+                needed: 1,
+                got: 0,
+            });
+        }
+        Ok(self.filter(keep))
+    }
+
     /// Keeps the lines where `keep[k]` is true (lengths must match; not checked here).
     pub(crate) fn filter(&self, keep: &[bool]) -> Self {
-        fn pick<X: Copy>(v: &[X], keep: &[bool]) -> Vec<X> {
-            v.iter()
-                .zip(keep)
-                .filter(|(_, k)| **k)
-                .map(|(x, _)| *x)
-                .collect()
-        }
         Self {
             omega: pick(&self.omega, keep),
             y: pick(&self.y, keep),
@@ -347,4 +349,13 @@ impl<T: Real> FrequencyData<T> {
             ts,
         }
     }
+}
+
+/// The entries of `v` where `keep` is true.
+fn pick<X: Copy>(v: &[X], keep: &[bool]) -> Vec<X> {
+    v.iter()
+        .zip(keep)
+        .filter(|(_, k)| **k)
+        .map(|(x, _)| *x)
+        .collect()
 }

@@ -41,15 +41,7 @@ pub trait ModelStructure<T: Real> {
     /// Model-specific; [`crate::FdidError::TooFewFrequencies`] at least when
     /// `2·lines < p`.
     fn check_data(&self, data: &FrequencyData<T>) -> Result<()> {
-        let p = self.n_params();
-        if 2 * data.len() < p {
-            return Err(crate::FdidError::TooFewFrequencies {
-                lines: data.len(),
-                equations: 2 * data.len(),
-                parameters: p,
-            });
-        }
-        Ok(())
+        check_line_count(self.n_params(), data.len())
     }
 
     /// G(θ, ω_k) as a new vector.
@@ -58,6 +50,19 @@ pub trait ModelStructure<T: Real> {
         self.response_into(theta, omega, &mut out);
         out
     }
+}
+
+/// Fails with [`crate::FdidError::TooFewFrequencies`] when `lines` complex lines give fewer
+/// real equations than `parameters`.
+pub(crate) fn check_line_count(parameters: usize, lines: usize) -> Result<()> {
+    if 2 * lines < parameters {
+        return Err(crate::FdidError::TooFewFrequencies {
+            lines,
+            equations: 2 * lines,
+            parameters,
+        });
+    }
+    Ok(())
 }
 
 /// Models linear in their coefficients in equation-error form.

@@ -564,14 +564,7 @@ impl<T: Real> ModelStructure<T> for Rational<T> {
     }
 
     fn check_data(&self, data: &FrequencyData<T>) -> Result<()> {
-        let p = self.n_params();
-        if 2 * data.len() < p {
-            return Err(FdidError::TooFewFrequencies {
-                lines: data.len(),
-                equations: 2 * data.len(),
-                parameters: p,
-            });
-        }
+        super::check_line_count(self.n_params(), data.len())?;
         if let (PolyBasis::DelayPowers { ts }, Some(dts)) = (&self.basis, data.ts()) {
             let rel = Float::abs(*ts - dts) / *ts;
             if rel > T::lit(1e-6) {
