@@ -193,3 +193,230 @@ pub fn rel_rms<T: Real>(a: &[Complex<T>], b: &[Complex<f64>]) -> f64 {
     }
     (num / den).sqrt()
 }
+
+// ---------------------------------------------------------------------------------------
+// Random stable systems for the estimator property tests (tests/estimators_*.rs).
+// ---------------------------------------------------------------------------------------
+
+/// A random system with the model orders that fit it exactly and a frequency grid.
+#[derive(Debug, Clone)]
+pub struct RandomSystem {
+    /// The system: for discrete time the zeros include `na − nb` zeros at z = 0, so that
+    /// `zpk.eval` is exactly B(z⁻¹)/A(z⁻¹) of a `Rational::discrete(na, nb, ts)` model.
+    pub zpk: Zpk,
+    /// Denominator degree.
+    pub na: usize,
+    /// Numerator degree.
+    pub nb: usize,
+    /// Frequency grid (rad/s), strictly increasing, positive.
+    pub omega: Vec<f64>,
+}
+
+impl RandomSystem {
+    /// Exact frequency response on the grid.
+    pub fn frf(&self) -> Vec<Complex<f64>> {
+        self.zpk.frf(&self.omega)
+    }
+}
+
+fn log_uniform(rng: &mut StdRng, lo: f64, hi: f64) -> f64 {
+    10f64.powf(rng.gen_range(lo.log10()..hi.log10()))
+}
+
+/// A random stable continuous-time system of denominator degree `na` and numerator degree
+/// `nb` (`nb ≤ na`), from `seed`:
+/// - grid: D decades starting at 10^U(−1, 1) rad/s, D uniform in [max(1, 0.285 m + 0.16), 2]
+///   with m = ⌈na/2⌉ modes; 50–400 lines, either log-spaced or log-uniform random (sorted,
+///   distinct);
+/// - poles: ⌊na/2⌋ complex pairs with damping ζ ∈ [0.05, 0.7] and, for odd `na`, one real
+///   pole; their natural frequencies are spread over the grid: the band without a 20 %
+///   margin at each end is cut into m equal log-segments and mode i is placed log-uniformly
+///   in the middle 60 % of segment i (so adjacent modes differ by a ratio ≥ 1.3);
+/// - zeros: real (either sign) or complex pairs with ζ ∈ [0.05, 0.7] (either half plane),
+///   |z| log-uniform over the grid, each at least 0.25 |p| away from every pole p;
+/// - gain: RMS |G| over the grid is 1.
+pub fn random_ct_system(seed: u64, na: usize, nb: usize) -> RandomSystem {
+    assert!(na >= 1 && nb <= na);
+    let mut rng = StdRng::seed_from_u64(seed);
+    let modes = na / 2 + na % 2;
+    let decades = rng.gen_range((0.285 * modes as f64 + 0.16).max(1.0)..=2.0);
+    let w_lo = log_uniform(&mut rng, 0.1, 10.0);
+    let w_hi = w_lo * 10f64.powf(decades);
+    let n = rng.gen_range(50..=400usize);
+    let omega = if rng.gen_bool(0.5) {
+        (0..n)
+            .map(|k| w_lo * (w_hi / w_lo).powf(k as f64 / (n - 1) as f64))
+            .collect()
+    } else {
+        let mut w: Vec<f64> = (0..n).map(|_| log_uniform(&mut rng, w_lo, w_hi)).collect();
+        w.sort_by(|a, b| a.partial_cmp(b).unwrap());
+        w.dedup_by(|a, b| (*a - *b).abs() <= 1e-9 * *b);
+        w
+    };
+    let (lo, hi) = ((w_lo * 1.2).log10(), (w_hi / 1.2).log10());
+    let seg = (hi - lo) / modes as f64;
+    let mut wn: Vec<f64> = (0..modes)
+        .map(|i| 10f64.powf(lo + seg * (i as f64 + rng.gen_range(0.2..=0.8))))
+        .collect();
+    // the real pole (odd na) takes a random one of the mode frequencies
+    let real_at = if na % 2 == 1 {
+        Some(rng.gen_range(0..modes))
+    } else {
+        None
+    };
+    let mut poles = vec![];
+    for (i, w) in wn.drain(..).enumerate() {
+        if Some(i) == real_at {
+            poles.push(Complex::new(-w, 0.0));
+        } else {
+            let zeta: f64 = rng.gen_range(0.05..=0.7);
+            let (re, im) = (-zeta * w, w * (1.0 - zeta * zeta).sqrt());
+            poles.push(Complex::new(re, im));
+            poles.push(Complex::new(re, -im));
+        }
+    }
+    let far = |z: Complex<f64>, poles: &[Complex<f64>]| {
+        poles.iter().all(|p| (z - p).norm() >= 0.25 * p.norm())
+    };
+    let mut zeros: Vec<Complex<f64>> = vec![];
+    while zeros.len() < nb {
+        let w = log_uniform(&mut rng, w_lo, w_hi);
+        let sign = if rng.gen_bool(0.5) { -1.0 } else { 1.0 };
+        if nb - zeros.len() >= 2 && rng.gen_bool(0.6) {
+            let zeta: f64 = rng.gen_range(0.05..=0.7);
+            let z = Complex::new(sign * zeta * w, w * (1.0 - zeta * zeta).sqrt());
+            if far(z, &poles) {
+                zeros.push(z);
+                zeros.push(z.conj());
+            }
+        } else {
+            let z = Complex::new(sign * w, 0.0);
+            if far(z, &poles) {
+                zeros.push(z);
+            }
+        }
+    }
+    let mut zpk = Zpk {
+        zeros,
+        poles,
+        gain: 1.0,
+        ts: None,
+    };
+    let rms =
+        (zpk.frf(&omega).iter().map(|g| g.norm_sqr()).sum::<f64>() / omega.len() as f64).sqrt();
+    zpk.gain = 1.0 / rms;
+    RandomSystem { zpk, na, nb, omega }
+}
+
+/// A random stable discrete-time system B(z⁻¹)/A(z⁻¹) of degrees `na`, `nb` (`nb ≤ na`),
+/// from `seed`:
+/// - Ts ∈ {0.001, 0.01, 0.1, 1} s; grid: 50–400 distinct uniform random frequencies in
+///   (0, π/Ts), sorted;
+/// - poles: ⌊na/2⌋ complex pairs and, for odd `na`, one real pole of either sign, radius
+///   in [0.3, 0.95], pairwise distances (conjugates included) ≥ 0.15;
+/// - zeros: real or complex pairs with radius in [0.2, 1.3], at least 0.15 from every
+///   pole; plus `na − nb` zeros at the origin (the z^(na−nb) of B(z⁻¹)/A(z⁻¹));
+/// - gain: RMS |G| over the grid is 1.
+pub fn random_dt_system(seed: u64, na: usize, nb: usize) -> RandomSystem {
+    assert!(na >= 1 && nb <= na);
+    let mut rng = StdRng::seed_from_u64(seed);
+    let ts = [0.001, 0.01, 0.1, 1.0][rng.gen_range(0..4usize)];
+    let nyq = std::f64::consts::PI / ts;
+    let n = rng.gen_range(50..=400usize);
+    let mut omega: Vec<f64> = (0..n)
+        .map(|_| nyq * rng.gen_range(0.0005..0.9995))
+        .collect();
+    omega.sort_by(|a, b| a.partial_cmp(b).unwrap());
+    omega.dedup_by(|a, b| (*a - *b).abs() <= 1e-9 * nyq);
+    let min_dist = |z: Complex<f64>, set: &[Complex<f64>]| {
+        set.iter()
+            .map(|p| (z - p).norm())
+            .fold(f64::INFINITY, f64::min)
+    };
+    let mut poles: Vec<Complex<f64>> = vec![];
+    let mut sep = 0.15;
+    let mut tries = 0;
+    while poles.len() < na {
+        tries += 1;
+        if tries % 500 == 0 {
+            sep *= 0.9;
+        }
+        let r: f64 = rng.gen_range(0.3..=0.95);
+        if na - poles.len() >= 2 {
+            let th: f64 = rng.gen_range(0.0..std::f64::consts::PI);
+            let p = Complex::from_polar(r, th);
+            if (p - p.conj()).norm() >= sep && min_dist(p, &poles) >= sep {
+                poles.push(p);
+                poles.push(p.conj());
+            }
+        } else {
+            let p = Complex::new(if rng.gen_bool(0.5) { r } else { -r }, 0.0);
+            if min_dist(p, &poles) >= sep {
+                poles.push(p);
+            }
+        }
+    }
+    let mut zeros: Vec<Complex<f64>> = vec![];
+    while zeros.len() < nb {
+        let r: f64 = rng.gen_range(0.2..=1.3);
+        if nb - zeros.len() >= 2 && rng.gen_bool(0.6) {
+            let th: f64 = rng.gen_range(0.05..std::f64::consts::PI - 0.05);
+            let z = Complex::from_polar(r, th);
+            if min_dist(z, &poles) >= 0.15 {
+                zeros.push(z);
+                zeros.push(z.conj());
+            }
+        } else {
+            let z = Complex::new(if rng.gen_bool(0.5) { r } else { -r }, 0.0);
+            if min_dist(z, &poles) >= 0.15 {
+                zeros.push(z);
+            }
+        }
+    }
+    zeros.extend(std::iter::repeat_n(Complex::new(0.0, 0.0), na - nb));
+    let mut zpk = Zpk {
+        zeros,
+        poles,
+        gain: 1.0,
+        ts: Some(ts),
+    };
+    let rms =
+        (zpk.frf(&omega).iter().map(|g| g.norm_sqr()).sum::<f64>() / omega.len() as f64).sqrt();
+    zpk.gain = 1.0 / rms;
+    RandomSystem { zpk, na, nb, omega }
+}
+
+/// Real coefficients, ascending powers of x, of Π (x − rᵢ) for roots closed under
+/// conjugation (imaginary round-off dropped).
+pub fn poly_from_roots(roots: &[Complex<f64>]) -> Vec<f64> {
+    let mut c = vec![Complex::new(1.0, 0.0)];
+    for r in roots {
+        let mut next = vec![Complex::new(0.0, 0.0); c.len() + 1];
+        for (k, v) in c.iter().enumerate() {
+            next[k + 1] += *v;
+            next[k] -= *v * r;
+        }
+        c = next;
+    }
+    c.into_iter().map(|v| v.re).collect()
+}
+
+/// Discrete-time θ = [a₁ … a_na, b₀ … b_nb] of `Rational::discrete(na, nb, ts)` for a
+/// [`RandomSystem`] from [`random_dt_system`] (A(z⁻¹) = Π(1 − pⱼz⁻¹), B = k Π(1 − zᵢz⁻¹)).
+pub fn dt_theta(sys: &RandomSystem) -> Vec<f64> {
+    // Π (x − r) in ascending powers, reversed, is Π (1 − r z⁻¹) in ascending powers of z⁻¹
+    let mut a = poly_from_roots(&sys.zpk.poles);
+    a.reverse();
+    let nonzero: Vec<Complex<f64>> = sys
+        .zpk
+        .zeros
+        .iter()
+        .copied()
+        .filter(|z| z.norm() > 0.0)
+        .collect();
+    let mut b = poly_from_roots(&nonzero);
+    b.reverse();
+    let mut theta: Vec<f64> = a[1..].to_vec();
+    theta.extend(b.iter().map(|v| v * sys.zpk.gain));
+    theta
+}
