@@ -151,7 +151,8 @@ impl Pipeline {
 
     /// Sanathanan–Koerner by basis relocation (vector fitting): a Levy solve in a basis
     /// whose poles are the previous estimate's, until the model stops changing (the tests
-    /// of [`FixedPoint`]). Returns the model in its final basis and the estimate in it.
+    /// of [`FixedPoint`]). Returns the lowest-cost model seen (the start included) in its
+    /// basis and the estimate in it.
     fn relocate<T: Real, M: EquationError<T> + Clone>(
         &self,
         mut model: M,
@@ -161,7 +162,7 @@ impl Pipeline {
     ) -> Result<(M, Solution<T>)> {
         let w = self.weighting;
         let tol = fp.tolerance.map_or_else(
-            || num_traits::Float::sqrt(T::default_epsilon()) * T::lit(0.1),
+            || num_traits::Float::sqrt(T::default_epsilon()),
             T::lit,
         );
         let ctol = T::lit(fp.cost_tolerance);
@@ -169,6 +170,7 @@ impl Pipeline {
             Ok(crate::criterion::MlProblem::new(m, data, w)?.cost(th))
         };
         let mut cost = oe_cost(&model, &theta)?;
+        let mut best = (model.clone(), theta.clone(), cost);
         let mut g_old = model.response(&theta, data.omega());
         let linear = LinearLeastSquares {
             rcond_eps: fp.rcond_eps,
@@ -194,7 +196,11 @@ impl Pipeline {
             theta = sol.theta;
             cost = new_cost;
             g_old = g_new;
+            if cost < best.2 {
+                best = (model.clone(), theta.clone(), cost);
+            }
             if change < tol || stalled {
+                let (model, theta, cost) = best;
                 return Ok((
                     model,
                     Solution {
@@ -206,6 +212,7 @@ impl Pipeline {
                 ));
             }
         }
+        let (model, theta, cost) = best;
         Ok((
             model,
             Solution {

@@ -14,17 +14,18 @@ use crate::problem::ReweightedProblem;
 /// | setting | default | meaning |
 /// |---|---|---|
 /// | `max_iterations` | 30 | cap on linear solves |
-/// | `tolerance` | `None`: 0.1·√ε (1.5e-9 for f64, 3.5e-5 for f32) | relative model change that counts as converged |
+/// | `tolerance` | `None`: √ε (1.5e-8 for f64, 3.5e-4 for f32) | relative model change that counts as converged (SK is a start for ML, which refines further) |
 /// | `cost_tolerance` | 1e-4 | relative cost change that counts as converged |
-/// | `rcond_eps` | 1000 | as [`super::LinearLeastSquares`] |
+/// | `rcond_eps` | 1 | as [`super::LinearLeastSquares`]; smaller than Levy's default because the re-weighted systems are better scaled and truncation there degrades the fixed point |
 ///
-/// SK may oscillate rather than converge (McKelvey ref. [20]); the solver then returns the
-/// iterate with the lowest cost and [`Termination::MaxIterations`].
+/// SK may oscillate rather than converge (McKelvey ref. [20]), or a step may make a good
+/// start worse: the solver always returns the iterate (or start) with the lowest cost, with
+/// [`Termination::MaxIterations`] when the cap stopped it.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct FixedPoint {
     /// Cap on linear solves.
     pub max_iterations: usize,
-    /// Convergence tolerance on the relative model change (`None`: √ε·10 by type).
+    /// Convergence tolerance on the relative model change (`None`: √ε of the scalar type).
     pub tolerance: Option<f64>,
     /// Relative change of the cost between iterations that counts as converged.
     pub cost_tolerance: f64,
@@ -38,7 +39,7 @@ impl Default for FixedPoint {
             max_iterations: 30,
             tolerance: None,
             cost_tolerance: 1e-4,
-            rcond_eps: 1e3,
+            rcond_eps: 1.0,
         }
     }
 }
@@ -47,10 +48,11 @@ impl<T: Real, P: ReweightedProblem<T> + ?Sized> Solver<T, P> for FixedPoint {
     fn solve(&self, problem: &P, start: Option<&[T]>) -> Result<Solution<T>> {
         let tol = match self.tolerance {
             Some(t) => T::lit(t),
-            None => num_traits::Float::sqrt(T::default_epsilon()) * T::lit(0.1),
+            None => num_traits::Float::sqrt(T::default_epsilon()),
         };
         let mut previous: Option<Vec<T>> = start.map(<[T]>::to_vec);
-        let mut best: Option<(Vec<T>, T)> = None;
+        // the start competes too: a re-weighted step must not make a good start worse
+        let mut best: Option<(Vec<T>, T)> = start.map(|s| (s.to_vec(), problem.cost(s)));
         let mut last_cost: Option<T> = None;
         let ctol = T::lit(self.cost_tolerance);
         for it in 1..=self.max_iterations.max(1) {
@@ -69,14 +71,13 @@ impl<T: Real, P: ReweightedProblem<T> + ?Sized> Solver<T, P> for FixedPoint {
             if let Some(ch) = change
                 && (ch < tol || stalled)
             {
-                {
-                    return Ok(Solution {
-                        theta,
-                        cost,
-                        iterations: it,
-                        termination: Termination::Converged,
-                    });
-                }
+                let (theta, cost) = best.unwrap_or((theta, cost));
+                return Ok(Solution {
+                    theta,
+                    cost,
+                    iterations: it,
+                    termination: Termination::Converged,
+                });
             }
             previous = Some(theta);
         }

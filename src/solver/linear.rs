@@ -31,6 +31,11 @@ fn svd_of_r<T: Real>(
     what: &'static str,
 ) -> Result<nalgebra::SVD<T, nalgebra::Dyn, nalgebra::Dyn>> {
     let p = r.ncols();
+    if r.iter().any(|v| !Float::is_finite(*v)) {
+        return Err(FdidError::Numerical {
+            what: format!("{what}: the QR factor overflowed (data too large to scale)"),
+        });
+    }
     nalgebra::SVD::try_new(r, true, true, T::default_epsilon(), 100 * p.max(10)).ok_or(
         FdidError::NotConverged {
             method: "SVD",
@@ -106,6 +111,11 @@ pub fn least_squares<T: Real>(
     });
     let resid = Float::max(a_copy_norm - fitted, T::zero());
     let theta = DVector::from_iterator(p, x.iter().zip(&scale).map(|(v, s)| *v / *s));
+    if theta.iter().any(|v| !Float::is_finite(*v)) {
+        return Err(FdidError::Numerical {
+            what: "least squares: the solution overflowed (data too large to scale)".into(),
+        });
+    }
     Ok((theta, resid))
 }
 
