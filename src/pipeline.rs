@@ -161,10 +161,9 @@ impl Pipeline {
         fp: &FixedPoint,
     ) -> Result<(M, Solution<T>)> {
         let w = self.weighting;
-        let tol = fp.tolerance.map_or_else(
-            || num_traits::Float::sqrt(T::default_epsilon()),
-            T::lit,
-        );
+        let tol = fp
+            .tolerance
+            .map_or_else(|| num_traits::Float::sqrt(T::default_epsilon()), T::lit);
         let ctol = T::lit(fp.cost_tolerance);
         let oe_cost = |m: &M, th: &[T]| -> Result<T> {
             Ok(crate::criterion::MlProblem::new(m, data, w)?.cost(th))

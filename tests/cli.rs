@@ -149,8 +149,13 @@ fn ct_frf_json_poles_and_frf() {
 fn ct_frf_every_criterion_finds_the_poles() {
     let dir = Scratch::new("crit");
     let path = dir.file("frf.csv", &ct_frf_csv().0);
-    // nb = 0: polynomial form; nb = 1 = na - 1: partial-fraction form
-    for (nb, form) in [("0", "orthonormal_polynomials"), ("1", "partial_fractions")] {
+    // nb ≤ na: partial-fraction form (nb = 0 with a relative-degree constraint);
+    // nb > na (improper): polynomial form
+    for (nb, form) in [
+        ("0", "partial_fractions"),
+        ("1", "partial_fractions"),
+        ("3", "orthonormal_polynomials"),
+    ] {
         for c in ["ml", "levy", "sk", "tls"] {
             let v = json(
                 &path,

@@ -91,16 +91,35 @@ fn order_20_with_noise_reaches_the_noise_floor() {
 }
 
 #[test]
-fn polynomial_form_is_the_fallback_for_low_numerator_order() {
+fn relative_degree_two_over_five_decades() {
+    // the modal truth has numerator degree 18: nb = 18 constrains the first Markov
+    // parameter of the partial-fraction numerator to zero
+    let sys = ten_modes();
+    let omega = logspace(-1.5, 4.0, 4000);
+    let g0 = sys.frf(&omega);
+    let data = FrequencyData::from_frf(omega, g0.clone(), None).unwrap();
+    let model = Rational::continuous(20, 18, data.omega()).unwrap();
+    let fit = Pipeline::default().fit(&model, &data).unwrap();
+    let err = rel_rms(fit.response(), &g0);
+    assert!(err < 1e-12, "relative RMS error {err:e}");
+    let pole_err = worst_pole_error(fit.poles().unwrap(), sys.poles());
+    assert!(pole_err < 1e-9, "worst relative pole error {pole_err:e}");
+    assert_eq!(fit.zeros().unwrap().len(), 18);
+}
+
+#[test]
+fn polynomial_form_is_the_fallback_for_improper_models() {
     let sys = ten_modes();
     let omega = logspace(-1.5, 4.0, 500);
     let data = FrequencyData::from_frf(omega.clone(), sys.frf(&omega), None).unwrap();
-    let pf = Rational::continuous(20, 19, data.omega()).unwrap();
-    assert!(matches!(
-        pf.basis(),
-        fdid::basis::PolyBasis::PartialFractions { .. }
-    ));
-    let poly = Rational::continuous(20, 12, data.omega()).unwrap();
+    for nb in [12, 19, 20] {
+        let pf = Rational::continuous(20, nb, data.omega()).unwrap();
+        assert!(matches!(
+            pf.basis(),
+            fdid::basis::PolyBasis::PartialFractions { .. }
+        ));
+    }
+    let poly = Rational::continuous(2, 3, data.omega()).unwrap();
     assert!(matches!(
         poly.basis(),
         fdid::basis::PolyBasis::Orthonormal { .. }

@@ -54,6 +54,10 @@ pub struct Rational<T: Real> {
     na: usize,
     nb: usize,
     basis: PolyBasis<T>,
+    /// For a partial-fraction model with nb < na − 1: the n × (nb + 1) orthonormal map Z
+    /// from θ's numerator part to c₁…c_n (c₀ = 0), spanning the c with vanishing Markov
+    /// parameters cᵀQᵏb, k < na − nb − 1 (relative degree na − nb).
+    numerator_map: Option<DMatrix<T>>,
 }
 
 impl<T: Real> Rational<T> {
@@ -70,7 +74,7 @@ impl<T: Real> Rational<T> {
     /// # Errors
     /// No positive frequency, or too few distinct frequencies for the degrees.
     pub fn continuous(na: usize, nb: usize, omega: &[T]) -> Result<Self> {
-        if na >= 1 && (nb == na || nb + 1 == na) {
+        if na >= 1 && nb <= na {
             Self::partial_fractions_on(na, nb, omega)
         } else {
             Self::polynomial(na, nb, omega)
@@ -87,7 +91,12 @@ impl<T: Real> Rational<T> {
     pub fn polynomial(na: usize, nb: usize, omega: &[T]) -> Result<Self> {
         crate::error::check_finite("omega", omega)?;
         let basis = PolyBasis::orthonormal(omega, na.max(nb))?;
-        Ok(Self { na, nb, basis })
+        Ok(Self {
+            na,
+            nb,
+            basis,
+            numerator_map: None,
+        })
     }
 
     /// A discrete-time model with sample time `ts` (s), A of degree `na` and B of degree
@@ -100,6 +109,7 @@ impl<T: Real> Rational<T> {
             na,
             nb,
             basis: PolyBasis::delay_powers(ts)?,
+            numerator_map: None,
         })
     }
 
@@ -127,28 +137,39 @@ impl<T: Real> Rational<T> {
     /// ```
     ///
     /// with φₙ the partial fractions of [`PolyBasis::PartialFractions`]; `na` is the number
-    /// of basis functions besides φ₀ (a pair counts twice) and `nb` is `na` (direct
-    /// feedthrough, c₀ free) or `na − 1` (strictly proper, c₀ = 0). The poles of G are the
-    /// zeros of D. With basis poles close to the poles of G the columns of the Jacobian are
+    /// of basis functions besides φ₀ (a pair counts twice) and `nb ≤ na` the degree of the
+    /// numerator of G: `nb = na` gives a direct feedthrough (c₀ free), `nb = na − 1` a
+    /// strictly proper model (c₀ = 0), and `nb < na − 1` in addition constrains the first
+    /// Markov parameters cᵀQᵏb (k < na − nb − 1) of the numerator to zero, so that G has
+    /// relative degree na − nb; θ then holds the nb + 1 coordinates of c in an orthonormal
+    /// basis of that subspace. The poles of G are the zeros of D. With basis poles close to the poles of G the columns of the Jacobian are
     /// nearly orthogonal, which keeps high orders over many decades well conditioned; see
     /// [`Rational::relocated`] and [`crate::Pipeline`] for the relocation iterations that put
     /// them there.
     ///
     /// # Errors
-    /// Invalid basis poles (see [`PolyBasis::partial_fractions`]), `nb` not in
-    /// {na − 1, na}, or no pole.
+    /// Invalid basis poles (see [`PolyBasis::partial_fractions`]), `nb > na`, or no pole.
     pub fn partial_fractions(poles: Vec<Complex<T>>, nb: usize) -> Result<Self> {
         let basis = PolyBasis::partial_fractions(poles)?;
         let na = basis.max_degree();
-        if na == 0 || !(nb == na || nb + 1 == na) {
+        if na == 0 || nb > na {
             return Err(FdidError::InvalidArgument {
                 name: "nb",
                 value: format!("{nb} (na = {na})"),
-                reason: "the partial-fraction form needs at least one pole and nb = na or na − 1"
-                    .into(),
+                reason: "the partial-fraction form needs at least one pole and nb ≤ na".into(),
             });
         }
-        Ok(Self { na, nb, basis })
+        let numerator_map = if nb + 1 < na {
+            Some(markov_null_space(&basis, na - nb - 1)?)
+        } else {
+            None
+        };
+        Ok(Self {
+            na,
+            nb,
+            basis,
+            numerator_map,
+        })
     }
 
     /// A partial-fraction model (see [`Rational::partial_fractions`]) with `na` starting
@@ -250,11 +271,38 @@ impl<T: Real> Rational<T> {
         }
     }
 
-    /// Numerator coefficients over the full basis (zeros below the offset).
+    /// Numerator coefficients over the full basis (zeros below the offset, or c = [0, Z θ_b]
+    /// for a constrained partial-fraction numerator).
     fn b_in_basis(&self, b: &[T]) -> Vec<T> {
+        if let Some(z) = &self.numerator_map {
+            let mut full = vec![T::zero()];
+            full.extend(
+                (0..z.nrows()).map(|k| (0..z.ncols()).fold(T::zero(), |s, j| s + z[(k, j)] * b[j])),
+            );
+            return full;
+        }
         let mut full = vec![T::zero(); self.b_offset()];
         full.extend_from_slice(b);
         full
+    }
+
+    /// The nb + 1 numerator basis values ψⱼ from the basis values φ (ψ = φ shifted by the
+    /// offset, or ψⱼ = Σ_k φ_{k+1} Z_kj for a constrained partial-fraction numerator).
+    #[inline]
+    fn numerator_basis(&self, phi: &[Complex<T>], psi: &mut [Complex<T>]) {
+        match &self.numerator_map {
+            Some(z) => {
+                for (j, p) in psi.iter_mut().enumerate() {
+                    *p = (0..z.nrows()).fold(Complex::new(T::zero(), T::zero()), |s, k| {
+                        s + phi[k + 1] * z[(k, j)]
+                    });
+                }
+            }
+            None => {
+                let off = self.b_offset();
+                psi.copy_from_slice(&phi[off..off + psi.len()]);
+            }
+        }
     }
 
     /// The complex frequency variable at ω (s = iω or z = e^{iωTs}).
@@ -506,9 +554,18 @@ impl<T: Real> Rational<T> {
             }
             a += phi[na];
         }
-        let off = self.b_offset();
-        for k in 0..=self.nb {
-            b += phi[k + off] * theta[na + k];
+        if let Some(z) = &self.numerator_map {
+            for j in 0..=self.nb {
+                let psi = (0..z.nrows()).fold(Complex::new(T::zero(), T::zero()), |s, k| {
+                    s + phi[k + 1] * z[(k, j)]
+                });
+                b += psi * theta[na + j];
+            }
+        } else {
+            let off = self.b_offset();
+            for k in 0..=self.nb {
+                b += phi[k + off] * theta[na + k];
+            }
         }
         (a, b)
     }
@@ -545,6 +602,7 @@ impl<T: Real> ModelStructure<T> for Rational<T> {
         jac: &mut DMatrix<Complex<T>>,
     ) {
         let mut phi = self.zero_phi();
+        let mut psi = vec![Complex::new(T::zero(), T::zero()); self.nb + 1];
         let na = self.na;
         let off = self.a_offset();
         for (k, w) in omega.iter().enumerate() {
@@ -556,9 +614,9 @@ impl<T: Real> ModelStructure<T> for Rational<T> {
             for j in 0..na {
                 jac[(k, j)] = phi[j + off] * minus_g_over_a;
             }
-            let boff = self.b_offset();
-            for j in 0..=self.nb {
-                jac[(k, na + j)] = phi[j + boff] * inv_a;
+            self.numerator_basis(&phi, &mut psi);
+            for (j, p) in psi.iter().enumerate() {
+                jac[(k, na + j)] = *p * inv_a;
             }
         }
     }
@@ -615,15 +673,16 @@ impl<T: Real> EquationError<T> for Rational<T> {
     /// R_k = [φ₀ Y_k … φ_na Y_k, −φ₀ U_k … −φ_nb U_k].
     fn regressor_into(&self, data: &FrequencyData<T>, out: &mut DMatrix<Complex<T>>) {
         let mut phi = self.zero_phi();
+        let mut psi = vec![Complex::new(T::zero(), T::zero()); self.nb + 1];
         let na = self.na;
         for (k, ((w, y), u)) in data.omega().iter().zip(data.y()).zip(data.u()).enumerate() {
             self.basis.eval_into(self.basis.variable(*w), &mut phi);
             for j in 0..=na {
                 out[(k, j)] = phi[j] * *y;
             }
-            let boff = self.b_offset();
-            for j in 0..=self.nb {
-                out[(k, na + 1 + j)] = -(phi[j + boff] * *u);
+            self.numerator_basis(&phi, &mut psi);
+            for (j, p) in psi.iter().enumerate() {
+                out[(k, na + 1 + j)] = -(*p * *u);
             }
         }
     }
@@ -694,4 +753,61 @@ impl<T: Real> PolesZeros<T> for Rational<T> {
             }
         }
     }
+}
+
+/// An orthonormal basis Z (n × (n − m)) of the coefficient vectors c ∈ ℝⁿ with
+/// cᵀQᵏb = 0 for k < m, for the realisation (Q, b) of a partial-fraction basis: the
+/// orthogonal complement of the Krylov space span{b, Q̂b, …, Q̂^{m−1}b} (Q̂ = Q/‖Q‖, built by
+/// Arnoldi with re-orthogonalisation), from the eigenvectors of the projector onto it.
+fn markov_null_space<T: Real>(basis: &PolyBasis<T>, m: usize) -> Result<DMatrix<T>> {
+    let (q, b) = basis.realisation().ok_or(FdidError::InvalidArgument {
+        name: "basis",
+        value: "polynomial".into(),
+        reason: "Markov constraints need a partial-fraction basis".into(),
+    })?;
+    let n = q.nrows();
+    let qn = q.norm();
+    let qhat = if qn > T::zero() { q / qn } else { q };
+    // Arnoldi: an orthonormal basis of the Krylov space, re-orthogonalised twice
+    let mut u = DMatrix::<T>::zeros(n, m);
+    let mut v = b;
+    let tiny = T::lit(1e3) * T::default_epsilon();
+    for j in 0..m {
+        let before = v.norm();
+        for _ in 0..2 {
+            for i in 0..j {
+                let h = u.column(i).dot(&v);
+                v.axpy(-h, &u.column(i), T::one());
+            }
+        }
+        let nv = v.norm();
+        if !(nv > tiny * before) || !(nv > T::zero()) {
+            return Err(FdidError::Singular {
+                what: "relative-degree constraints of the partial-fraction numerator \
+                       (Krylov space breaks down: use a smaller relative degree na − nb)",
+                condition: (before / nv).to_f64_lossless(),
+            });
+        }
+        v /= nv;
+        u.set_column(j, &v);
+        v = &qhat * &v;
+    }
+    // projector onto the complement; its unit eigenvalues give Z
+    let proj = DMatrix::<T>::identity(n, n) - &u * u.transpose();
+    let eig = nalgebra::SymmetricEigen::try_new(proj, T::default_epsilon(), 100 * n.max(10))
+        .ok_or(FdidError::NotConverged {
+            method: "symmetric eigenvalue iteration",
+            reason: "no convergence for the Markov constraints".into(),
+        })?;
+    let mut order: Vec<usize> = (0..n).collect();
+    order.sort_by(|a, b| {
+        eig.eigenvalues[*b]
+            .partial_cmp(&eig.eigenvalues[*a])
+            .unwrap_or(std::cmp::Ordering::Equal)
+    });
+    let mut z = DMatrix::<T>::zeros(n, n - m);
+    for (j, i) in order.iter().take(n - m).enumerate() {
+        z.set_column(j, &eig.eigenvectors.column(*i));
+    }
+    Ok(z)
 }
