@@ -86,10 +86,10 @@ pub struct FitArgs {
     #[arg(long, value_name = "N")]
     pub na: usize,
 
-    /// Numerator degree: in s, nb = na gives a feedthrough, nb < na a strictly proper
-    /// model, and nb = na or na - 1 selects the partial-fraction form (well conditioned
-    /// over many decades; other orders use polynomials orthonormal on the data grid); in
-    /// z, B = b0 + b1 z^-1 + ... + b_nb z^-nb. At most 100
+    /// Numerator degree: in s, nb = na gives a feedthrough and nb < na a strictly proper
+    /// model, both in the partial-fraction form (well conditioned over many decades);
+    /// nb > na (improper) uses polynomials orthonormal on the data grid; in z,
+    /// B = b0 + b1 z^-1 + ... + b_nb z^-nb. At most 100
     #[arg(long, value_name = "M")]
     pub nb: usize,
 

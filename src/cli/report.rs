@@ -161,6 +161,13 @@ impl Report {
                 "polynomials in the basis phi_n orthonormal on the data grid: \
                  A = phi_na + sum a_n phi_n, B = sum b_n phi_n",
             ),
+            Form::PartialFractions(_) if nb + 1 < na => (
+                (1..=na).map(|k| format!("d{k}")).collect(),
+                (0..=nb).map(|k| format!("w{k}")).collect(),
+                "partial fractions phi_n over the basis poles: G = N/D, \
+                 D = 1 + sum d_n phi_n, N = sum c_n phi_n with c = Z w, Z an orthonormal \
+                 basis of the numerators of relative degree na - nb",
+            ),
             Form::PartialFractions(_) => (
                 (1..=na).map(|k| format!("d{k}")).collect(),
                 (na.saturating_sub(nb)..=na)
