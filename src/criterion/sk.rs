@@ -17,7 +17,7 @@ use nalgebra::{DMatrix, DVector};
 /// starting from W_k^(1) = W_k (Levy), with W_k = 1/σ_k² when the data carry noise
 /// variances. At a fixed point the criterion equals the output-error cost
 /// Σ W_k |Y_k − G U_k|², which is reported as the cost. Convergence to the ML minimiser is
-/// not guaranteed (McKelvey ref. [20]); the pipeline refines with ML. Requires an
+/// not guaranteed (McKelvey ref. 20); the pipeline refines with ML. Requires an
 /// [`EquationError`] model; solved by [`crate::solver::FixedPoint`].
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct SanathananKoerner {

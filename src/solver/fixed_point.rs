@@ -18,7 +18,7 @@ use crate::problem::ReweightedProblem;
 /// | `cost_tolerance` | 1e-4 | relative cost change that counts as converged |
 /// | `rcond_eps` | 1 | as [`super::LinearLeastSquares`]; smaller than Levy's default because the re-weighted systems are better scaled and truncation there degrades the fixed point |
 ///
-/// SK may oscillate rather than converge (McKelvey ref. [20]), or a step may make a good
+/// SK may oscillate rather than converge (McKelvey ref. 20), or a step may make a good
 /// start worse: the solver always returns the iterate (or start) with the lowest cost, with
 /// [`Termination::MaxIterations`] when the cap stopped it.
 #[derive(Debug, Clone, Copy, PartialEq)]
