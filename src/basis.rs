@@ -21,6 +21,8 @@
 
 use crate::error::{FdidError, Result};
 use crate::{Complex, Real};
+use nalgebra::DMatrix;
+use num_traits::Float;
 
 /// A basis {φ₀, …, φ_d} of real polynomials, evaluated at the model's complex frequency
 /// variable (s = iω or z⁻¹ = e^{−iωTs}).
@@ -260,6 +262,189 @@ impl<T: Real> PolyBasis<T> {
         }
     }
 
+    /// Coefficients of degree ≤ `n` in this basis of the polynomial with roots `r`, normalised
+    /// like a denominator (constant coefficient one in z⁻¹ and for partial fractions, leading
+    /// coefficient one for the orthonormal basis); for partial fractions the "polynomial" is
+    /// Π(s − rᵢ)/Π(s − qⱼ). The product is formed factor by factor in the basis itself, never
+    /// through monomials of the orthonormal expansion; the roots are expected to be `n`
+    /// values closed under conjugation.
+    /// (conjugate pairs are multiplied together so the arithmetic stays real).
+    pub fn from_roots(&self, r: &[Complex<T>], n: usize) -> Vec<T> {
+        // real quadratic and linear factors
+        let mut factors: Vec<(T, T, bool)> = vec![]; // (c1, c0, quadratic): x² + c1 x + c0 or x + c0
+        let mut used = vec![false; r.len()];
+        let tol = T::lit(1e3) * T::default_epsilon();
+        for i in 0..r.len() {
+            if used[i] {
+                continue;
+            }
+            used[i] = true;
+            let scale = Float::max(r[i].norm(), T::one());
+            if Float::abs(r[i].im) <= tol * scale {
+                factors.push((T::zero(), -r[i].re, false));
+            } else {
+                // find its conjugate
+                let mate = (0..r.len()).filter(|j| !used[*j]).min_by(|x, y| {
+                    let dx = (r[*x] - r[i].conj()).norm();
+                    let dy = (r[*y] - r[i].conj()).norm();
+                    dx.partial_cmp(&dy).unwrap_or(std::cmp::Ordering::Equal)
+                });
+                if let Some(j) = mate {
+                    used[j] = true;
+                }
+                factors.push((-(r[i].re + r[i].re), r[i].norm_sqr(), true));
+            }
+        }
+        match self {
+            Self::DelayPowers { .. } => {
+                // A(z⁻¹) = Π (1 − p z⁻¹): in z⁻¹ the factor x + c0 becomes 1 + c0 z⁻¹
+                let mut c = vec![T::one()];
+                for (c1, c0, quad) in factors {
+                    let add: Vec<T> = if quad {
+                        vec![T::one(), c1, c0]
+                    } else {
+                        vec![T::one(), c0]
+                    };
+                    let mut next = vec![T::zero(); c.len() + add.len() - 1];
+                    for (i, x) in c.iter().enumerate() {
+                        for (j, y) in add.iter().enumerate() {
+                            next[i + j] += *x * *y;
+                        }
+                    }
+                    c = next;
+                }
+                c.resize(n + 1, T::zero());
+                c
+            }
+            Self::PartialFractions { poles: q } => {
+                // D(s) = Π(s − rᵢ)/Π(s − qⱼ) = 1 + Σ ρⱼ/(s − qⱼ), ρⱼ = Π(qⱼ − rᵢ)/Π_{l≠j}(qⱼ − q_l)
+                let all_q: Vec<Complex<T>> = q
+                    .iter()
+                    .flat_map(|p| {
+                        if p.im == T::zero() {
+                            vec![*p]
+                        } else {
+                            vec![*p, p.conj()]
+                        }
+                    })
+                    .collect();
+                let one = Complex::new(T::one(), T::zero());
+                let residue = |qj: Complex<T>| {
+                    let num = r.iter().fold(one, |acc, ri| acc * (qj - *ri));
+                    let den = all_q
+                        .iter()
+                        .filter(|ql| (**ql - qj).norm() > T::zero())
+                        .fold(one, |acc, ql| acc * (qj - *ql));
+                    num / den
+                };
+                let mut c = vec![T::one()];
+                for p in q {
+                    let rho = residue(*p);
+                    // ρ/(s − q) + ρ̄/(s − q̄) = Re ρ · φ_a + Im ρ · φ_b
+                    c.push(rho.re);
+                    if p.im != T::zero() {
+                        c.push(rho.im);
+                    }
+                }
+                c.resize(n + 1, T::zero());
+                c
+            }
+            Self::Orthonormal { scale, gamma } => {
+                // work in x = s/ω_s; multiply by x using x φ_k = γ_{k+1} φ_{k+1} − γ_k φ_{k−1}
+                let times_x = |c: &[T]| {
+                    let mut out = vec![T::zero(); c.len() + 1];
+                    for (k, ck) in c.iter().enumerate() {
+                        out[k + 1] += gamma[k] * *ck;
+                        if k >= 1 {
+                            out[k - 1] -= gamma[k - 1] * *ck;
+                        }
+                    }
+                    out
+                };
+                let mut c = vec![T::one()];
+                for (c1, c0, quad) in factors {
+                    let xs = times_x(&c);
+                    let mut next = if quad { times_x(&xs) } else { xs.clone() };
+                    let s1 = c1 / *scale;
+                    let s0 = if quad {
+                        c0 / (*scale * *scale)
+                    } else {
+                        c0 / *scale
+                    };
+                    if quad {
+                        for (k, v) in xs.iter().enumerate() {
+                            next[k] += s1 * *v;
+                        }
+                    }
+                    for (k, v) in c.iter().enumerate() {
+                        next[k] += s0 * *v;
+                    }
+                    c = next;
+                }
+                c.resize(n + 1, T::zero());
+                let lead = c[n];
+                c.iter().map(|v| *v / lead).collect()
+            }
+        }
+    }
+
+    /// For a partial-fraction basis: an orthonormal basis Z (n × (n − m)) of the coefficient vectors c ∈ ℝⁿ with
+    /// cᵀQᵏb = 0 for k < m, for the realisation (Q, b) of a partial-fraction basis: the
+    /// orthogonal complement of the Krylov space span{b, Q̂b, …, Q̂^{m−1}b} (Q̂ = Q/‖Q‖, built by
+    /// Arnoldi with re-orthogonalisation), from the eigenvectors of the projector onto it.
+    pub fn markov_null_space(&self, m: usize) -> Result<DMatrix<T>> {
+        let (q, b) = self.realisation().ok_or(FdidError::InvalidArgument {
+            name: "basis",
+            value: "polynomial".into(),
+            reason: "Markov constraints need a partial-fraction basis".into(),
+        })?;
+        let n = q.nrows();
+        let qn = q.norm();
+        let qhat = if qn > T::zero() { q / qn } else { q };
+        // Arnoldi: an orthonormal basis of the Krylov space, re-orthogonalised twice
+        let mut u = DMatrix::<T>::zeros(n, m);
+        let mut v = b;
+        let tiny = T::lit(1e3) * T::default_epsilon();
+        for j in 0..m {
+            let before = v.norm();
+            for _ in 0..2 {
+                for i in 0..j {
+                    let h = u.column(i).dot(&v);
+                    v.axpy(-h, &u.column(i), T::one());
+                }
+            }
+            let nv = v.norm();
+            if !(nv > tiny * before) || !(nv > T::zero()) {
+                return Err(FdidError::Singular {
+                    what: "relative-degree constraints of the partial-fraction numerator \
+                           (Krylov space breaks down: use a smaller relative degree na − nb)",
+                    condition: (before / nv).to_f64_lossless(),
+                });
+            }
+            v /= nv;
+            u.set_column(j, &v);
+            v = &qhat * &v;
+        }
+        // projector onto the complement; its unit eigenvalues give Z
+        let proj = DMatrix::<T>::identity(n, n) - &u * u.transpose();
+        let eig = nalgebra::SymmetricEigen::try_new(proj, T::default_epsilon(), 100 * n.max(10))
+            .ok_or(FdidError::NotConverged {
+                method: "symmetric eigenvalue iteration",
+                reason: "no convergence for the Markov constraints".into(),
+            })?;
+        let mut order: Vec<usize> = (0..n).collect();
+        order.sort_by(|a, b| {
+            eig.eigenvalues[*b]
+                .partial_cmp(&eig.eigenvalues[*a])
+                .unwrap_or(std::cmp::Ordering::Equal)
+        });
+        let mut z = DMatrix::<T>::zeros(n, n - m);
+        for (j, i) in order.iter().take(n - m).enumerate() {
+            z.set_column(j, &eig.eigenvectors.column(*i));
+        }
+        Ok(z)
+    }
+
     /// Evaluates the polynomial Σ cₙ φₙ(v).
     pub fn eval_poly(&self, coeffs: &[T], v: Complex<T>) -> Complex<T> {
         let mut phi = vec![Complex::new(T::zero(), T::zero()); coeffs.len()];
@@ -366,8 +551,6 @@ impl<T: Real> PolyBasis<T> {
         }
     }
 }
-
-use num_traits::Float;
 
 #[cfg(test)]
 mod tests {
