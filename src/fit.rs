@@ -93,10 +93,18 @@ impl<T: Real, M: ModelStructure<T>> Fit<T, M> {
         model.jacobian_into(&theta, &omega, &mut response, &mut dg);
         // σ_G(ω_k)² = Σ_ij Cov_ij Re(∂G_k/∂θ_i conj ∂G_k/∂θ_j) = ‖(∂G_k/∂θ) F‖²
         let response_std = factor.map(|f| {
-            let fc = f.map(|v| Complex::new(v, T::zero()));
-            let m = dg * fc;
-            m.row_iter()
-                .map(|row| Float::sqrt(row.iter().fold(T::zero(), |s, v| s + v.norm_sqr())))
+            // two real products (the real gemm is much faster than the complex one)
+            let re = dg.map(|v| v.re) * &f;
+            let im = dg.map(|v| v.im) * &f;
+            (0..n)
+                .map(|k| {
+                    let v = re
+                        .row(k)
+                        .iter()
+                        .chain(im.row(k).iter())
+                        .fold(T::zero(), |s, x| s + *x * *x);
+                    Float::sqrt(v)
+                })
                 .collect()
         });
         Ok(Self {

@@ -12,12 +12,15 @@ use nalgebra::{DMatrix, DVector, Dyn, Owned};
 ///
 /// | setting | default | meaning |
 /// |---|---|---|
-/// | `tolerance` | 30 ε | relative reduction of the cost (ftol), of the step (xtol) and orthogonality of residual and Jacobian (gtol) that count as converged |
+/// | `tolerance` | 30 ε | relative size of the step (xtol) that counts as converged |
+/// | `cost_tolerance` | max(1e-10, 30 ε) | relative reduction of the cost (actual and predicted, ftol) that counts as converged: far below any statistically meaningful change of an ML cost, yet it spares the last iterations on noisy data |
 /// | `patience` | 100 | at most `patience·(p + 1)` residual evaluations |
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct LevenbergMarquardt {
-    /// Convergence tolerance (`None`: 30 ε of the scalar type).
+    /// Step tolerance (`None`: 30 ε of the scalar type).
     pub tolerance: Option<f64>,
+    /// Relative cost-reduction tolerance (`None`: max(1e-10, 30 ε)).
+    pub cost_tolerance: Option<f64>,
     /// Evaluation budget factor.
     pub patience: usize,
 }
@@ -26,6 +29,7 @@ impl Default for LevenbergMarquardt {
     fn default() -> Self {
         Self {
             tolerance: None,
+            cost_tolerance: None,
             patience: 100,
         }
     }
@@ -106,11 +110,28 @@ impl<T: Real, P: NonlinearProblem<T> + ?Sized> Solver<T, P> for LevenbergMarquar
                 parameters: p,
             });
         }
-        let tol = self
-            .tolerance
-            .map_or(T::default_epsilon() * T::lit(30.0), T::lit);
+        let floor = T::default_epsilon() * T::lit(30.0);
+        let setting = |name: &'static str, v: Option<f64>, default: T| -> Result<T> {
+            match v {
+                None => Ok(default),
+                Some(x) if x.is_finite() && x > 0.0 => Ok(T::lit(x)),
+                Some(x) => Err(FdidError::InvalidArgument {
+                    name,
+                    value: format!("{x}"),
+                    reason: "a tolerance must be positive and finite".into(),
+                }),
+            }
+        };
+        let tol = setting("tolerance", self.tolerance, floor)?;
+        let ftol = setting(
+            "cost_tolerance",
+            self.cost_tolerance,
+            num_traits::Float::max(T::lit(1e-10), floor),
+        )?;
+        // xtol = tol, gtol = 0 as MINPACK's LMDER1; ftol separately
         let lm = levenberg_marquardt::LevenbergMarquardt::new()
             .with_tol(tol)
+            .with_ftol(ftol)
             .with_patience(self.patience.max(1));
         let adapter = Adapter {
             problem,
