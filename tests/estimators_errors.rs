@@ -323,6 +323,42 @@ fn levenberg_marquardt_needs_a_valid_start() {
 }
 
 #[test]
+fn levenberg_marquardt_rejects_bad_tolerances() {
+    let data = ct_data(&grid(20, 0.1, 3.0));
+    let model = Rational::continuous(2, 0, data.omega()).unwrap();
+    let ml = MaximumLikelihood::default();
+    let start = [0.1, 0.2, 0.3];
+    for (lm, name) in [
+        (
+            LevenbergMarquardt {
+                tolerance: Some(0.0),
+                ..LevenbergMarquardt::default()
+            },
+            "tolerance",
+        ),
+        (
+            LevenbergMarquardt {
+                cost_tolerance: Some(-1.0),
+                ..LevenbergMarquardt::default()
+            },
+            "cost_tolerance",
+        ),
+        (
+            LevenbergMarquardt {
+                cost_tolerance: Some(f64::NAN),
+                ..LevenbergMarquardt::default()
+            },
+            "cost_tolerance",
+        ),
+    ] {
+        match estimate(&model, &data, &ml, &lm, Some(&start)) {
+            Err(FdidError::InvalidArgument { name: n, .. }) if n == name => {}
+            other => panic!("{name}: {other:?}"),
+        }
+    }
+}
+
+#[test]
 fn non_finite_data_are_rejected() {
     let omega = grid(10, 0.1, 3.0);
     let good = ct_data(&omega);
