@@ -18,6 +18,13 @@
 //! [`EquationError`], and each solver only accepts the problem kind it can solve, so a
 //! nonsensical combination does not compile.
 //!
+//! Continuous-time models are kept well conditioned at high orders over many decades:
+//! [`Rational::continuous`] uses vector fitting's partial-fraction (barycentric) form for
+//! every proper model, and [`Pipeline`] moves its basis poles to the estimated poles
+//! (Sanathanan–Koerner as pole relocation) before the ML refinement. [`Pipeline`] runs
+//! Levy → SK → ML; [`pipeline::estimate`] composes any criterion with any solver that
+//! accepts its problem.
+//!
 //! Equation numbers refer to T. McKelvey, *Frequency domain identification methods*
 //! (Circuits Systems Signal Processing, 2002).
 //!
