@@ -79,14 +79,31 @@ impl Modal {
         omega.iter().map(|w| self.eval(*w)).collect()
     }
     pub fn poles(&self) -> Vec<Complex<f64>> {
-        let mut p = vec![];
-        for i in 0..self.wn.len() {
-            let (w, z) = (self.wn[i], self.zeta[i]);
-            p.push(Complex::new(-z * w, w * (1.0 - z * z).sqrt()));
-            p.push(Complex::new(-z * w, -w * (1.0 - z * z).sqrt()));
-        }
-        p
+        resonances(self.wn.iter().copied().zip(self.zeta.iter().copied()))
     }
+}
+
+/// The pole pairs −ζωₙ ± iωₙ√(1 − ζ²) of the given (ωₙ, ζ).
+pub fn resonances(modes: impl IntoIterator<Item = (f64, f64)>) -> Vec<Complex<f64>> {
+    let mut p = vec![];
+    for (wn, zeta) in modes {
+        let im = wn * (1.0 - zeta * zeta).sqrt();
+        p.push(Complex::new(-zeta * wn, im));
+        p.push(Complex::new(-zeta * wn, -im));
+    }
+    p
+}
+
+/// The system with these zeros and poles, scaled to unit static gain.
+pub fn unit_dc_gain(zeros: Vec<Complex<f64>>, poles: Vec<Complex<f64>>) -> Zpk {
+    let mut g = Zpk {
+        zeros,
+        poles,
+        gain: 1.0,
+        ts: None,
+    };
+    g.gain = 1.0 / g.eval(0.0).norm();
+    g
 }
 
 /// The peers' b_ct10 system: five modes, 0.1–10 rad/s.
@@ -105,19 +122,13 @@ pub fn a_ct4() -> Modal {
 
 /// Five resonances spread over four decades (a wide-band stress case).
 pub fn five_resonances() -> Zpk {
-    let mut poles = vec![];
-    for (wn, zeta) in [
+    let poles = resonances([
         (1.0, 0.05),
         (5.0, 0.03),
         (30.0, 0.04),
         (200.0, 0.02),
         (1500.0, 0.05),
-    ] {
-        let re = -zeta * wn;
-        let im = wn * (1.0f64 - zeta * zeta).sqrt();
-        poles.push(Complex::new(re, im));
-        poles.push(Complex::new(re, -im));
-    }
+    ]);
     let zeros = vec![
         Complex::new(-3.0, 0.0),
         Complex::new(-0.5, 12.0),
@@ -126,36 +137,15 @@ pub fn five_resonances() -> Zpk {
         Complex::new(-8.0, -90.0),
         Complex::new(-700.0, 0.0),
     ];
-    let mut g = Zpk {
-        zeros,
-        poles,
-        gain: 1.0,
-        ts: None,
-    };
-    let g0 = g.eval(0.0).norm();
-    g.gain = 1.0 / g0;
-    g
+    unit_dc_gain(zeros, poles)
 }
 
 /// Two resonances (an order-4 CT case).
 pub fn two_resonances() -> Zpk {
-    let mut poles = vec![];
-    for (wn, zeta) in [(2.0, 0.05), (20.0, 0.1)] {
-        let re = -zeta * wn;
-        let im = wn * (1.0f64 - zeta * zeta).sqrt();
-        poles.push(Complex::new(re, im));
-        poles.push(Complex::new(re, -im));
-    }
-    let zeros = vec![Complex::new(-5.0, 0.0)];
-    let mut g = Zpk {
-        zeros,
-        poles,
-        gain: 1.0,
-        ts: None,
-    };
-    let g0 = g.eval(0.0).norm();
-    g.gain = 1.0 / g0;
-    g
+    unit_dc_gain(
+        vec![Complex::new(-5.0, 0.0)],
+        resonances([(2.0, 0.05), (20.0, 0.1)]),
+    )
 }
 
 pub fn logspace(lo: f64, hi: f64, n: usize) -> Vec<f64> {
