@@ -165,12 +165,20 @@ impl Pipeline {
             .tolerance
             .map_or_else(|| num_traits::Float::sqrt(T::default_epsilon()), T::lit);
         let ctol = T::lit(fp.cost_tolerance);
-        let oe_cost = |m: &M, th: &[T]| -> Result<T> {
-            Ok(crate::criterion::MlProblem::new(m, data, w)?.cost(th))
+        // output-error cost Σ w_k²|Y_k − G_k U_k|² of a response
+        let weights = w.weights(data)?;
+        let oe_cost = |g: &[crate::Complex<T>]| {
+            g.iter()
+                .zip(data.y().iter().zip(data.u()))
+                .enumerate()
+                .fold(T::zero(), |s, (k, (g, (y, u)))| {
+                    let wk = weights.as_ref().map_or(T::one(), |w| w[k]);
+                    s + ((*y - *g * *u) * wk).norm_sqr()
+                })
         };
-        let mut cost = oe_cost(&model, &theta)?;
-        let mut best = (model.clone(), theta.clone(), cost);
         let mut g_old = model.response(&theta, data.omega());
+        let mut cost = oe_cost(&g_old);
+        let mut best = (model.clone(), theta.clone(), cost);
         let linear = LinearLeastSquares {
             rcond_eps: fp.rcond_eps,
         };
@@ -180,8 +188,8 @@ impl Pipeline {
             };
             let next = next?;
             let sol = estimate(&next, data, &Levy { weighting: w }, &linear, None)?;
-            let new_cost = oe_cost(&next, &sol.theta)?;
             let g_new = next.response(&sol.theta, data.omega());
+            let new_cost = oe_cost(&g_new);
             let (num, den) = g_old
                 .iter()
                 .zip(&g_new)

@@ -59,11 +59,26 @@ impl<T: Real> EquationErrorSystem<T> {
     }
 
     /// The real-stacked weighted system A θ ≈ b with the normalising coefficient fixed to
-    /// one: A holds the other columns, b = −(normalising column).
+    /// one: A holds the other columns, b = −(normalising column). Built in one pass.
     pub fn normalised(&self, extra: Option<&[T]>) -> (DMatrix<T>, DVector<T>) {
-        let full = self.homogeneous(extra);
-        let b = -full.column(self.normalising).into_owned();
-        let a = full.remove_column(self.normalising);
+        let w = self.line_weights(extra);
+        let (n, p) = self.regressor.shape();
+        let mut a = DMatrix::<T>::zeros(2 * n, p - 1);
+        let mut b = DVector::<T>::zeros(2 * n);
+        for j in 0..p {
+            for k in 0..n {
+                let wk = w.as_ref().map_or(T::one(), |w| w[k]);
+                let v = self.regressor[(k, j)] * wk;
+                if j == self.normalising {
+                    b[2 * k] = -v.re;
+                    b[2 * k + 1] = -v.im;
+                } else {
+                    let col = if j < self.normalising { j } else { j - 1 };
+                    a[(2 * k, col)] = v.re;
+                    a[(2 * k + 1, col)] = v.im;
+                }
+            }
+        }
         (a, b)
     }
 }

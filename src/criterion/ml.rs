@@ -72,7 +72,7 @@ impl<'a, T: Real, M: ModelStructure<T> + ?Sized> MlProblem<'a, T, M> {
             model,
             data,
             weight,
-            scratch: RefCell::new((vec![zero; n], DMatrix::zeros(n, model.n_params()))),
+            scratch: RefCell::new((vec![zero; n], DMatrix::zeros(0, 0))),
         })
     }
 
@@ -131,6 +131,10 @@ impl<T: Real, M: ModelStructure<T> + ?Sized> NonlinearProblem<T> for MlProblem<'
     fn jacobian_into(&self, theta: &[T], r: &mut [T], jac: &mut DMatrix<T>) -> bool {
         let mut s = self.scratch.borrow_mut();
         let (g, cj) = &mut *s;
+        if cj.shape() != (g.len(), self.model.n_params()) {
+            // allocated on first use: problems used only for their cost never need it
+            *cj = DMatrix::zeros(g.len(), self.model.n_params());
+        }
         self.model.jacobian_into(theta, self.data.omega(), g, cj);
         let p = self.model.n_params();
         let (y, u) = (self.data.y(), self.data.u());
