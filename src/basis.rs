@@ -1,10 +1,14 @@
-//! Polynomial bases for the numerator and denominator of rational models.
+//! Bases for the numerator and denominator of rational models.
 //!
-//! Raw monomials sⁿ are hopelessly ill-conditioned over several decades of frequency, so
-//! continuous-time polynomials are expanded in a basis that is **orthonormal on the data's
-//! frequency grid** (Forsythe polynomials, built by the Stieltjes procedure), and
-//! discrete-time polynomials in powers of z⁻¹, which are already orthogonal on the unit
-//! circle.
+//! Raw monomials sⁿ are hopelessly ill-conditioned over several decades of frequency.
+//! Three bases are offered ([`PolyBasis`]):
+//! - **partial fractions** over basis poles (vector fitting's barycentric form): numerator
+//!   and denominator are rational functions sharing the basis poles; with those poles moved
+//!   to the model's poles the basis functions are nearly orthogonal on the data, at any
+//!   order and bandwidth;
+//! - polynomials in s **orthonormal on the data's frequency grid** (Forsythe polynomials,
+//!   built by the Stieltjes procedure), for improper models;
+//! - powers of z⁻¹ for discrete time, already orthogonal on the unit circle.
 //!
 //! ## The orthonormal basis in s
 //! Let x = ω/ω_s with ω_s the largest frequency. The points ±x_k with equal weights define
