@@ -1,0 +1,50 @@
+#!/usr/bin/env python3
+"""Scores fdid's fits of the peers' cases with the peers' own `score()` and prints one
+table beside the peers' results (from the same machine, written by peers.py).
+
+Usage: score_fdid.py PEERS_DIR   (PEERS_WORK must point at the cases and results)
+"""
+import json
+import os
+import sys
+
+import numpy as np
+
+sys.path.insert(0, sys.argv[1])
+import peers  # noqa: E402  (the harness: load_case, score)
+
+WORK = os.environ["PEERS_WORK"]
+OUT = os.path.join(WORK, "out-fdid")
+PEER_RESULTS = os.path.join(WORK, "results_1thread.json")
+
+
+def fdid_result(name):
+    case = peers.load_case(name)
+    out = json.load(open(os.path.join(OUT, name + ".json")))
+    omega = np.asarray(out["omega"])
+    g = np.array([complex(re, im) for re, im in out["frf"]])
+    if omega.size != case["omega"].size or not np.allclose(omega, case["omega"], rtol=1e-12):
+        raise SystemExit(f"{name}: fdid's grid differs from the case's")
+    fit = {"eval": lambda w: g, "poles": [complex(re, im) for re, im in out["poles"]]}
+    r = peers.score(case, fit)
+    r["time_s"] = out["time_s"]
+    return r
+
+
+def main():
+    theirs = json.load(open(PEER_RESULTS))["cases"] if os.path.exists(PEER_RESULTS) else {}
+    names = sorted(f[:-5] for f in os.listdir(OUT) if f.endswith(".json"))
+    print(f"{'case':12s} {'method':8s} {'rel_rms':>9s} {'pole_err':>9s} {'time_ms':>9s} {'fdid x':>7s}")
+    for name in names:
+        ours = fdid_result(name)
+        rows = [("fdid", ours)] + [
+            (m, r) for m, r in theirs.get(name, {}).get("methods", {}).items() if "time_s" in r
+        ]
+        for m, r in rows:
+            ratio = r["time_s"] / ours["time_s"]
+            print(f"{name:12s} {m:8s} {r['rel_rms']:9.2e} {r['pole_err']:9.2e} "
+                  f"{1e3 * r['time_s']:9.2f} {ratio:7.1f}")
+
+
+if __name__ == "__main__":
+    main()
