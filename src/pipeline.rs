@@ -165,16 +165,9 @@ impl Pipeline {
             .tolerance
             .map_or_else(|| num_traits::Float::sqrt(T::default_epsilon()), T::lit);
         let ctol = T::lit(fp.cost_tolerance);
-        // output-error cost Σ w_k²|Y_k − G_k U_k|² of a response
         let weights = w.weights(data)?;
         let oe_cost = |g: &[crate::Complex<T>]| {
-            g.iter()
-                .zip(data.y().iter().zip(data.u()))
-                .enumerate()
-                .fold(T::zero(), |s, (k, (g, (y, u)))| {
-                    let wk = weights.as_ref().map_or(T::one(), |w| w[k]);
-                    s + ((*y - *g * *u) * wk).norm_sqr()
-                })
+            crate::criterion::output_error_cost(data, weights.as_deref(), g)
         };
         let mut g_old = model.response(&theta, data.omega());
         let mut cost = oe_cost(&g_old);
@@ -190,13 +183,7 @@ impl Pipeline {
             let sol = estimate(&next, data, &Levy { weighting: w }, &linear, None)?;
             let g_new = next.response(&sol.theta, data.omega());
             let new_cost = oe_cost(&g_new);
-            let (num, den) = g_old
-                .iter()
-                .zip(&g_new)
-                .fold((T::zero(), T::zero()), |(n, d), (a, b)| {
-                    (n + (*a - *b).norm_sqr(), d + b.norm_sqr())
-                });
-            let change = num_traits::Float::sqrt(num / den);
+            let change = crate::criterion::relative_change(&g_old, &g_new);
             let stalled = num_traits::Float::abs(new_cost - cost)
                 <= ctol * num_traits::Float::max(new_cost, cost);
             model = next;

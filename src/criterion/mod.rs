@@ -95,3 +95,30 @@ pub(crate) fn check_input<T: Real>(data: &FrequencyData<T>) -> Result<()> {
         }),
     }
 }
+
+/// The output-error cost Σ_k w_k²|Y_k − G_k U_k|² of a model response `g` on `data`
+/// (w_k = 1 when `weights` is `None`).
+pub(crate) fn output_error_cost<T: Real>(
+    data: &FrequencyData<T>,
+    weights: Option<&[T]>,
+    g: &[crate::Complex<T>],
+) -> T {
+    g.iter()
+        .zip(data.y().iter().zip(data.u()))
+        .enumerate()
+        .fold(T::zero(), |s, (k, (g, (y, u)))| {
+            let wk = weights.map_or(T::one(), |w| w[k]);
+            s + ((*y - *g * *u) * wk).norm_sqr()
+        })
+}
+
+/// Relative change ‖new − old‖/‖new‖ between two model responses.
+pub(crate) fn relative_change<T: Real>(old: &[crate::Complex<T>], new: &[crate::Complex<T>]) -> T {
+    let (num, den) = old
+        .iter()
+        .zip(new)
+        .fold((T::zero(), T::zero()), |(n, d), (a, b)| {
+            (n + (*a - *b).norm_sqr(), d + b.norm_sqr())
+        });
+    num_traits::Float::sqrt(num / den)
+}

@@ -79,25 +79,14 @@ impl<T: Real, M: EquationError<T> + ?Sized> ReweightedProblem<T> for SkProblem<'
 
     fn change(&self, old: &[T], new: &[T]) -> T {
         let omega = self.data.omega();
-        let g_old = self.model.response(old, omega);
-        let g_new = self.model.response(new, omega);
-        let (num, den) = g_old
-            .iter()
-            .zip(&g_new)
-            .fold((T::zero(), T::zero()), |(n, d), (a, b)| {
-                (n + (*a - *b).norm_sqr(), d + b.norm_sqr())
-            });
-        num_traits::Float::sqrt(num / den)
+        super::relative_change(
+            &self.model.response(old, omega),
+            &self.model.response(new, omega),
+        )
     }
 
     fn cost(&self, theta: &[T]) -> T {
         let g = self.model.response(theta, self.data.omega());
-        g.iter()
-            .zip(self.data.y().iter().zip(self.data.u()))
-            .enumerate()
-            .fold(T::zero(), |s, (k, (g, (y, u)))| {
-                let w = self.noise_weight.as_ref().map_or(T::one(), |w| w[k]);
-                s + ((*y - *g * *u) * w).norm_sqr()
-            })
+        super::output_error_cost(self.data, self.noise_weight.as_deref(), &g)
     }
 }
