@@ -51,7 +51,8 @@ pub struct Fit<T: Real, M> {
 }
 
 impl<T: Real, M: ModelStructure<T>> Fit<T, M> {
-    /// Evaluates the statistics of `theta` for `model` on `data`.
+    /// Evaluates the statistics of `theta` for `model` on `data` with the output-error
+    /// (ML, fixed noise model) residuals of [`MlProblem`].
     ///
     /// # Errors
     /// As [`MlProblem::new`]; non-finite model response at θ.
@@ -63,18 +64,64 @@ impl<T: Real, M: ModelStructure<T>> Fit<T, M> {
         stages: Vec<Stage<T>>,
     ) -> Result<Self> {
         let problem = MlProblem::new(&model, data, weighting)?;
-        let (n, p) = (data.len(), model.n_params());
-        let mut r = vec![T::zero(); 2 * n];
-        let mut jac = DMatrix::zeros(2 * n, p);
-        if !problem.jacobian_into(&theta, &mut r, &mut jac) {
-            return Err(crate::FdidError::Numerical {
-                what: "model response or Jacobian at the estimate".into(),
+        let level = if problem.weights().is_some() {
+            NoiseLevel::Known
+        } else {
+            NoiseLevel::Estimated
+        };
+        let (r, jac) = residuals_and_jacobian(&problem, &theta)?;
+        drop(problem);
+        Self::from_residuals(model, data, theta, r, jac, level, stages)
+    }
+
+    /// Evaluates the statistics of `theta` with the normalised residuals of any
+    /// criterion's [`NonlinearProblem`] (e.g. errors-in-variables or ML with a noise model):
+    /// r(θ̂) and J = ∂r/∂θ at θ̂, real-stacked line by line (2N rows).
+    ///
+    /// # Errors
+    /// Non-finite residuals, Jacobian or model response at θ; a problem whose residual
+    /// count is not 2N.
+    pub fn from_problem<P: NonlinearProblem<T> + ?Sized>(
+        model: M,
+        data: &FrequencyData<T>,
+        theta: Vec<T>,
+        problem: &P,
+        level: NoiseLevel,
+        stages: Vec<Stage<T>>,
+    ) -> Result<Self> {
+        if problem.n_residuals() != 2 * data.len() || problem.n_params() != model.n_params() {
+            return Err(crate::FdidError::InvalidArgument {
+                name: "problem",
+                value: format!(
+                    "{} residuals, {} parameters",
+                    problem.n_residuals(),
+                    problem.n_params()
+                ),
+                reason: format!(
+                    "expected 2N = {} residuals and the model's {} parameters",
+                    2 * data.len(),
+                    model.n_params()
+                ),
             });
         }
+        let (r, jac) = residuals_and_jacobian(problem, &theta)?;
+        Self::from_residuals(model, data, theta, r, jac, level, stages)
+    }
+
+    fn from_residuals(
+        model: M,
+        data: &FrequencyData<T>,
+        theta: Vec<T>,
+        r: Vec<T>,
+        jac: DMatrix<T>,
+        level: NoiseLevel,
+        stages: Vec<Stage<T>>,
+    ) -> Result<Self> {
+        let (n, p) = (data.len(), model.n_params());
         let cost = r.iter().fold(T::zero(), |s, v| s + *v * *v);
         let nf = T::from_usize_lossy(n);
         let noise_variance = cost / nf;
-        let noise_known = problem.weights().is_some();
+        let noise_known = level == NoiseLevel::Known;
         let dof = nf - T::from_usize_lossy(p) / T::lit(2.0);
         let lambda = if noise_known {
             Some(T::one())
@@ -208,6 +255,31 @@ impl<T: Real, M: ModelStructure<T> + PolesZeros<T>> Fit<T, M> {
     pub fn gain(&self) -> T {
         self.model.gain(&self.theta)
     }
+}
+
+/// Whether the residuals are normalised by the true noise level.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+pub enum NoiseLevel {
+    /// The residuals are divided by their noise standard deviations (λ = 1).
+    Known,
+    /// The noise level is unknown: λ̂ = V/(N − p/2).
+    Estimated,
+}
+
+/// r(θ) and ∂r/∂θ of a problem, failing when not finite.
+fn residuals_and_jacobian<T: Real, P: NonlinearProblem<T> + ?Sized>(
+    problem: &P,
+    theta: &[T],
+) -> Result<(Vec<T>, DMatrix<T>)> {
+    let mut r = vec![T::zero(); problem.n_residuals()];
+    let mut jac = DMatrix::zeros(problem.n_residuals(), problem.n_params());
+    if !problem.jacobian_into(theta, &mut r, &mut jac) {
+        return Err(crate::FdidError::Numerical {
+            what: "model response or Jacobian at the estimate".into(),
+        });
+    }
+    Ok((r, jac))
 }
 
 /// F with (JᵀJ)⁻¹ = F Fᵀ, from a QR of the column-equilibrated J = Q R D and an SVD

@@ -69,7 +69,7 @@ pub mod solver;
 pub use criterion::{Criterion, Levy, MaximumLikelihood, SanathananKoerner, TotalLeastSquares};
 pub use data::{FrequencyData, NoiseVariances, TimeData};
 pub use error::{FdidError, Result};
-pub use fit::Fit;
+pub use fit::{Fit, NoiseLevel};
 pub use model::{EquationError, ModelStructure, PolesZeros, Rational};
 pub use pipeline::Pipeline;
 pub use scalar::{Complex, Real};
@@ -83,7 +83,7 @@ pub mod prelude {
     };
     pub use crate::data::{FrequencyData, NoiseVariances, TimeData};
     pub use crate::error::{FdidError, Result};
-    pub use crate::fit::Fit;
+    pub use crate::fit::{Fit, NoiseLevel};
     pub use crate::model::{Domain, EquationError, ModelStructure, PolesZeros, Rational};
     pub use crate::pipeline::Pipeline;
     pub use crate::pipeline::estimate;

@@ -1,11 +1,11 @@
 //! Output-error maximum likelihood with a fixed noise model (McKelvey eq. 23).
 
 use super::{Criterion, NoiseWeighting, check_input};
+use crate::Real;
 use crate::data::FrequencyData;
 use crate::error::Result;
-use crate::model::ModelStructure;
+use crate::model::{ModelStructure, Output};
 use crate::problem::NonlinearProblem;
-use crate::{Complex, Real};
 use nalgebra::DMatrix;
 use std::cell::RefCell;
 
@@ -26,15 +26,12 @@ pub struct MaximumLikelihood {
     pub weighting: NoiseWeighting,
 }
 
-/// Buffers for the model response and its complex Jacobian.
-type Scratch<T> = (Vec<Complex<T>>, DMatrix<Complex<T>>);
-
 /// The ML criterion bound to a model and data.
 pub struct MlProblem<'a, T: Real, M: ?Sized> {
     model: &'a M,
     data: &'a FrequencyData<T>,
     weight: Option<Vec<T>>,
-    scratch: RefCell<Scratch<T>>,
+    scratch: RefCell<Output<T>>,
 }
 
 impl<T: Real, M: ModelStructure<T> + ?Sized> Criterion<T, M> for MaximumLikelihood {
@@ -66,13 +63,11 @@ impl<'a, T: Real, M: ModelStructure<T> + ?Sized> MlProblem<'a, T, M> {
         model.check_data(data)?;
         check_input(data)?;
         let weight = weighting.weights(data)?;
-        let n = data.len();
-        let zero = Complex::new(T::zero(), T::zero());
         Ok(Self {
             model,
             data,
             weight,
-            scratch: RefCell::new((vec![zero; n], DMatrix::zeros(0, 0))),
+            scratch: RefCell::new(Output::new(data.len(), model.n_params())),
         })
     }
 
@@ -117,40 +112,31 @@ impl<T: Real, M: ModelStructure<T> + ?Sized> NonlinearProblem<T> for MlProblem<'
     }
 
     fn residuals_into(&self, theta: &[T], r: &mut [T]) -> bool {
-        let mut s = self.scratch.borrow_mut();
-        let g = &mut s.0;
-        self.model.response_into(theta, self.data.omega(), g);
-        for (k, ((g, y), u)) in g.iter().zip(self.data.y()).zip(self.data.u()).enumerate() {
-            let e = (*y - *g * *u) * self.w(k);
+        let mut out = self.scratch.borrow_mut();
+        let finite = out.evaluate(self.model, theta, self.data, false);
+        for (k, (yhat, y)) in out.yhat.iter().zip(self.data.y()).enumerate() {
+            let e = (*y - *yhat) * self.w(k);
             r[2 * k] = e.re;
             r[2 * k + 1] = e.im;
         }
-        all_finite(r)
+        finite && all_finite(r)
     }
 
     fn jacobian_into(&self, theta: &[T], r: &mut [T], jac: &mut DMatrix<T>) -> bool {
-        let mut s = self.scratch.borrow_mut();
-        let (g, cj) = &mut *s;
-        if cj.shape() != (g.len(), self.model.n_params()) {
-            // allocated on first use: problems used only for their cost never need it
-            *cj = DMatrix::zeros(g.len(), self.model.n_params());
-        }
-        self.model.jacobian_into(theta, self.data.omega(), g, cj);
-        let p = self.model.n_params();
-        let (y, u) = (self.data.y(), self.data.u());
-        for k in 0..g.len() {
-            let w = self.w(k);
-            let e = (y[k] - g[k] * u[k]) * w;
+        let mut out = self.scratch.borrow_mut();
+        let finite = out.evaluate(self.model, theta, self.data, true);
+        for (k, (yhat, y)) in out.yhat.iter().zip(self.data.y()).enumerate() {
+            let e = (*y - *yhat) * self.w(k);
             r[2 * k] = e.re;
             r[2 * k + 1] = e.im;
         }
-        for j in 0..p {
-            for k in 0..g.len() {
-                let d = -(cj[(k, j)] * u[k]) * self.w(k);
+        for j in 0..self.model.n_params() {
+            for k in 0..self.data.len() {
+                let d = -out.dyhat[(k, j)] * self.w(k);
                 jac[(2 * k, j)] = d.re;
                 jac[(2 * k + 1, j)] = d.im;
             }
         }
-        all_finite(r) && all_finite(jac.as_slice())
+        finite && all_finite(r) && all_finite(jac.as_slice())
     }
 }

@@ -5,8 +5,10 @@
 //! criteria (Levy, Sanathanan–Koerner, TLS) require; models with poles and zeros implement
 //! [`PolesZeros`].
 
+mod output;
 mod rational;
 
+pub use output::Output;
 pub use rational::{Domain, Rational};
 
 use crate::data::FrequencyData;
@@ -34,6 +36,22 @@ pub trait ModelStructure<T: Real> {
         g: &mut [Complex<T>],
         jac: &mut DMatrix<Complex<T>>,
     );
+
+    /// Writes the input-independent output term T(θ, ω_k) of a model with a transient, so
+    /// that the modelled output is Ŷ_k = G(θ, ω_k) U_k + T(θ, ω_k) (McKelvey eqs. 4, 9), and,
+    /// when `jac` is given, ∂T/∂θ_j into `jac[(k, j)]` (`omega.len() × p`, every column
+    /// written). Returns false, writing nothing, for models without such a term (the
+    /// default).
+    fn transient_into(
+        &self,
+        theta: &[T],
+        omega: &[T],
+        t: &mut [Complex<T>],
+        jac: Option<&mut DMatrix<Complex<T>>>,
+    ) -> bool {
+        let _ = (theta, omega, t, jac);
+        false
+    }
 
     /// Checks that the model can be fitted to `data` (domain, sample time, enough lines).
     ///

@@ -1,0 +1,105 @@
+//! The modelled output Ŷ(θ) = G(θ)U + T(θ) on the lines of a data set, with its Jacobian:
+//! what every output-error criterion (ML, ML with a noise model, errors-in-variables)
+//! compares with the measured Y.
+
+use super::ModelStructure;
+use crate::data::FrequencyData;
+use crate::{Complex, Real};
+use nalgebra::DMatrix;
+
+/// Buffers for G(θ, ω_k), Ŷ_k(θ) = G U_k + T_k and their Jacobians, reused across
+/// evaluations.
+///
+/// ```
+/// use fdid::prelude::*;
+/// use fdid::model::Output;
+/// let omega = vec![1.0, 2.0, 3.0];
+/// let frf = omega.iter().map(|w| Complex::new(1.0, 0.0) / Complex::new(1.0, *w)).collect();
+/// let data = FrequencyData::from_frf(omega, frf, None).unwrap();
+/// let model = Rational::continuous(1, 0, data.omega()).unwrap();
+/// let mut out = Output::new(data.len(), model.n_params());
+/// out.evaluate(&model, &[0.0, 1.0], &data, true);
+/// assert_eq!(out.yhat.len(), 3);
+/// assert_eq!(out.dyhat.shape(), (3, 2));
+/// ```
+#[derive(Debug, Clone)]
+pub struct Output<T: Real> {
+    /// G(θ, ω_k).
+    pub g: Vec<Complex<T>>,
+    /// Ŷ_k = G(θ, ω_k) U_k + T(θ, ω_k).
+    pub yhat: Vec<Complex<T>>,
+    /// ∂G_k/∂θ_j (filled when the Jacobian is requested).
+    pub dg: DMatrix<Complex<T>>,
+    /// ∂Ŷ_k/∂θ_j (filled when the Jacobian is requested).
+    pub dyhat: DMatrix<Complex<T>>,
+    t: Vec<Complex<T>>,
+    dt: DMatrix<Complex<T>>,
+}
+
+impl<T: Real> Output<T> {
+    /// Buffers for `lines` lines and `params` parameters. The Jacobian buffers are
+    /// allocated on the first evaluation that asks for them.
+    pub fn new(lines: usize, params: usize) -> Self {
+        let _ = params;
+        let zero = Complex::new(T::zero(), T::zero());
+        Self {
+            g: vec![zero; lines],
+            yhat: vec![zero; lines],
+            dg: DMatrix::zeros(0, 0),
+            dyhat: DMatrix::zeros(0, 0),
+            t: vec![zero; lines],
+            dt: DMatrix::zeros(0, 0),
+        }
+    }
+
+    /// Evaluates G and Ŷ (and their Jacobians when `jacobian`) at θ on the lines of `data`.
+    /// Returns false when a value is not finite.
+    pub fn evaluate<M: ModelStructure<T> + ?Sized>(
+        &mut self,
+        model: &M,
+        theta: &[T],
+        data: &FrequencyData<T>,
+        jacobian: bool,
+    ) -> bool {
+        let (n, p) = (data.len(), model.n_params());
+        let omega = data.omega();
+        let u = data.u();
+        let has_t = if jacobian {
+            for m in [&mut self.dg, &mut self.dyhat] {
+                if m.shape() != (n, p) {
+                    *m = DMatrix::zeros(n, p);
+                }
+            }
+            model.jacobian_into(theta, omega, &mut self.g, &mut self.dg);
+            if self.dt.shape() != (n, p) {
+                self.dt = DMatrix::zeros(n, p);
+            }
+            model.transient_into(theta, omega, &mut self.t, Some(&mut self.dt))
+        } else {
+            model.response_into(theta, omega, &mut self.g);
+            model.transient_into(theta, omega, &mut self.t, None)
+        };
+        for k in 0..n {
+            self.yhat[k] = self.g[k] * u[k];
+            if has_t {
+                self.yhat[k] += self.t[k];
+            }
+        }
+        if jacobian {
+            for j in 0..p {
+                for k in 0..n {
+                    let mut d = self.dg[(k, j)] * u[k];
+                    if has_t {
+                        d += self.dt[(k, j)];
+                    }
+                    self.dyhat[(k, j)] = d;
+                }
+            }
+        }
+        let finite = |v: &Complex<T>| {
+            num_traits::Float::is_finite(v.re) && num_traits::Float::is_finite(v.im)
+        };
+        self.yhat.iter().all(finite)
+            && (!jacobian || (self.dyhat.iter().all(finite) && self.g.iter().all(finite)))
+    }
+}
