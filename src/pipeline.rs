@@ -166,11 +166,10 @@ impl Pipeline {
             .map_or_else(|| num_traits::Float::sqrt(T::default_epsilon()), T::lit);
         let ctol = T::lit(fp.cost_tolerance);
         let weights = w.weights(data)?;
-        let oe_cost = |g: &[crate::Complex<T>]| {
-            crate::criterion::output_error_cost(data, weights.as_deref(), g)
+        let oe_cost = |m: &M, theta: &[T]| {
+            crate::criterion::output_error_cost(m, theta, data, weights.as_deref())
         };
-        let mut g_old = model.response(&theta, data.omega());
-        let mut cost = oe_cost(&g_old);
+        let (mut cost, mut g_old) = oe_cost(&model, &theta);
         let mut best = (model.clone(), theta.clone(), cost);
         let linear = LinearLeastSquares {
             rcond_eps: fp.rcond_eps,
@@ -181,8 +180,7 @@ impl Pipeline {
             };
             let next = next?;
             let sol = estimate(&next, data, &Levy { weighting: w }, &linear, None)?;
-            let g_new = next.response(&sol.theta, data.omega());
-            let new_cost = oe_cost(&g_new);
+            let (new_cost, g_new) = oe_cost(&next, &sol.theta);
             let change = crate::criterion::relative_change(&g_old, &g_new);
             let stalled = num_traits::Float::abs(new_cost - cost)
                 <= ctol * num_traits::Float::max(new_cost, cost);

@@ -96,20 +96,27 @@ pub(crate) fn check_input<T: Real>(data: &FrequencyData<T>) -> Result<()> {
     }
 }
 
-/// The output-error cost Σ_k w_k²|Y_k − G_k U_k|² of a model response `g` on `data`
-/// (w_k = 1 when `weights` is `None`).
-pub(crate) fn output_error_cost<T: Real>(
+/// The output-error cost Σ_k w_k²|Y_k − Ŷ_k|² of `model` at θ on `data`, with
+/// Ŷ = G U + T (the transient when the model has one) and w_k = 1 when `weights` is `None`.
+/// Returns the model response G on the lines too.
+pub(crate) fn output_error_cost<T: Real, M: crate::ModelStructure<T> + ?Sized>(
+    model: &M,
+    theta: &[T],
     data: &FrequencyData<T>,
     weights: Option<&[T]>,
-    g: &[crate::Complex<T>],
-) -> T {
-    g.iter()
-        .zip(data.y().iter().zip(data.u()))
+) -> (T, Vec<crate::Complex<T>>) {
+    let mut out = crate::model::Output::new(data.len(), model.n_params());
+    out.evaluate(model, theta, data, false);
+    let cost = out
+        .yhat
+        .iter()
+        .zip(data.y())
         .enumerate()
-        .fold(T::zero(), |s, (k, (g, (y, u)))| {
+        .fold(T::zero(), |s, (k, (yhat, y))| {
             let wk = weights.map_or(T::one(), |w| w[k]);
-            s + ((*y - *g * *u) * wk).norm_sqr()
-        })
+            s + ((*y - *yhat) * wk).norm_sqr()
+        });
+    (cost, out.g)
 }
 
 /// Relative change ‖new − old‖/‖new‖ between two model responses.

@@ -86,7 +86,6 @@ impl<T: Real, M: EquationError<T> + ?Sized> ReweightedProblem<T> for SkProblem<'
     }
 
     fn cost(&self, theta: &[T]) -> T {
-        let g = self.model.response(theta, self.data.omega());
-        super::output_error_cost(self.data, self.noise_weight.as_deref(), &g)
+        super::output_error_cost(self.model, theta, self.data, self.noise_weight.as_deref()).0
     }
 }

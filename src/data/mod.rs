@@ -9,4 +9,5 @@ mod time;
 pub use frequency::{FrequencyData, NoiseVariances};
 pub use merge::merge;
 pub use periodic::PeriodicAverage;
+pub(crate) use time::check_ts;
 pub use time::{TimeData, dft_lines};

@@ -79,16 +79,16 @@ impl<T: Real> Output<T> {
             model.response_into(theta, omega, &mut self.g);
             model.transient_into(theta, omega, &mut self.t, None)
         };
-        for k in 0..n {
-            self.yhat[k] = self.g[k] * u[k];
+        for (k, (yhat, (g, u))) in self.yhat.iter_mut().zip(self.g.iter().zip(u)).enumerate() {
+            *yhat = *g * *u;
             if has_t {
-                self.yhat[k] += self.t[k];
+                *yhat += self.t[k];
             }
         }
         if jacobian {
             for j in 0..p {
-                for k in 0..n {
-                    let mut d = self.dg[(k, j)] * u[k];
+                for (k, uk) in u.iter().enumerate() {
+                    let mut d = self.dg[(k, j)] * *uk;
                     if has_t {
                         d += self.dt[(k, j)];
                     }

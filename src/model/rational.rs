@@ -58,6 +58,8 @@ pub struct Rational<T: Real> {
     /// from θ's numerator part to c₁…c_n (c₀ = 0), spanning the c with vanishing Markov
     /// parameters cᵀQᵏb, k < na − nb − 1 (relative degree na − nb).
     numerator_map: Option<DMatrix<T>>,
+    /// Sample time of the transient term, when the model has one.
+    transient: Option<T>,
 }
 
 impl<T: Real> Rational<T> {
@@ -96,6 +98,7 @@ impl<T: Real> Rational<T> {
             nb,
             basis,
             numerator_map: None,
+            transient: None,
         })
     }
 
@@ -110,6 +113,7 @@ impl<T: Real> Rational<T> {
             nb,
             basis: PolyBasis::delay_powers(ts)?,
             numerator_map: None,
+            transient: None,
         })
     }
 
@@ -126,6 +130,111 @@ impl<T: Real> Rational<T> {
     /// The polynomial basis.
     pub fn basis(&self) -> &PolyBasis<T> {
         &self.basis
+    }
+
+    /// The same model with a transient term for data from one non-periodic record
+    /// (McKelvey eqs. 4–5): the modelled output is Ŷ = G U + T with
+    ///
+    /// ```text
+    /// T(z) = (t₁ + t₂z⁻¹ + … + t_n z⁻⁽ⁿ⁻¹⁾) / A(z⁻¹),   n = max(na, nb),
+    /// ```
+    ///
+    /// sharing the poles of G; θ gains [t₁ … t_n] at its end. With the DFT of
+    /// [`crate::TimeData::dft`] (samples t = 0 … N − 1) the term z C(zI − A)⁻¹(x₀ − x_N)/√N
+    /// of the leakage is exactly of this form, so G is recovered exactly from noise-free
+    /// data of any stable system with any initial state. The 1/√N of eq. 4 is absorbed in
+    /// t. The equation error A Y − B U − t stays linear, so Levy, SK and TLS estimate t too.
+    ///
+    /// # Errors
+    /// A continuous-time model (use [`Rational::with_sampled_transient`]).
+    pub fn with_transient(mut self) -> Result<Self> {
+        let PolyBasis::DelayPowers { ts } = self.basis else {
+            return Err(FdidError::InvalidArgument {
+                name: "transient",
+                value: "continuous-time model".into(),
+                reason: "a continuous-time model needs the sample time of the record: use \
+                         with_sampled_transient(ts)"
+                    .into(),
+            });
+        };
+        self.transient = Some(ts);
+        Ok(self)
+    }
+
+    /// The same continuous-time partial-fraction model with the transient term of sampled
+    /// data from a band-limited (multisine) experiment, McKelvey eqs. 9–10: Ŷ = G_c(iω) U +
+    /// T with the discrete-time transient
+    ///
+    /// ```text
+    /// T = Σⱼ tⱼ χⱼ(z) / D(s),   χ for a basis pole q: 1/(1 − e^{qTs} z⁻¹)
+    /// ```
+    ///
+    /// (a complex pair gives the real and imaginary combinations of its two fractions),
+    /// z = e^{iωTs}, s = iω; θ gains na coefficients at its end. When the basis poles are
+    /// the poles of G (where the [`crate::Pipeline`]'s relocation puts them) D ≡ 1 and T is
+    /// exactly t_c(z)/a_cd(z) of eq. 10; the equation error D Y − N U − Σ tⱼχⱼ stays linear.
+    ///
+    /// # Errors
+    /// Not a partial-fraction model, or `ts` not positive and finite.
+    pub fn with_sampled_transient(mut self, ts: T) -> Result<Self> {
+        crate::data::check_ts(ts)?;
+        if !matches!(self.basis, PolyBasis::PartialFractions { .. }) {
+            return Err(FdidError::InvalidArgument {
+                name: "transient",
+                value: format!("{:?} model", self.domain()),
+                reason: "the sampled continuous-time transient needs the partial-fraction form \
+                         (Rational::continuous with nb ≤ na); a discrete-time model uses \
+                         with_transient()"
+                    .into(),
+            });
+        }
+        self.transient = Some(ts);
+        Ok(self)
+    }
+
+    /// Number of transient coefficients (0 without a transient term).
+    pub fn n_transient(&self) -> usize {
+        match (&self.transient, &self.basis) {
+            (None, _) => 0,
+            (Some(_), PolyBasis::DelayPowers { .. }) => self.na.max(self.nb),
+            (Some(_), _) => self.na,
+        }
+    }
+
+    /// The sample time of the transient term, if the model has one.
+    pub fn transient_ts(&self) -> Option<T> {
+        self.transient
+    }
+
+    /// The transient basis values χⱼ at ω (see [`Rational::with_transient`] and
+    /// [`Rational::with_sampled_transient`]).
+    fn transient_basis(&self, ts: T, omega: T, chi: &mut [Complex<T>]) {
+        let zinv = Complex::new(Float::cos(omega * ts), -Float::sin(omega * ts));
+        let one = Complex::new(T::one(), T::zero());
+        match &self.basis {
+            PolyBasis::PartialFractions { poles } => {
+                let mut j = 0;
+                for q in poles {
+                    let f = (one - (*q * ts).exp() * zinv).inv();
+                    if q.im == T::zero() {
+                        chi[j] = f;
+                        j += 1;
+                    } else {
+                        let fc = (one - (q.conj() * ts).exp() * zinv).inv();
+                        chi[j] = f + fc;
+                        chi[j + 1] = (f - fc) * Complex::new(T::zero(), T::one());
+                        j += 2;
+                    }
+                }
+            }
+            _ => {
+                let mut p = one;
+                for c in chi.iter_mut() {
+                    *c = p;
+                    p *= zinv;
+                }
+            }
+        }
     }
 
     /// A continuous-time model in the barycentric (vector-fitting) form with basis poles
@@ -169,6 +278,7 @@ impl<T: Real> Rational<T> {
             nb,
             basis,
             numerator_map,
+            transient: None,
         })
     }
 
@@ -242,7 +352,9 @@ impl<T: Real> Rational<T> {
                     basis_poles.push(Complex::new(re, T::zero()));
                 }
             }
-            Self::partial_fractions(basis_poles, self.nb)
+            let mut m = Self::partial_fractions(basis_poles, self.nb)?;
+            m.transient = self.transient;
+            Ok(m)
         }))
     }
 
@@ -331,7 +443,7 @@ impl<T: Real> Rational<T> {
     }
 
     /// θ from full denominator and numerator coefficients (the denominator is rescaled so
-    /// that its normalising coefficient is one).
+    /// that its normalising coefficient is one; transient coefficients, if any, are zero).
     ///
     /// # Errors
     /// Wrong lengths, or a zero normalising coefficient.
@@ -345,6 +457,7 @@ impl<T: Real> Rational<T> {
         }
         let mut c = a.to_vec();
         c.extend_from_slice(b);
+        c.extend(std::iter::repeat_n(T::zero(), self.n_transient()));
         self.theta_from_coefficients(&c)
             .ok_or_else(|| FdidError::InvalidArgument {
                 name: "a",
@@ -405,7 +518,11 @@ impl<T: Real> Rational<T> {
         for v in b.iter_mut() {
             *v *= gain_fix;
         }
-        self.theta_from_polys(&a, &b)
+        let mut out = self.theta_from_polys(&a, &b)?;
+        let nt = self.n_transient();
+        let (lo, hi) = (out.len() - nt, theta.len().saturating_sub(nt));
+        out[lo..].copy_from_slice(&theta[hi..hi + nt]);
+        Ok(out)
     }
 
     /// Evaluates A and B at one variable value, with the basis values in `phi`.
@@ -461,7 +578,7 @@ impl<T: Real> Rational<T> {
 
 impl<T: Real> ModelStructure<T> for Rational<T> {
     fn n_params(&self) -> usize {
-        self.na + self.nb + 1
+        self.na + self.nb + 1 + self.n_transient()
     }
 
     fn response_into(&self, theta: &[T], omega: &[T], out: &mut [Complex<T>]) {
@@ -496,11 +613,61 @@ impl<T: Real> ModelStructure<T> for Rational<T> {
             for (j, p) in psi.iter().enumerate() {
                 jac[(k, na + j)] = *p * inv_a;
             }
+            let first_t = na + self.nb + 1;
+            for j in first_t..first_t + self.n_transient() {
+                jac[(k, j)] = Complex::new(T::zero(), T::zero());
+            }
         }
+    }
+
+    /// T(θ, ω) = Σⱼ tⱼ χⱼ(z)/A(θ, ω), z = e^{iωTs}, for a model with a transient term (see
+    /// [`Rational::with_transient`]).
+    fn transient_into(
+        &self,
+        theta: &[T],
+        omega: &[T],
+        t: &mut [Complex<T>],
+        mut jac: Option<&mut DMatrix<Complex<T>>>,
+    ) -> bool {
+        let Some(ts) = self.transient else {
+            return false;
+        };
+        let nt = self.n_transient();
+        let first_t = self.na + self.nb + 1;
+        let mut phi = self.zero_phi();
+        let mut chi = vec![Complex::new(T::zero(), T::zero()); nt];
+        let off = self.a_offset();
+        for (k, w) in omega.iter().enumerate() {
+            let (a, _) = self.eval_ab(theta, self.basis.variable(*w), &mut phi);
+            self.transient_basis(ts, *w, &mut chi);
+            let inv_a = a.inv();
+            let num = chi
+                .iter()
+                .zip(&theta[first_t..])
+                .fold(Complex::new(T::zero(), T::zero()), |s, (c, t)| s + *c * *t);
+            let tk = num * inv_a;
+            t[k] = tk;
+            if let Some(jac) = jac.as_deref_mut() {
+                let minus_t_over_a = -tk * inv_a;
+                for j in 0..self.na {
+                    jac[(k, j)] = phi[j + off] * minus_t_over_a;
+                }
+                for j in self.na..first_t {
+                    jac[(k, j)] = Complex::new(T::zero(), T::zero());
+                }
+                for (j, c) in chi.iter().enumerate() {
+                    jac[(k, first_t + j)] = *c * inv_a;
+                }
+            }
+        }
+        true
     }
 
     fn check_data(&self, data: &FrequencyData<T>) -> Result<()> {
         super::check_line_count(self.n_params(), data.len())?;
+        if let (Some(ts), PolyBasis::PartialFractions { .. }) = (self.transient, &self.basis) {
+            check_transient_data(ts, data)?;
+        }
         if let (PolyBasis::DelayPowers { ts }, Some(dts)) = (&self.basis, data.ts()) {
             let rel = Float::abs(*ts - dts) / *ts;
             if rel > T::lit(1e-6) {
@@ -519,7 +686,7 @@ impl<T: Real> ModelStructure<T> for Rational<T> {
             if let Some(w) = data
                 .omega()
                 .iter()
-                .find(|w| **w > nyquist * (T::one() + T::lit(1e-9)))
+                .find(|w| **w > nyquist * (T::one() + nyquist_slack::<T>()))
             {
                 return Err(FdidError::InvalidArgument {
                     name: "omega",
@@ -547,11 +714,13 @@ impl<T: Real> EquationError<T> for Rational<T> {
         }
     }
 
-    /// c = [A coefficients (na + 1, basis order), B coefficients (nb + 1)],
-    /// R_k = [φ₀ Y_k … φ_na Y_k, −φ₀ U_k … −φ_nb U_k].
+    /// c = [A coefficients (na + 1, basis order), B coefficients (nb + 1), transient
+    /// coefficients], R_k = [φ₀ Y_k … φ_na Y_k, −ψ₀ U_k … −ψ_nb U_k, −χ₁ … −χ_nt]: the
+    /// transient T = t/A enters the equation error A Y − B U − t linearly.
     fn regressor_into(&self, data: &FrequencyData<T>, out: &mut DMatrix<Complex<T>>) {
         let mut phi = self.zero_phi();
         let mut psi = vec![Complex::new(T::zero(), T::zero()); self.nb + 1];
+        let mut chi = vec![Complex::new(T::zero(), T::zero()); self.n_transient()];
         let na = self.na;
         for (k, ((w, y), u)) in data.omega().iter().zip(data.y()).zip(data.u()).enumerate() {
             self.basis.eval_into(self.basis.variable(*w), &mut phi);
@@ -561,6 +730,12 @@ impl<T: Real> EquationError<T> for Rational<T> {
             self.numerator_basis(&phi, &mut psi);
             for (j, p) in psi.iter().enumerate() {
                 out[(k, na + 1 + j)] = -(*p * *u);
+            }
+            if let Some(ts) = self.transient {
+                self.transient_basis(ts, *w, &mut chi);
+                for (j, c) in chi.iter().enumerate() {
+                    out[(k, na + self.nb + 2 + j)] = -*c;
+                }
             }
         }
     }
@@ -631,4 +806,37 @@ impl<T: Real> PolesZeros<T> for Rational<T> {
             }
         }
     }
+}
+
+/// Checks sampled data against the transient's sample time: the same Ts (when the data
+/// carry one) and no line above the Nyquist frequency.
+fn check_transient_data<T: Real>(ts: T, data: &FrequencyData<T>) -> Result<()> {
+    if let Some(dts) = data.ts()
+        && Float::abs(ts - dts) > ts * T::lit(1e-6)
+    {
+        return Err(FdidError::InvalidArgument {
+            name: "ts",
+            value: format!("{dts}"),
+            reason: format!("the data's sample time differs from the transient's ({ts})"),
+        });
+    }
+    let nyquist = T::pi() / ts;
+    if let Some(w) = data
+        .omega()
+        .iter()
+        .find(|w| **w > nyquist * (T::one() + nyquist_slack::<T>()))
+    {
+        return Err(FdidError::InvalidArgument {
+            name: "omega",
+            value: format!("{w} rad/s"),
+            reason: format!("above the Nyquist frequency {nyquist} rad/s of Ts = {ts} s"),
+        });
+    }
+    Ok(())
+}
+
+/// Relative slack on the Nyquist frequency for rounding of line frequencies (e.g. the
+/// Nyquist line of a DFT converted to f32).
+fn nyquist_slack<T: Real>() -> T {
+    Float::max(T::lit(1e-9), T::default_epsilon() * T::lit(64.0))
 }
