@@ -67,6 +67,7 @@ pub mod scalar;
 pub mod solver;
 
 pub use criterion::{Criterion, Levy, MaximumLikelihood, SanathananKoerner, TotalLeastSquares};
+pub use criterion::{ErrorsInVariables, fit_eiv};
 pub use data::{FrequencyData, NoiseVariances, TimeData};
 pub use error::{FdidError, Result};
 pub use fit::{Fit, NoiseLevel};
@@ -81,6 +82,7 @@ pub mod prelude {
     pub use crate::criterion::{
         Criterion, Levy, MaximumLikelihood, SanathananKoerner, TotalLeastSquares,
     };
+    pub use crate::criterion::{ErrorsInVariables, fit_eiv};
     pub use crate::data::{FrequencyData, NoiseVariances, TimeData};
     pub use crate::error::{FdidError, Result};
     pub use crate::fit::{Fit, NoiseLevel};

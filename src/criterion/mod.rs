@@ -14,6 +14,8 @@ mod ml;
 mod sk;
 mod tls;
 
+mod eiv;
+pub use eiv::{EivProblem, ErrorsInVariables, fit_eiv};
 pub use equation_error::EquationErrorSystem;
 pub use levy::{Levy, LevyProblem};
 pub use ml::{MaximumLikelihood, MlProblem};
