@@ -11,12 +11,15 @@
 mod equation_error;
 mod levy;
 mod ml;
+mod noise_model;
 mod sk;
 mod tls;
 
 pub use equation_error::EquationErrorSystem;
 pub use levy::{Levy, LevyProblem};
 pub use ml::{MaximumLikelihood, MlProblem};
+pub use noise_model::{NoiseModelMl, NoiseModelProblem, NoiseModelResiduals};
+pub use noise_model::{fit_noise_model, interior_lines};
 pub use sk::{SanathananKoerner, SkProblem};
 pub use tls::{TlsProblem, TotalLeastSquares};
 
