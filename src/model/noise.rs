@@ -200,8 +200,8 @@ impl<T: Real> NoiseModel<T> {
     /// η with every root r of C and of D outside the unit circle reflected to 1/r̄, so that
     /// H is stable and inversely stable and still monic.
     ///
-    /// On |z| = 1 the factor 1 − r z⁻¹ becomes (1/|r|²)·|1 − r z⁻¹| in magnitude, so the
-    /// reflection scales |H(e^{iωTs})| by one constant Π_C |r|⁻² · Π_D |r|² at every
+    /// On |z| = 1 the factor 1 − r z⁻¹ becomes 1 − z⁻¹/r̄, of magnitude |1 − r z⁻¹|/|r|, so the
+    /// reflection scales |H(e^{iωTs})| by one constant Π_C |r|⁻¹ · Π_D |r| (reflected roots) at every
     /// frequency. The concentrated criterion (McKelvey eq. 26) is invariant under H ↦ κH
     /// (λ̂ of eq. 25 absorbs κ², the mean-log term gives it back), so the reflected η has
     /// the same W(θ) and the same λ̂·|H|², the noise spectrum. Roots on the unit circle
@@ -256,7 +256,7 @@ impl<T: Real> NoiseModel<T> {
 /// let g = Rational::discrete(1, 0, ts).unwrap();
 /// let (h, eta) = NoiseModel::from_polynomials(&[1.0, 0.5], &[1.0, -0.9], ts).unwrap();
 /// let model = WithNoiseModel::new(g, h);
-/// let theta = [-0.5, 1.0, eta[0], eta[1]];
+/// let theta: [f64; 4] = [-0.5, 1.0, eta[0], eta[1]];
 /// assert_eq!(model.n_params(), 4);
 /// // H(z = 1) = 1.5 / 0.1
 /// let h0 = model.noise_response(&theta, &[0.0]);
