@@ -11,7 +11,8 @@
 //! - time records y = G u + H e (random initial states): consistency (errors shrink with
 //!   N), Monte Carlo of the covariance (fast 50-run variant with 99.9 % bounds; the
 //!   `#[ignore]`d 400-run one with the 20 % tolerance), and the variance gain over ML with
-//!   flat weighting on coloured noise;
+//!   flat weighting on coloured noise; a multisine on the odd lines (H also from the
+//!   unexcited lines);
 //! - bad input: typed errors.
 //!
 //! Long runs: `cargo test --release --all-features --test estimators_noise_model -- --ignored --nocapture`.
@@ -864,4 +865,66 @@ fn noise_orders_too_large_for_the_lines_are_a_typed_error() {
     // only DC and Nyquist
     let tiny = case.record(2, 1);
     assert!(fit_noise_model(&Pipeline::default(), &case.model(), &tiny, 0, 0).is_err());
+}
+
+/// A multisine on the odd lines only: G is fitted on the excited lines, H on all of them
+/// (the lines with U_k = 0 carry the noise alone). Each estimate within 4.5 predicted
+/// standard deviations of the truth.
+#[test]
+fn multisine_on_odd_lines_uses_the_unexcited_lines_for_h() {
+    let case = Case::arma();
+    let n = 2048;
+    let mut rng = StdRng::seed_from_u64(21);
+    let phases: Vec<f64> = (0..n / 2)
+        .map(|_| rng.gen_range(0.0..std::f64::consts::TAU))
+        .collect();
+    // one period of Σ_{k odd} cos(2πkt/N + φ_k), scaled to unit RMS
+    let scale = (2.0 / (n / 4) as f64).sqrt();
+    let one: Vec<f64> = (0..n)
+        .map(|t| {
+            (1..n / 2)
+                .step_by(2)
+                .map(|k| (std::f64::consts::TAU * (k * t % n) as f64 / n as f64 + phases[k]).cos())
+                .sum::<f64>()
+                * scale
+        })
+        .collect();
+    let periods = 2;
+    let u: Vec<f64> = (0..periods * n).map(|t| one[t % n]).collect();
+    let mut noise = Noise::new(22);
+    let e: Vec<f64> = (0..periods * n)
+        .map(|_| case.sigma * noise.gauss())
+        .collect();
+    let yg = lfilter(&case.b, &case.a, &u);
+    let yh = lfilter(&case.c, &case.d, &e);
+    let y: Vec<f64> = yg.iter().zip(&yh).map(|(a, b)| a + b).collect();
+    let data = TimeData::new(u[n..].to_vec(), y[n..].to_vec(), case.ts)
+        .unwrap()
+        .dft();
+    // the even lines carry no input
+    assert!(data.u()[2].norm() < 1e-9 && data.u()[3].norm() > 0.1);
+    // exact zeros, as a generator would write them
+    let u0: Vec<Complex<f64>> = data
+        .u()
+        .iter()
+        .map(|v| {
+            if v.norm() < 1e-9 {
+                Complex::new(0.0, 0.0)
+            } else {
+                *v
+            }
+        })
+        .collect();
+    let data =
+        FrequencyData::new(data.omega().to_vec(), data.y().to_vec(), u0, Some(case.ts)).unwrap();
+    let fit = fit_noise_model(&Pipeline::default(), &case.model(), &data, 1, 1).unwrap();
+    assert_eq!(fit.omega().len(), n / 2 - 1);
+    let std = fit.theta_std().unwrap();
+    for (i, ((t, t0), s)) in fit.theta().iter().zip(case.theta()).zip(&std).enumerate() {
+        println!("θ_{i}: {t:.5} (true {t0}, predicted std {s:.2e})");
+        assert!(
+            (t - t0).abs() < 4.5 * s,
+            "θ_{i} = {t} vs {t0} (std {s:.2e})"
+        );
+    }
 }
