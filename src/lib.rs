@@ -83,10 +83,12 @@ pub mod prelude {
         Criterion, Levy, MaximumLikelihood, SanathananKoerner, TotalLeastSquares,
     };
     pub use crate::criterion::{ErrorsInVariables, fit_eiv};
+    pub use crate::criterion::{NoiseModelMl, fit_noise_model};
     pub use crate::data::{FrequencyData, NoiseVariances, TimeData};
     pub use crate::error::{FdidError, Result};
     pub use crate::fit::{Fit, NoiseLevel};
     pub use crate::model::{Domain, EquationError, ModelStructure, PolesZeros, Rational};
+    pub use crate::model::{NoiseModel, WithNoiseModel};
     pub use crate::pipeline::Pipeline;
     pub use crate::pipeline::estimate;
     pub use crate::scalar::{Complex, Real};

@@ -11,6 +11,7 @@
 mod equation_error;
 mod levy;
 mod ml;
+mod noise_model;
 mod sk;
 mod tls;
 
@@ -19,6 +20,8 @@ pub use eiv::{EivProblem, ErrorsInVariables, fit_eiv};
 pub use equation_error::EquationErrorSystem;
 pub use levy::{Levy, LevyProblem};
 pub use ml::{MaximumLikelihood, MlProblem};
+pub use noise_model::{NoiseModelMl, NoiseModelProblem, NoiseModelResiduals};
+pub use noise_model::{fit_noise_model, interior_lines};
 pub use sk::{SanathananKoerner, SkProblem};
 pub use tls::{TlsProblem, TotalLeastSquares};
 

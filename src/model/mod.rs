@@ -5,9 +5,11 @@
 //! criteria (Levy, Sanathanan–Koerner, TLS) require; models with poles and zeros implement
 //! [`PolesZeros`].
 
+mod noise;
 mod output;
 mod rational;
 
+pub use noise::{NoiseModel, WithNoiseModel};
 pub use output::Output;
 pub use rational::{Domain, Rational};
 
