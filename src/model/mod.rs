@@ -5,9 +5,11 @@
 //! criteria (Levy, Sanathanan–Koerner, TLS) require; models with poles and zeros implement
 //! [`PolesZeros`].
 
+mod modal;
 mod output;
 mod rational;
 
+pub use modal::{Modal, ModalDomain, ModalOptions, ModalParts, fit_modal};
 pub use output::Output;
 pub use rational::{Domain, Rational};
 
