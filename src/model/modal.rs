@@ -925,6 +925,20 @@ impl<T: Real> Modal<T> {
         data: &FrequencyData<T>,
         weighting: NoiseWeighting,
     ) -> Result<Vec<T>> {
+        self.start_from_rational_with(rational, theta_r, data, weighting, false)
+    }
+
+    /// [`Modal::start_from_rational`]; when `lenient`, a discrete-time pole z on the
+    /// negative real axis becomes the real pole s = ln|z|/Ts of the same decay rate (and
+    /// z = 0 the fast pole s = ln(ε)/Ts) instead of an error.
+    fn start_from_rational_with(
+        &self,
+        rational: &Rational<T>,
+        theta_r: &[T],
+        data: &FrequencyData<T>,
+        weighting: NoiseWeighting,
+        lenient: bool,
+    ) -> Result<Vec<T>> {
         let raw = rational.poles(theta_r)?;
         let s_poles: Vec<Complex<T>> = match rational.domain() {
             Domain::Continuous => raw,
@@ -932,7 +946,10 @@ impl<T: Real> Modal<T> {
                 .into_iter()
                 .map(|z| {
                     let on_axis = Float::abs(z.im) <= T::lit(1e3) * T::default_epsilon() * z.norm();
-                    if on_axis && !(z.re > T::zero()) {
+                    if on_axis && !(z.re > T::zero()) && lenient {
+                        let m = Float::max(Float::abs(z.re), T::default_epsilon());
+                        Ok(Complex::new(Float::ln(m) / ts, T::zero()))
+                    } else if on_axis && !(z.re > T::zero()) {
                         Err(FdidError::InvalidArgument {
                             name: "discrete-time pole",
                             value: format!("{z}"),
@@ -1074,9 +1091,13 @@ impl<T: Real> ModalOptions<T> {
 ///    [`ModalDomain::Zoh`] (numerator degree n: the ZOH model of a strictly proper mode
 ///    starts with z⁻¹, with d the constant term), without transient;
 /// 2. its poles converted to s and the residues, d and τ by linear least squares
-///    ([`Modal::start_from_rational`]);
+///    ([`Modal::start_from_rational`]; a discrete-time pole z on the negative real axis,
+///    which the misfit of an unmodelled transient can produce, starts as the real pole
+///    ln|z|/Ts of the same decay rate instead of failing);
 /// 3. maximum likelihood (McKelvey eq. 23) on all parameters with `pipeline.ml`
 ///    (Levenberg–Marquardt; skipped when `None`), the transient included in Ŷ = GU + T;
+///    when it stops at its evaluation cap, it is retried from the poles of the rational
+///    model refined by its own ML stage and the lower cost kept;
 /// 4. the statistics by [`Fit::new`].
 ///
 /// # Errors
@@ -1118,7 +1139,7 @@ pub fn fit_modal<T: Real>(
     };
     let rfit = linear_stages.fit(&rational, data)?;
     let w = pipeline.weighting;
-    let start = model.start_from_rational(rfit.model(), rfit.theta(), data, w)?;
+    let start = model.start_from_rational_with(rfit.model(), rfit.theta(), data, w, true)?;
     let mut stages: Vec<Stage<T>> = rfit
         .stages()
         .iter()
@@ -1140,7 +1161,20 @@ pub fn fit_modal<T: Real>(
     });
     let mut theta = start;
     if let Some(lm) = &pipeline.ml {
-        let sol = estimate(&model, data, &ml, lm, Some(&theta))?;
+        let mut sol = estimate(&model, data, &ml, lm, Some(&theta))?;
+        if !sol.converged() {
+            // a poor start (e.g. poles bent by the unmodelled transient): retry from the
+            // poles of the rational model refined by ML, keep the lower cost
+            let retry = pipeline
+                .fit(&rational, data)
+                .and_then(|r| model.start_from_rational_with(r.model(), r.theta(), data, w, true))
+                .and_then(|t| estimate(&model, data, &ml, lm, Some(&t)));
+            if let Ok(other) = retry
+                && other.cost < sol.cost
+            {
+                sol = other;
+            }
+        }
         theta = sol.theta.clone();
         stages.push(Stage {
             name: "ml".into(),
