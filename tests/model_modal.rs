@@ -5,7 +5,7 @@
 mod common;
 
 use common::Noise;
-use fdid::model::{Modal, ModalDomain, ModalOptions, ModalParts, Output, fit_modal};
+use fdid::model::{Modal, ModalOptions, ModalParts, Output, fit_modal};
 use fdid::prelude::*;
 use quickcheck::{Arbitrary, Gen, QuickCheck};
 use rand::rngs::StdRng;
@@ -680,7 +680,7 @@ fn monte_carlo(runs: usize, var: f64) -> Vec<(f64, f64)> {
     let (clean, _, _) = zoh_data(&sys, n, ts, 21);
     let truth = [sys.real[0].0, sys.pairs[0].0.re, sys.pairs[0].0.im];
     let mut est = vec![vec![]; 3];
-    let mut pred = vec![0.0; 3];
+    let mut pred = [0.0; 3];
     let mut noise = Noise::new(77);
     for _ in 0..runs {
         let y: Vec<C> = clean.y().iter().map(|y| y + noise.complex(var)).collect();
