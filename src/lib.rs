@@ -88,6 +88,7 @@ pub mod prelude {
     pub use crate::error::{FdidError, Result};
     pub use crate::fit::{Fit, NoiseLevel};
     pub use crate::model::{Domain, EquationError, ModelStructure, PolesZeros, Rational};
+    pub use crate::model::{Modal, ModalDomain, ModalOptions, fit_modal};
     pub use crate::model::{NoiseModel, WithNoiseModel};
     pub use crate::pipeline::Pipeline;
     pub use crate::pipeline::estimate;

@@ -5,10 +5,12 @@
 //! criteria (Levy, Sanathanan–Koerner, TLS) require; models with poles and zeros implement
 //! [`PolesZeros`].
 
+mod modal;
 mod noise;
 mod output;
 mod rational;
 
+pub use modal::{Modal, ModalDomain, ModalOptions, ModalParts, fit_modal};
 pub use noise::{NoiseModel, WithNoiseModel};
 pub use output::Output;
 pub use rational::{Domain, Rational};
