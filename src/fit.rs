@@ -7,6 +7,7 @@ use crate::error::Result;
 use crate::model::{ModelStructure, PolesZeros};
 use crate::problem::NonlinearProblem;
 use crate::solver::Solution;
+use crate::validation::Validation;
 use crate::{Complex, Real};
 use nalgebra::DMatrix;
 use num_traits::Float;
@@ -46,7 +47,10 @@ pub struct Fit<T: Real, M> {
     noise_variance: T,
     noise_known: bool,
     covariance: Option<DMatrix<T>>,
-    response_std: Option<Vec<T>>,
+    robust_covariance: Option<DMatrix<T>>,
+    response_std: Option<ResponseStd<T>>,
+    residuals: Vec<Complex<T>>,
+    validation: Validation,
     stages: Vec<Stage<T>>,
 }
 
@@ -130,30 +134,19 @@ impl<T: Real, M: ModelStructure<T>> Fit<T, M> {
         } else {
             None
         };
-        // Cov = (λ/2)(JᵀJ)⁻¹ = F Fᵀ with F = √(λ/2) D⁻¹VΣ⁻¹ from the QR/SVD of J
-        let factor =
-            lambda.and_then(|l| gram_inverse_factor(jac).map(|f| f * Float::sqrt(l / T::lit(2.0))));
+        let residuals: Vec<Complex<T>> = r.chunks(2).map(|c| Complex::new(c[0], c[1])).collect();
+        let validation = Validation::new(&residuals, p, noise_known, data.variance_dof());
+        // (JᵀJ)⁻¹ = F₀F₀ᵀ from the QR/SVD of J; Cov = (λ/2)(JᵀJ)⁻¹ = F Fᵀ, F = √(λ/2) F₀
+        let base = gram_inverse_factor(jac.clone());
+        let robust_covariance = base.as_ref().map(|f0| sandwich(&jac, f0, &residuals));
+        drop(jac);
+        let factor = lambda.and_then(|l| base.map(|f| f * Float::sqrt(l / T::lit(2.0))));
         let covariance = factor.as_ref().map(|f| f * f.transpose());
         let omega = data.omega().to_vec();
         let mut response = vec![Complex::new(T::zero(), T::zero()); n];
         let mut dg = DMatrix::zeros(n, p);
         model.jacobian_into(&theta, &omega, &mut response, &mut dg);
-        // σ_G(ω_k)² = Σ_ij Cov_ij Re(∂G_k/∂θ_i conj ∂G_k/∂θ_j) = ‖(∂G_k/∂θ) F‖²
-        let response_std = factor.map(|f| {
-            // two real products (the real gemm is much faster than the complex one)
-            let re = dg.map(|v| v.re) * &f;
-            let im = dg.map(|v| v.im) * &f;
-            (0..n)
-                .map(|k| {
-                    let v = re
-                        .row(k)
-                        .iter()
-                        .chain(im.row(k).iter())
-                        .fold(T::zero(), |s, x| s + *x * *x);
-                    Float::sqrt(v)
-                })
-                .collect()
-        });
+        let response_std = factor.map(|f| ResponseStd::new(&dg, &f, &response));
         Ok(Self {
             model,
             theta,
@@ -163,7 +156,10 @@ impl<T: Real, M: ModelStructure<T>> Fit<T, M> {
             noise_variance,
             noise_known,
             covariance,
+            robust_covariance,
             response_std,
+            residuals,
+            validation,
             stages,
         })
     }
@@ -223,9 +219,68 @@ impl<T: Real, M: ModelStructure<T>> Fit<T, M> {
         })
     }
 
-    /// Standard deviation of Ĝ at each data frequency.
+    /// Standard deviation of Ĝ at each data frequency: σ_G(ω_k)² = E|Ĝ_k − G_k|² =
+    /// Σ_ij Cov_ij Re(∂G_k/∂θ_i · conj ∂G_k/∂θ_j).
     pub fn response_std(&self) -> Option<&[T]> {
-        self.response_std.as_deref()
+        self.response_std.as_ref().map(|s| s.complex.as_slice())
+    }
+
+    /// Standard deviation of |Ĝ| at each data frequency (first order: the component of
+    /// δG along G).
+    pub fn magnitude_std(&self) -> Option<&[T]> {
+        self.response_std.as_ref().map(|s| s.magnitude.as_slice())
+    }
+
+    /// Standard deviation of the phase ∠Ĝ (rad) at each data frequency (first order:
+    /// Im(δG/G)).
+    pub fn phase_std(&self) -> Option<&[T]> {
+        self.response_std.as_ref().map(|s| s.phase.as_slice())
+    }
+
+    /// Pointwise confidence bounds at `level` (e.g. 0.95) on |G| and on its phase at each
+    /// data frequency, from the first-order standard deviations and the normal quantile
+    /// z = Φ⁻¹((1 + level)/2). `None` without a covariance or for `level` outside (0, 1).
+    pub fn bounds(&self, level: f64) -> Option<Vec<Bounds<T>>> {
+        let s = self.response_std.as_ref()?;
+        if !(level > 0.0 && level < 1.0) {
+            return None;
+        }
+        let z = T::lit(crate::stats::normal_quantile(0.5 + level / 2.0));
+        Some(
+            self.response
+                .iter()
+                .enumerate()
+                .map(|(k, g)| {
+                    let (m, ph) = (g.norm(), g.arg());
+                    Bounds {
+                        magnitude: (
+                            Float::max(m - z * s.magnitude[k], T::zero()),
+                            m + z * s.magnitude[k],
+                        ),
+                        phase: (ph - z * s.phase[k], ph + z * s.phase[k]),
+                    }
+                })
+                .collect(),
+        )
+    }
+
+    /// The sandwich covariance R⁻¹QR⁻¹ of McKelvey eqs. 32–34 with R = JᵀJ and
+    /// Q = Σ_k J_kᵀJ_k ŝ_k/2, ŝ_k the residual power |r_k|² averaged over the nine nearest
+    /// lines: valid when the noise model of the criterion is wrong (e.g. flat weighting of
+    /// coloured noise), where [`Fit::covariance`] is not. Equals it asymptotically when the
+    /// noise model is right. `None` when J is rank deficient.
+    pub fn robust_covariance(&self) -> Option<&DMatrix<T>> {
+        self.robust_covariance.as_ref()
+    }
+
+    /// The normalised residuals r_k = (Y_k − Ŷ_k)/σ_k of the criterion at θ̂, one per line.
+    pub fn residuals(&self) -> &[Complex<T>] {
+        &self.residuals
+    }
+
+    /// Validation statistics: cost against its expected value, whiteness of the residuals.
+    pub fn validation(&self) -> &Validation {
+        &self.validation
     }
 
     /// What each stage did, in order.
@@ -255,6 +310,80 @@ impl<T: Real, M: ModelStructure<T> + PolesZeros<T>> Fit<T, M> {
     pub fn gain(&self) -> T {
         self.model.gain(&self.theta)
     }
+}
+
+/// Pointwise confidence bounds of one line (see [`Fit::bounds`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+pub struct Bounds<T: Real> {
+    /// Lower and upper bound on |G|.
+    pub magnitude: (T, T),
+    /// Lower and upper bound on the phase (rad).
+    pub phase: (T, T),
+}
+
+/// First-order standard deviations of Ĝ, |Ĝ| and ∠Ĝ on the data lines.
+#[derive(Debug, Clone)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+struct ResponseStd<T: Real> {
+    complex: Vec<T>,
+    magnitude: Vec<T>,
+    phase: Vec<T>,
+}
+
+impl<T: Real> ResponseStd<T> {
+    /// From ∂G/∂θ (`dg`), a covariance factor F (Cov = F Fᵀ) and G: with a_k = (∂G_k/∂θ)F,
+    /// σ_G² = ‖a_k‖², σ_|G| = ‖Re(conj(G_k) a_k)‖/|G_k|, σ_∠G = ‖Im(a_k/G_k)‖.
+    fn new(dg: &DMatrix<Complex<T>>, f: &DMatrix<T>, g: &[Complex<T>]) -> Self {
+        // two real products (the real gemm is much faster than the complex one)
+        let re = dg.map(|v| v.re) * f;
+        let im = dg.map(|v| v.im) * f;
+        let n = g.len();
+        let mut out = Self {
+            complex: Vec::with_capacity(n),
+            magnitude: Vec::with_capacity(n),
+            phase: Vec::with_capacity(n),
+        };
+        for (k, gk) in g.iter().enumerate() {
+            let (mut c, mut m, mut ph) = (T::zero(), T::zero(), T::zero());
+            let mag2 = gk.norm_sqr();
+            for (x, y) in re.row(k).iter().zip(im.row(k).iter()) {
+                c += *x * *x + *y * *y;
+                let dm = gk.re * *x + gk.im * *y;
+                let dp = gk.re * *y - gk.im * *x;
+                m += dm * dm;
+                ph += dp * dp;
+            }
+            out.complex.push(Float::sqrt(c));
+            if mag2 > T::zero() {
+                out.magnitude.push(Float::sqrt(m / mag2));
+                out.phase.push(Float::sqrt(ph) / mag2);
+            } else {
+                out.magnitude.push(Float::sqrt(c));
+                out.phase.push(T::infinity());
+            }
+        }
+        out
+    }
+}
+
+/// R⁻¹QR⁻¹ = F₀(MᵀM)F₀ᵀ with M = D J F₀, D² = ŝ_k/2 on both rows of line k, ŝ_k the mean
+/// of |r_j|² over the nine lines nearest k.
+fn sandwich<T: Real>(jac: &DMatrix<T>, f0: &DMatrix<T>, r: &[Complex<T>]) -> DMatrix<T> {
+    let n = r.len();
+    let half = 4usize;
+    let power: Vec<T> = r.iter().map(|v| v.norm_sqr()).collect();
+    let mut m = jac * f0;
+    for k in 0..n {
+        let (lo, hi) = (k.saturating_sub(half), (k + half + 1).min(n));
+        let s = power[lo..hi].iter().fold(T::zero(), |a, b| a + *b) / T::from_usize_lossy(hi - lo);
+        let d = Float::sqrt(s / T::lit(2.0));
+        for row in [2 * k, 2 * k + 1] {
+            m.row_mut(row).scale_mut(d);
+        }
+    }
+    let inner = m.transpose() * m;
+    f0 * inner * f0.transpose()
 }
 
 /// Whether the residuals are normalised by the true noise level.

@@ -65,6 +65,8 @@ pub mod problem;
 pub mod roots;
 pub mod scalar;
 pub mod solver;
+pub mod stats;
+pub mod validation;
 
 pub use criterion::{Criterion, Levy, MaximumLikelihood, SanathananKoerner, TotalLeastSquares};
 pub use criterion::{ErrorsInVariables, fit_eiv};

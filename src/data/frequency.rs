@@ -95,6 +95,9 @@ pub struct FrequencyData<T: Real> {
     u: Vec<Complex<T>>,
     noise: Option<NoiseVariances<T>>,
     ts: Option<T>,
+    /// Degrees of freedom of sample noise variances (P − 1 for P periods).
+    #[cfg_attr(feature = "serde", serde(default))]
+    variance_dof: Option<usize>,
 }
 
 impl<T: Real> FrequencyData<T> {
@@ -158,6 +161,7 @@ impl<T: Real> FrequencyData<T> {
             u,
             noise: None,
             ts,
+            variance_dof: None,
         })
     }
 
@@ -183,7 +187,33 @@ impl<T: Real> FrequencyData<T> {
     /// Removes the noise (co)variances.
     pub fn without_noise(mut self) -> Self {
         self.noise = None;
+        self.variance_dof = None;
         self
+    }
+
+    /// Declares the noise (co)variances to be sample estimates with `dof` degrees of freedom
+    /// per line (P − 1 when estimated from P periods, as [`crate::TimeData::average_periods`]
+    /// sets). Validation statistics then expect the cost inflated by ν/(ν − 2), ν = 2·dof,
+    /// the mean of the F(2, ν) distribution of |Y − ĜU|²/σ̂².
+    ///
+    /// # Errors
+    /// `dof = 0`, or data without noise variances.
+    pub fn with_variance_dof(mut self, dof: usize) -> Result<Self> {
+        if dof == 0 || self.noise.is_none() {
+            return Err(FdidError::InvalidArgument {
+                name: "variance_dof",
+                value: format!("{dof}"),
+                reason: "needs noise variances and at least one degree of freedom".into(),
+            });
+        }
+        self.variance_dof = Some(dof);
+        Ok(self)
+    }
+
+    /// Degrees of freedom of the noise variances when they are sample estimates (`None`:
+    /// the variances are taken as exact).
+    pub fn variance_dof(&self) -> Option<usize> {
+        self.variance_dof
     }
 
     /// Number of frequency lines.
@@ -233,11 +263,13 @@ impl<T: Real> FrequencyData<T> {
     /// `ts ≤ 0` or non-finite.
     pub fn with_ts(self, ts: Option<T>) -> Result<Self> {
         let noise = self.noise.clone();
-        let d = Self::new(self.omega, self.y, self.u, ts)?;
-        match noise {
-            Some(n) => d.with_noise(n),
-            None => Ok(d),
+        let dof = self.variance_dof;
+        let mut d = Self::new(self.omega, self.y, self.u, ts)?;
+        if let Some(n) = noise {
+            d = d.with_noise(n)?;
         }
+        d.variance_dof = dof;
+        Ok(d)
     }
 
     /// Empirical transfer function estimate Y_k / U_k.
@@ -329,6 +361,7 @@ impl<T: Real> FrequencyData<T> {
             u: pick(&self.u, keep),
             noise: self.noise.as_ref().map(|n| n.filter(keep)),
             ts: self.ts,
+            variance_dof: self.variance_dof,
         }
     }
 
@@ -347,6 +380,7 @@ impl<T: Real> FrequencyData<T> {
             u,
             noise,
             ts,
+            variance_dof: None,
         }
     }
 }

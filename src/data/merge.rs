@@ -78,5 +78,11 @@ pub fn merge<T: Real>(experiments: &[FrequencyData<T>]) -> Result<FrequencyData<
             acc.cov_yu.push(n.cov_yu[k]);
         }
     }
-    Ok(FrequencyData::from_parts_unchecked(omega, y, u, noise, ts))
+    let merged = FrequencyData::from_parts_unchecked(omega, y, u, noise, ts);
+    // sample variances in every experiment: keep the smallest degrees of freedom (the most
+    // inflated cost); any experiment with exact variances gives none
+    match experiments.iter().map(|e| e.variance_dof()).min().flatten() {
+        Some(dof) if merged.noise().is_some() => merged.with_variance_dof(dof),
+        _ => Ok(merged),
+    }
 }

@@ -131,11 +131,13 @@ impl<T: Real> PeriodicAverage<T> {
         let omega = line_frequencies(m, record.ts());
         let mut data = FrequencyData::new(omega, y_mean, u_mean, Some(record.ts()))?;
         if let Some(s) = &sample {
-            data = data.with_noise(NoiseVariances {
-                var_y: s.var_y.iter().map(|v| *v / p_t).collect(),
-                var_u: s.var_u.iter().map(|v| *v / p_t).collect(),
-                cov_yu: s.cov_yu.iter().map(|v| *v / p_t).collect(),
-            })?;
+            data = data
+                .with_noise(NoiseVariances {
+                    var_y: s.var_y.iter().map(|v| *v / p_t).collect(),
+                    var_u: s.var_u.iter().map(|v| *v / p_t).collect(),
+                    cov_yu: s.cov_yu.iter().map(|v| *v / p_t).collect(),
+                })?
+                .with_variance_dof(periods - 1)?;
         }
         Ok(Self {
             data,

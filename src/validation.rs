@@ -1,0 +1,106 @@
+//! Validation statistics of a fit: is the cost what the noise explains, and are the
+//! normalised residuals white across frequency?
+//!
+//! With residuals r_k = (Y_k − Ŷ_k)/σ_k normalised by the noise model, a correct model and
+//! exact variances give V = Σ|r_k|² ~ ½χ²(2N − p): E V = N − p/2 (the ML cost of McKelvey
+//! eq. 23 at its minimum). With sample variances from P periods each |r_k|² follows
+//! F(2, 2ν), ν = P − 1; the cost is then compared with a scaled χ² of the same mean and
+//! variance. Whiteness: the complex Ljung–Box statistic over lags l = 1 … m,
+//! Q = Σ_l 2N²|ρ̂_l|²/(N − l) ~ χ²(2m), ρ̂_l = Σ_k r_{k+l} r̄_k / Σ_k |r_k|².
+
+use crate::stats::chi2_sf;
+use crate::{Complex, Real};
+
+/// The validation statistics of one fit (see the module docs).
+#[derive(Debug, Clone, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+pub struct Validation {
+    /// The cost V = Σ|r_k|².
+    pub cost: f64,
+    /// E V under the noise model: N − p/2, times N_F = ν/(ν − 2) (ν = 2·dof) for sample
+    /// variances; `None` when the noise level is estimated from the residuals (flat
+    /// weighting) or the mean does not exist (dof = 1).
+    pub cost_expected: Option<f64>,
+    /// P(V′ ≥ V) for V′ distributed as the cost of a correct model: small values say the
+    /// model leaves more than noise. `None` when `cost_expected` is, or dof ≤ 2.
+    pub cost_p: Option<f64>,
+    /// Number of lags m of the whiteness test.
+    pub whiteness_lags: usize,
+    /// The Ljung–Box statistic Q (`None` below 8 lines).
+    pub whiteness_q: Option<f64>,
+    /// P(χ²(2m) ≥ Q): small values say the residuals are correlated across frequency.
+    pub whiteness_p: Option<f64>,
+    /// max_k |r_k| (for a noise-normalised fit: in noise standard deviations).
+    pub max_residual: f64,
+}
+
+impl Validation {
+    /// Statistics of the normalised residuals `r` of a model with `params` parameters.
+    /// `noise_known`: r is normalised by the true noise level (else by nothing, and the
+    /// cost test is skipped); `dof`: degrees of freedom of sample variances.
+    pub fn new<T: Real>(
+        r: &[Complex<T>],
+        params: usize,
+        noise_known: bool,
+        dof: Option<usize>,
+    ) -> Self {
+        let r: Vec<Complex<f64>> = r
+            .iter()
+            .map(|v| Complex::new(v.re.to_f64_lossless(), v.im.to_f64_lossless()))
+            .collect();
+        let n = r.len();
+        let cost: f64 = r.iter().map(|v| v.norm_sqr()).sum();
+        let n_eff = n as f64 - params as f64 / 2.0;
+        let (cost_expected, cost_p) = if noise_known && n_eff > 0.0 {
+            cost_test(cost, n_eff, dof)
+        } else {
+            (None, None)
+        };
+        let lags = if n >= 8 { (n / 4).clamp(1, 20) } else { 0 };
+        let (whiteness_q, whiteness_p) = if lags > 0 && cost > 0.0 {
+            let q: f64 = (1..=lags)
+                .map(|l| {
+                    let s = (l..n).fold(Complex::new(0.0, 0.0), |s, k| s + r[k] * r[k - l].conj());
+                    let rho = s / cost;
+                    2.0 * (n * n) as f64 * rho.norm_sqr() / (n - l) as f64
+                })
+                .sum();
+            (Some(q), Some(chi2_sf(q, 2.0 * lags as f64)))
+        } else {
+            (None, None)
+        };
+        let max_residual = r.iter().map(|v| v.norm()).fold(0.0, f64::max);
+        Self {
+            cost,
+            cost_expected,
+            cost_p,
+            whiteness_lags: lags,
+            whiteness_q,
+            whiteness_p,
+            max_residual,
+        }
+    }
+}
+
+/// Expected cost and upper-tail probability for `n_eff` = N − p/2 complex residuals.
+fn cost_test(cost: f64, n_eff: f64, dof: Option<usize>) -> (Option<f64>, Option<f64>) {
+    match dof {
+        None => (Some(n_eff), Some(chi2_sf(2.0 * cost, 2.0 * n_eff))),
+        Some(dof) => {
+            let d2 = 2.0 * dof as f64;
+            if d2 <= 2.0 {
+                return (None, None);
+            }
+            // |r|² ~ F(2, d2): mean d2/(d2 − 2), variance d2³/((d2 − 2)²(d2 − 4))
+            let mean = n_eff * d2 / (d2 - 2.0);
+            if d2 <= 4.0 {
+                return (Some(mean), None);
+            }
+            let var = n_eff * d2 * d2 * d2 / ((d2 - 2.0) * (d2 - 2.0) * (d2 - 4.0));
+            // V ≈ c χ²(f) with the same mean and variance
+            let c = var / (2.0 * mean);
+            let f = 2.0 * mean * mean / var;
+            (Some(mean), Some(chi2_sf(cost / c, f)))
+        }
+    }
+}
