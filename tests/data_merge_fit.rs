@@ -211,13 +211,11 @@ fn merged_data_drop_ts_and_reject_sampled_models() {
     let a2 = SLOW.data(3);
     assert_eq!(merge(&[a.clone(), a2]).unwrap().ts(), Some(0.05));
 
-    // a discrete-time model at the slow Ts: the fast lines are above its Nyquist frequency
+    // a discrete-time model at either Ts: the data merge different sample times
     let dt = Rational::discrete(4, 2, 0.05).unwrap();
+    assert!(m.mixed_sample_times());
     match Pipeline::default().fit(&dt, &m) {
-        Err(FdidError::InvalidArgument { name, value, .. }) => {
-            assert_eq!(name, "omega");
-            assert!(value.contains("rad/s"), "{value}");
-        }
+        Err(FdidError::InvalidArgument { name, .. }) => assert_eq!(name, "ts"),
         other => panic!("discrete model on merged data: {other:?}"),
     }
     // ... and on the fast experiment alone its Ts differs from the data's
@@ -232,7 +230,7 @@ fn merged_data_drop_ts_and_reject_sampled_models() {
         .unwrap();
     assert!(matches!(
         Pipeline::default().fit(&with_transient, &m),
-        Err(FdidError::InvalidArgument { name: "omega", .. })
+        Err(FdidError::InvalidArgument { name: "ts", .. })
     ));
     // a noise model H(z) needs the data's sample time
     assert!(matches!(
@@ -248,4 +246,41 @@ fn merged_data_drop_ts_and_reject_sampled_models() {
     // the continuous-time model is accepted
     let ct = Rational::continuous(4, 2, m.omega()).unwrap();
     assert!(Pipeline::default().fit(&ct, &m).is_ok());
+}
+
+/// Merged experiments with different sample times: discrete-time and sampled-transient
+/// models are rejected, whatever their sample time.
+#[test]
+fn merged_sample_times_reject_sampled_models() {
+    let omega_a: Vec<f64> = (1..=20).map(|k| 0.5 * k as f64).collect();
+    let omega_b: Vec<f64> = (1..=20).map(|k| 7.3 * k as f64).collect();
+    let frf = |w: &[f64]| -> Vec<Complex<f64>> {
+        w.iter()
+            .map(|w| Complex::new(1.0, 0.0) / Complex::new(1.0, *w))
+            .collect()
+    };
+    let a = FrequencyData::from_frf(omega_a.clone(), frf(&omega_a), Some(0.05)).unwrap();
+    let b = FrequencyData::from_frf(omega_b.clone(), frf(&omega_b), Some(0.002)).unwrap();
+    let merged = fdid::data::merge(&[a, b]).unwrap();
+    assert!(merged.mixed_sample_times() && merged.ts().is_none());
+    for ts in [0.05, 0.002, 1e-4] {
+        let dt = Rational::discrete(1, 0, ts).unwrap();
+        assert!(
+            matches!(
+                Pipeline::default().fit(&dt, &merged),
+                Err(FdidError::InvalidArgument { name: "ts", .. })
+            ),
+            "discrete model with Ts = {ts} accepted on merged data"
+        );
+    }
+    let ct = Rational::continuous(1, 0, merged.omega()).unwrap();
+    assert!(Pipeline::default().fit(&ct, &merged).is_ok());
+    assert!(
+        Pipeline::default()
+            .fit(&ct.with_sampled_transient(1e-4).unwrap(), &merged)
+            .is_err()
+    );
+    assert!(merged.clone().with_ts(Some(0.05)).is_err());
+    // selecting lines keeps the mark
+    assert!(merged.band(0.0, 50.0).unwrap().mixed_sample_times());
 }

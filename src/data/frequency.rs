@@ -98,6 +98,9 @@ pub struct FrequencyData<T: Real> {
     /// Degrees of freedom of sample noise variances (P − 1 for P periods).
     #[cfg_attr(feature = "serde", serde(default))]
     variance_dof: Option<usize>,
+    /// Merged from sampled experiments with different sample times.
+    #[cfg_attr(feature = "serde", serde(default))]
+    mixed_ts: bool,
 }
 
 impl<T: Real> FrequencyData<T> {
@@ -162,6 +165,7 @@ impl<T: Real> FrequencyData<T> {
             noise: None,
             ts,
             variance_dof: None,
+            mixed_ts: false,
         })
     }
 
@@ -208,6 +212,20 @@ impl<T: Real> FrequencyData<T> {
         }
         self.variance_dof = Some(dof);
         Ok(self)
+    }
+
+    /// True for data merged from sampled experiments with different sample times: only a
+    /// continuous-time model without a sampled transient describes them.
+    pub fn mixed_sample_times(&self) -> bool {
+        self.mixed_ts
+    }
+
+    /// Marks the data as merged from different sample times (see
+    /// [`FrequencyData::mixed_sample_times`]); drops the sample time.
+    pub(crate) fn mark_mixed_sample_times(mut self) -> Self {
+        self.ts = None;
+        self.mixed_ts = true;
+        self
     }
 
     /// Degrees of freedom of the noise variances when they are sample estimates (`None`:
@@ -262,6 +280,13 @@ impl<T: Real> FrequencyData<T> {
     /// # Errors
     /// `ts ≤ 0` or non-finite.
     pub fn with_ts(self, ts: Option<T>) -> Result<Self> {
+        if let (Some(t), true) = (ts, self.mixed_ts) {
+            return Err(FdidError::InvalidArgument {
+                name: "ts",
+                value: format!("{t}"),
+                reason: "the data merge experiments with different sample times".into(),
+            });
+        }
         let noise = self.noise.clone();
         let dof = self.variance_dof;
         let mut d = Self::new(self.omega, self.y, self.u, ts)?;
@@ -269,6 +294,7 @@ impl<T: Real> FrequencyData<T> {
             d = d.with_noise(n)?;
         }
         d.variance_dof = dof;
+        d.mixed_ts = self.mixed_ts;
         Ok(d)
     }
 
@@ -362,6 +388,7 @@ impl<T: Real> FrequencyData<T> {
             noise: self.noise.as_ref().map(|n| n.filter(keep)),
             ts: self.ts,
             variance_dof: self.variance_dof,
+            mixed_ts: self.mixed_ts,
         }
     }
 
@@ -381,6 +408,7 @@ impl<T: Real> FrequencyData<T> {
             noise,
             ts,
             variance_dof: None,
+            mixed_ts: false,
         }
     }
 }

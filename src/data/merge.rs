@@ -78,7 +78,14 @@ pub fn merge<T: Real>(experiments: &[FrequencyData<T>]) -> Result<FrequencyData<
             acc.cov_yu.push(n.cov_yu[k]);
         }
     }
-    let merged = FrequencyData::from_parts_unchecked(omega, y, u, noise, ts);
+    let mut merged = FrequencyData::from_parts_unchecked(omega, y, u, noise, ts);
+    if ts.is_none()
+        && experiments
+            .iter()
+            .any(|e| e.ts().is_some() || e.mixed_sample_times())
+    {
+        merged = merged.mark_mixed_sample_times();
+    }
     // sample variances in every experiment: keep the smallest degrees of freedom (the most
     // inflated cost); any experiment with exact variances gives none
     match experiments.iter().map(|e| e.variance_dof()).min().flatten() {

@@ -710,6 +710,16 @@ impl<T: Real> ModelStructure<T> for Modal<T> {
     /// model's, or lines above its Nyquist frequency.
     fn check_data(&self, data: &FrequencyData<T>) -> Result<()> {
         super::check_line_count(self.n_params(), data.len())?;
+        let sampled = matches!(self.domain, ModalDomain::Zoh { .. }) || self.transient.is_some();
+        if sampled && data.mixed_sample_times() {
+            return Err(FdidError::InvalidArgument {
+                name: "ts",
+                value: "several".into(),
+                reason: "the data merge experiments with different sample times: only a \
+                         continuous-time model without a sampled transient fits them"
+                    .into(),
+            });
+        }
         if let ModalDomain::Zoh { ts } = self.domain {
             Self::check_ts_against(data, ts, "ZOH model")?;
         }

@@ -665,6 +665,17 @@ impl<T: Real> ModelStructure<T> for Rational<T> {
 
     fn check_data(&self, data: &FrequencyData<T>) -> Result<()> {
         super::check_line_count(self.n_params(), data.len())?;
+        if data.mixed_sample_times()
+            && (self.transient.is_some() || self.domain() != Domain::Continuous)
+        {
+            return Err(FdidError::InvalidArgument {
+                name: "ts",
+                value: "several".into(),
+                reason: "the data merge experiments with different sample times: only a \
+                         continuous-time model without a sampled transient fits them"
+                    .into(),
+            });
+        }
         if let (Some(ts), PolyBasis::PartialFractions { .. }) = (self.transient, &self.basis) {
             check_transient_data(ts, data)?;
         }
