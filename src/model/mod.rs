@@ -5,9 +5,11 @@
 //! criteria (Levy, Sanathanan–Koerner, TLS) require; models with poles and zeros implement
 //! [`PolesZeros`].
 
+mod delay;
 mod output;
 mod rational;
 
+pub use delay::{DelayStart, Delayed, delay_start, fit_delayed, remove_delay};
 pub use output::Output;
 pub use rational::{Domain, Rational};
 
