@@ -356,7 +356,7 @@ const PHASE_ITERATIONS: usize = 4;
 /// Sanathanan–Koerner iterations of a screening fit in the candidate scan.
 const SCREEN_ITERATIONS: usize = 3;
 /// Local minima of the screening scan refitted in full.
-const REFINED_MINIMA: usize = 3;
+const REFINED_MINIMA: usize = 5;
 /// Cap on the candidates of the scan.
 const MAX_SCAN: usize = 512;
 /// Rounds of (delay-free fit, ML on the delayed model) per refined candidate.
@@ -414,13 +414,19 @@ pub fn delay_start<T: Real, M: EquationError<T> + Clone>(
         });
     }
     let line_weights = pipeline.weighting.weights(data)?;
-    let phase_weight: Vec<T> = data
-        .y()
+    // |Y|² capped at its median, so that resonance peaks (where G_M's group delay is
+    // largest) do not dominate the regression
+    let mut power: Vec<T> = data.y().iter().map(|y| y.norm_sqr()).collect();
+    let cap = median(&mut power.clone());
+    for p in power.iter_mut() {
+        *p = Float::min(*p, cap);
+    }
+    let phase_weight: Vec<T> = power
         .iter()
         .enumerate()
-        .map(|(k, y)| {
+        .map(|(k, p)| {
             let w = line_weights.as_ref().map_or(T::one(), |w| w[k]);
-            y.norm_sqr() * w * w
+            *p * w * w
         })
         .collect();
     let full = Pipeline {
@@ -481,13 +487,14 @@ pub fn delay_start<T: Real, M: EquationError<T> + Clone>(
 
     // 3. the screening scan
     let half = 4 * (ModelStructure::<T>::n_params(model.inner()) / 2 + 2);
-    let mut grid: Vec<T> = (0..=2 * half)
-        .map(|j| tau_r + step * (T::from_usize_lossy(j) - T::from_usize_lossy(half)))
+    // twice as far below τ_r as above: the group delay of G_M biases τ_r upwards
+    let mut grid: Vec<T> = (0..=3 * half)
+        .map(|j| tau_r + step * (T::from_usize_lossy(j) - T::from_usize_lossy(2 * half)))
         .collect();
     if let Some((lo, hi)) = model.bounds() {
         let (lo, hi) = (T::lit(lo), T::lit(hi));
         let width = hi - lo;
-        if width <= step * T::from_usize_lossy(2 * half) {
+        if width <= step * T::from_usize_lossy(3 * half) {
             let n = Float::min(Float::ceil(width / step), T::from_usize_lossy(MAX_SCAN - 1))
                 .to_f64_lossless() as usize;
             let n = n.max(1);
@@ -539,13 +546,13 @@ pub fn delay_start<T: Real, M: EquationError<T> + Clone>(
         weighting: pipeline.weighting,
     };
     let mut refined: Vec<(T, T)> = vec![];
-    for t in candidates {
+    let mut refine = |t: T, refined: &mut Vec<(T, T)>, fits: &mut usize| {
         // ML from the delay-free fit at t; then once more from the delay-free fit at the
         // ML delay, whose inner start is better when t was a fraction of δ off
         let mut t = t;
         let mut last: Option<(T, T)> = None;
         for _ in 0..CANDIDATE_ROUNDS {
-            fits += 1;
+            *fits += 1;
             let outcome = search.fit_full(&full, t).and_then(|(inner, theta)| {
                 let delayed = Delayed::new(inner);
                 let start = Delayed::<M>::theta(&theta, t);
@@ -571,6 +578,23 @@ pub fn delay_start<T: Real, M: EquationError<T> + Clone>(
             }
         }
         refined.extend(last);
+    };
+    for t in candidates {
+        refine(t, &mut refined, &mut fits);
+    }
+    // 5. multiples of π/ω_max away from the best: a delay wrong by one sample (half a
+    //    period of the top frequency) is the commonest local minimum of discrete models
+    if let Some((b, _)) = best(&refined) {
+        let sample = T::lit(4.0) * step;
+        for k in [-2.0, -1.0, 1.0, 2.0] {
+            let t = model.clamp(b + sample * T::lit(k));
+            if refined
+                .iter()
+                .all(|(r, _)| Float::abs(*r - t) >= step / T::lit(2.0))
+            {
+                refine(t, &mut refined, &mut fits);
+            }
+        }
     }
     if std::env::var("FDID_DEBUG_DELAY").is_ok() {
         eprintln!("  tau_r {tau_r} phase {phase_slope} visited {visited:?} refined {refined:?}");
@@ -586,6 +610,18 @@ pub fn delay_start<T: Real, M: EquationError<T> + Clone>(
             what: "delay-free fits of the delay search".into(),
         })),
     }
+}
+
+/// The median of `v` (reordered), zero for an empty slice.
+fn median<T: Real>(v: &mut [T]) -> T {
+    if v.is_empty() {
+        return T::zero();
+    }
+    let mid = v.len() / 2;
+    v.select_nth_unstable_by(mid, |a, b| {
+        a.partial_cmp(b).unwrap_or(std::cmp::Ordering::Equal)
+    });
+    v[mid]
 }
 
 /// The visited (τ, cost) with the lowest finite cost.
