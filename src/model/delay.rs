@@ -360,7 +360,7 @@ const REFINED_MINIMA: usize = 5;
 /// Cap on the candidates of the scan.
 const MAX_SCAN: usize = 512;
 /// Rounds of (delay-free fit, ML on the delayed model) per refined candidate.
-const CANDIDATE_ROUNDS: usize = 2;
+const CANDIDATE_ROUNDS: usize = 3;
 
 /// A starting value τ₀ for the delay of `model` on `data`, from the phase slope and a scan
 /// of candidate delays by output-error cost, each delay-free fit made with `pipeline`
@@ -546,29 +546,34 @@ pub fn delay_start<T: Real, M: EquationError<T> + Clone>(
         weighting: pipeline.weighting,
     };
     let mut refined: Vec<(T, T)> = vec![];
+    let levy = Pipeline {
+        sk: None,
+        ml: None,
+        ..*pipeline
+    };
     let mut refine = |t: T, refined: &mut Vec<(T, T)>, fits: &mut usize| {
         // ML from the delay-free fit at t; then once more from the delay-free fit at the
         // ML delay, whose inner start is better when t was a fraction of δ off
         let mut t = t;
         let mut last: Option<(T, T)> = None;
-        for _ in 0..CANDIDATE_ROUNDS {
+        for round in 0..CANDIDATE_ROUNDS {
             *fits += 1;
-            let outcome = search.fit_full(&full, t).and_then(|(inner, theta)| {
-                let delayed = Delayed::new(inner);
-                let start = Delayed::<M>::theta(&theta, t);
-                estimate(&delayed, data, &ml, &lm, Some(&start))
-            });
+            let inner_pipeline = if round == 1 { &levy } else { &full };
+            let outcome =
+                search
+                    .fit_full(inner_pipeline, t, round == 2)
+                    .and_then(|(inner, theta)| {
+                        let delayed = Delayed::new(inner);
+                        let start = Delayed::<M>::theta(&theta, t);
+                        estimate(&delayed, data, &ml, &lm, Some(&start))
+                    });
             match outcome {
                 Ok(sol) if Float::is_finite(sol.theta[sol.theta.len() - 1]) => {
                     let tau = model.clamp(sol.theta[sol.theta.len() - 1]);
-                    let moved = Float::abs(tau - t);
                     if last.is_none_or(|l| sol.cost < l.1) {
                         last = Some((tau, sol.cost));
                     }
                     t = tau;
-                    if moved < step / T::lit(64.0) {
-                        break;
-                    }
                 }
                 Ok(_) => break,
                 Err(e) => {
@@ -643,8 +648,20 @@ struct Search<'a, T: Real, M> {
 impl<T: Real, M: EquationError<T> + Clone> Search<'_, T, M> {
     /// Fits the inner model to the data with τ removed; returns the output-error cost of
     /// the delayed model and G_M on the lines.
-    fn fit_full(&self, pipeline: &Pipeline, tau: T) -> Result<(M, Vec<T>)> {
-        let compensated = remove_delay(self.data, tau)?;
+    fn fit_full(&self, pipeline: &Pipeline, tau: T, lower_half: bool) -> Result<(M, Vec<T>)> {
+        let mut compensated = remove_delay(self.data, tau)?;
+        if lower_half {
+            let w_max = self
+                .data
+                .omega()
+                .iter()
+                .copied()
+                .fold(T::zero(), Float::max);
+            let band = compensated.band(T::zero(), w_max / T::lit(2.0))?;
+            if band.len() >= self.model.n_params() + 2 {
+                compensated = band;
+            }
+        }
         let fit = pipeline.fit(self.model, &compensated)?;
         Ok((fit.model().clone(), fit.theta().to_vec()))
     }
