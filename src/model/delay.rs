@@ -342,12 +342,12 @@ pub fn remove_delay<T: Real>(data: &FrequencyData<T>, tau: T) -> Result<Frequenc
 pub struct DelayStart<T: Real> {
     /// τ₀ (s): the candidate with the lowest output-error cost.
     pub tau: T,
-    /// Its output-error cost V = Σ_k w_k²|Y_k − G_M e^{−iω_kτ₀} U_k|² (McKelvey eq. 23) with
-    /// G_M the delay-free fit to the delay-compensated data.
+    /// Its output-error cost V = Σ_k w_k²|Y_k − G(θ, ω_k) U_k|² (McKelvey eq. 23) after the
+    /// ML refinement of the delayed model from that candidate.
     pub cost: T,
-    /// τ from the phase-slope iterations alone (before the candidate search).
+    /// τ from the phase-slope iterations alone (before the scan).
     pub phase_slope: T,
-    /// Delay-free fits made (phase iterations and candidates).
+    /// Delay-free fits made (phase iterations, scan and refinements).
     pub fits: usize,
 }
 
@@ -386,10 +386,19 @@ const CANDIDATE_ROUNDS: usize = 3;
 ///    about p_M·π/2 over the band: a few samples for a low-order discrete model), each
 ///    screened by V(τ) after three SK iterations; with bounds the scan covers [lo, hi]
 ///    instead when that is no wider (at most 512 candidates, δ widened if needed);
-/// 4. the three lowest local minima of the scan are refitted in full (Levy → SK) and the
-///    candidate of lowest V among them and the phase-slope iterates is τ₀; V is jagged in
-///    τ (a wrong delay leaves SK in different local solutions), which is why the scan is
-///    dense rather than a descent.
+/// 4. the phase-slope estimate and the five lowest local minima of the scan are refined:
+///    each by three rounds of a delay-free fit at the current τ — in full (Levy → SK), by
+///    Levy alone, and in full on the lower half of the band, whose phase error from a
+///    small delay error is halved — followed by output-error ML ([`MaximumLikelihood`],
+///    eq. 23) of the delayed model by Levenberg–Marquardt from [θ_M, τ], τ moving to the
+///    ML delay. The three delay-free fits fall into different local solutions when τ is
+///    slightly wrong (a discrete model then often takes an unstable pole near z = −1), so
+///    the joint ML from one of them usually reaches the true delay;
+/// 5. the same refinement at ±1 and ±2 multiples of π/ω_max from the best refined delay
+///    (a delay one sample off is the commonest wrong local minimum of a discrete model);
+///    τ₀ is the refined delay of lowest ML cost V. V is jagged in τ (a wrong delay leaves
+///    SK in different local solutions), which is why the search scans densely and
+///    refines several minima rather than descending from one point.
 ///
 /// Every candidate is clamped into the model's bounds; without bounds τ may turn out
 /// negative (an advance).
@@ -545,6 +554,20 @@ pub fn delay_start<T: Real, M: EquationError<T> + Clone>(
     let ml = MaximumLikelihood {
         weighting: pipeline.weighting,
     };
+    // a cost at the noise level (known variances: V ≤ N − p/2 + 3.3√N, the 99.95 %
+    // quantile of its asymptotic distribution) or at round-off (noise free: V ≤ (100ε)²
+    // Σ|w Y|²) cannot be improved on significantly: the search stops there
+    let n = T::from_usize_lossy(data.len());
+    let p = T::from_usize_lossy(ModelStructure::<T>::n_params(model));
+    let good_enough = match &line_weights {
+        Some(_) => n - p / T::lit(2.0) + T::lit(3.3) * Float::sqrt(n),
+        None => T::zero(),
+    };
+    let floor = data.y().iter().enumerate().fold(T::zero(), |s, (k, y)| {
+        let w = line_weights.as_ref().map_or(T::one(), |w| w[k]);
+        s + y.norm_sqr() * w * w
+    }) * Float::powi(T::default_epsilon() * T::lit(100.0), 2);
+    let threshold = Float::max(good_enough, floor);
     let mut refined: Vec<(T, T)> = vec![];
     let levy = Pipeline {
         sk: None,
@@ -574,6 +597,9 @@ pub fn delay_start<T: Real, M: EquationError<T> + Clone>(
                         last = Some((tau, sol.cost));
                     }
                     t = tau;
+                    if sol.cost <= threshold {
+                        break;
+                    }
                 }
                 Ok(_) => break,
                 Err(e) => {
@@ -584,12 +610,16 @@ pub fn delay_start<T: Real, M: EquationError<T> + Clone>(
         }
         refined.extend(last);
     };
+    let done = |refined: &[(T, T)]| best(refined).is_some_and(|b| b.1 <= threshold);
     for t in candidates {
         refine(t, &mut refined, &mut fits);
+        if done(&refined) {
+            break;
+        }
     }
     // 5. multiples of π/ω_max away from the best: a delay wrong by one sample (half a
     //    period of the top frequency) is the commonest local minimum of discrete models
-    if let Some((b, _)) = best(&refined) {
+    if let (Some((b, _)), false) = (best(&refined), done(&refined)) {
         let sample = T::lit(4.0) * step;
         for k in [-2.0, -1.0, 1.0, 2.0] {
             let t = model.clamp(b + sample * T::lit(k));
@@ -598,11 +628,11 @@ pub fn delay_start<T: Real, M: EquationError<T> + Clone>(
                 .all(|(r, _)| Float::abs(*r - t) >= step / T::lit(2.0))
             {
                 refine(t, &mut refined, &mut fits);
+                if done(&refined) {
+                    break;
+                }
             }
         }
-    }
-    if std::env::var("FDID_DEBUG_DELAY").is_ok() {
-        eprintln!("  tau_r {tau_r} phase {phase_slope} visited {visited:?} refined {refined:?}");
     }
     match best(&refined) {
         Some((tau, cost)) => Ok(DelayStart {
@@ -740,7 +770,7 @@ impl<M: Clone> Delayed<M> {
     ///    [θ_M, τ₀].
     ///
     /// The statistics are those of [`Fit::new`] with the pipeline's weighting; the stages
-    /// are `delay` (θ = [τ₀], the search's cost, its number of fits), the inner pipeline's
+    /// are `delay` (θ = \[τ₀\], the search's cost, its number of fits), the inner pipeline's
     /// stages on the compensated data, and `ml-delayed`.
     ///
     /// # Errors
