@@ -682,6 +682,9 @@ fn monte_carlo(runs: usize, seed: u64) -> Vec<(f64, f64)> {
         .collect()
 }
 
+/// One Monte Carlo run: (τ̂, predicted std of τ̂).
+type Run = (f64, f64);
+
 /// (bias/standard error, sample std / mean predicted std).
 fn mc_figures(runs: &[(f64, f64)], tau: f64) -> (f64, f64) {
     let n = runs.len() as f64;
@@ -717,7 +720,7 @@ fn monte_carlo_delay_long() {
     let mut sds: Vec<f64> = runs.iter().map(|r| r.1).collect();
     sds.sort_by(f64::total_cmp);
     let typical = sds[sds.len() / 2];
-    let (inliers, outliers): (Vec<(f64, f64)>, Vec<(f64, f64)>) = runs
+    let (inliers, outliers): (Vec<Run>, Vec<Run>) = runs
         .iter()
         .partition(|(t, _)| (t - 0.37).abs() <= 5.0 * typical);
     eprintln!("median predicted std {typical:.3e}; outliers (τ̂, predicted std): {outliers:?}");
