@@ -73,7 +73,7 @@ pub use criterion::{ErrorsInVariables, fit_eiv};
 pub use data::{FrequencyData, NoiseVariances, TimeData};
 pub use error::{FdidError, Result};
 pub use fit::{Fit, NoiseLevel};
-pub use model::{EquationError, ModelStructure, PolesZeros, Rational};
+pub use model::{Delayed, EquationError, ModelStructure, PolesZeros, Rational};
 pub use pipeline::Pipeline;
 pub use scalar::{Complex, Real};
 pub use solver::{Solution, Solver};
@@ -89,6 +89,7 @@ pub mod prelude {
     pub use crate::data::{FrequencyData, NoiseVariances, TimeData};
     pub use crate::error::{FdidError, Result};
     pub use crate::fit::{Fit, NoiseLevel};
+    pub use crate::model::{Delayed, fit_delayed};
     pub use crate::model::{Domain, EquationError, ModelStructure, PolesZeros, Rational};
     pub use crate::model::{Modal, ModalDomain, ModalOptions, fit_modal};
     pub use crate::model::{NoiseModel, WithNoiseModel};

@@ -5,11 +5,13 @@
 //! criteria (Levy, Sanathanan–Koerner, TLS) require; models with poles and zeros implement
 //! [`PolesZeros`].
 
+mod delay;
 mod modal;
 mod noise;
 mod output;
 mod rational;
 
+pub use delay::{DelayStart, Delayed, delay_start, fit_delayed, remove_delay};
 pub use modal::{Modal, ModalDomain, ModalOptions, ModalParts, fit_modal};
 pub use noise::{NoiseModel, WithNoiseModel};
 pub use output::Output;
