@@ -16,14 +16,17 @@ use num_traits::Float;
 #[derive(Debug, Clone, PartialEq)]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct Stage<T: Real> {
-    /// Name of the stage (`levy`, `sk`, `ml`, `tls`).
+    /// Name of the stage (`levy`, `sk`, `ml`, `tls`, `eiv`, `delay`, `ml-delayed`, …).
     pub name: String,
     /// The solver's outcome.
     pub solution: Solution<T>,
 }
 
-/// A fitted model with its statistics, all evaluated with the output-error (ML) residuals
-/// r_k = (Y_k − G_θ̂ U_k)/σ_k at θ̂ (σ_k = 1 when the data carry no noise variances).
+/// A fitted model with its statistics, all evaluated with the normalised residuals r_k of
+/// a criterion at θ̂: for [`Fit::new`] the output-error (ML) residuals
+/// r_k = (Y_k − Ŷ_k)/σ_k, Ŷ = G_θ̂ U + T_θ̂ (σ_k = 1 when the data carry no noise
+/// variances); for [`Fit::from_problem`] those of the given problem (e.g. errors in
+/// variables, or (Y − Ŷ)/Ĥ with an estimated noise model).
 ///
 /// - `cost` V = Σ_k |r_k|² (McKelvey eq. 23 without the constant log term);
 /// - `noise_variance` λ̂ = V/N (eq. 25);
@@ -32,7 +35,12 @@ pub struct Stage<T: Real> {
 ///   noise of variance λ, whose real and imaginary parts each have variance λ/2. λ = 1 when
 ///   the data carry their noise variances, else the degrees-of-freedom corrected
 ///   λ̂ = V/(N − p/2);
-/// - `response_std` σ_G(ω_k)² = Σ_ij Cov_ij Re(∂G_k/∂θ_i · conj ∂G_k/∂θ_j).
+/// - `response_std` σ_G(ω_k)² = Σ_ij Cov_ij Re(∂G_k/∂θ_i · conj ∂G_k/∂θ_j), with the
+///   standard deviations of |Ĝ| and ∠Ĝ and confidence [`Fit::bounds`];
+/// - `robust_covariance`: the sandwich R⁻¹QR⁻¹ of eqs. 32–34, valid when the criterion's
+///   noise model is wrong;
+/// - `validation`: the cost against its expected value and the whiteness of r across
+///   frequency ([`crate::validation::Validation`]).
 ///
 /// The covariance is the ML one: for Levy or SK estimates it describes what ML would
 /// achieve, not their own (larger, biased) error.

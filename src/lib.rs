@@ -9,8 +9,18 @@
 //!   form also implement [`EquationError`].
 //! - [`Criterion`]: what is minimised — output-error maximum likelihood
 //!   ([`MaximumLikelihood`], McKelvey eq. 23), Levy linear least squares ([`Levy`],
-//!   eq. 39), Sanathanan–Koerner re-weighting ([`SanathananKoerner`], eq. 41) and total
-//!   least squares ([`TotalLeastSquares`]).
+//!   eq. 39), Sanathanan–Koerner re-weighting ([`SanathananKoerner`], eq. 41), total
+//!   least squares ([`TotalLeastSquares`]), ML with an estimated noise model H = C/D
+//!   ([`criterion::NoiseModelMl`], eqs. 23–26) and errors-in-variables ML
+//!   ([`criterion::ErrorsInVariables`], eq. 42).
+//!
+//! Model factors compose with every criterion: a transient term for non-periodic records
+//! ([`Rational::with_transient`], eqs. 4–5; [`Rational::with_sampled_transient`], eqs.
+//! 9–10), a time delay ([`model::Delayed`]), continuous-time models matched to sampled data
+//! through the zero-order hold ([`model::Modal`], section 2.3). Every [`Fit`] carries the
+//! parameter covariance (λR⁻¹ and the sandwich R⁻¹QR⁻¹, eqs. 32–34), confidence bounds on
+//! |G| and phase, and validation statistics (cost against its χ² expectation, whiteness of
+//! the residuals across frequency).
 //! - [`Solver`]: how — Levenberg–Marquardt, QR/SVD linear least squares, SVD null vector,
 //!   the SK fixed-point loop.
 //!

@@ -7,6 +7,13 @@
 //! | [`Levy`] | eq. 39 | [`EquationError`](crate::EquationError) | linear LS | [`LinearLeastSquares`](crate::solver::LinearLeastSquares) |
 //! | [`SanathananKoerner`] | eq. 41 | [`EquationError`](crate::EquationError) | re-weighted LS | [`FixedPoint`](crate::solver::FixedPoint) |
 //! | [`TotalLeastSquares`] | — | [`EquationError`](crate::EquationError) | homogeneous | [`SvdNullVector`](crate::solver::SvdNullVector) |
+//! | [`NoiseModelMl`] | eqs. 23, 25, 26, noise model H = C/D estimated | [`WithNoiseModel`](crate::model::WithNoiseModel) of any [`ModelStructure`](crate::ModelStructure) | nonlinear LS | [`LevenbergMarquardt`](crate::solver::LevenbergMarquardt) |
+//! | [`ErrorsInVariables`] | eq. 42 with the input–output covariance | [`ModelStructure`](crate::ModelStructure) + input/output noise (co)variances | nonlinear LS | [`LevenbergMarquardt`](crate::solver::LevenbergMarquardt) |
+//!
+//! Every output-error criterion compares Y with Ŷ = G U + T (see
+//! [`crate::model::Output`]), so a transient term of the model ([`crate::Rational::with_transient`],
+//! [`crate::model::Modal::with_transient`]) and a delay factor ([`crate::model::Delayed`])
+//! compose with each of them.
 
 mod equation_error;
 mod levy;
