@@ -457,3 +457,28 @@ fn time_varying_f32() {
     // measured 9.5e-6
     assert!(worst < 1e-4, "f32: {worst:.3e}");
 }
+
+/// Timing of the benchmark size: regression matrix + TLS for N = 2¹⁶ samples at
+/// f_s = 2048 Hz, N_α = N_β = 4, N_p = 3, band [0, 200] Hz (6401 lines, 44 parameters).
+#[test]
+#[ignore = "timing: cargo test --release --test ltv_varying timing -- --ignored --nocapture"]
+fn timing_large_record() {
+    let n = 1 << 16;
+    let ts = 1.0 / 2048.0;
+    let mut noise = Noise::new(1);
+    let u: Vec<f64> = (0..n).map(|_| noise.gauss()).collect();
+    let y: Vec<f64> = (0..n).map(|_| noise.gauss()).collect();
+    let data = TimeData::new(u, y, ts).unwrap();
+    let model =
+        LtvOde::new(4, 4, 3).with_frequency_basis(FrequencyBasis::legendre(TAU * 200.0).unwrap());
+    let start = std::time::Instant::now();
+    let reg = fdid::ltv::regression(&model, &data, &Lines::band(0.0, 200.0)).unwrap();
+    let t_reg = start.elapsed();
+    let fit = model.fit(&data, &Lines::band(0.0, 200.0)).unwrap();
+    let t_all = start.elapsed() - t_reg;
+    println!(
+        "N = {n}: {} lines × {} columns; regression {t_reg:?}, regression + TLS {t_all:?}",
+        reg.lines.len(),
+        fit.theta.len()
+    );
+}
