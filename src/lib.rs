@@ -69,6 +69,7 @@ pub mod error;
 pub mod fit;
 #[cfg(feature = "csv")]
 pub mod io;
+pub mod ltv;
 pub mod model;
 pub mod pipeline;
 pub mod problem;
@@ -99,6 +100,7 @@ pub mod prelude {
     pub use crate::data::{FrequencyData, NoiseVariances, TimeData};
     pub use crate::error::{FdidError, Result};
     pub use crate::fit::{Fit, NoiseLevel};
+    pub use crate::ltv::{LtvFit, LtvOde};
     pub use crate::model::{Delayed, fit_delayed};
     pub use crate::model::{Domain, EquationError, ModelStructure, PolesZeros, Rational};
     pub use crate::model::{Modal, ModalDomain, ModalOptions, fit_modal};
