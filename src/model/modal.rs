@@ -1137,11 +1137,23 @@ pub fn fit_modal<T: Real>(
     }
     model.check_data(data)?;
     let n = model.order();
-    let rational = match options.domain {
-        ModalDomain::Continuous => {
-            Rational::continuous(n, if options.direct { n } else { n - 1 }, data.omega())?
+    // the rational start carries the transient too (it shares the poles), so that the
+    // leakage of a short record does not bend the starting poles
+    let rational = match (options.domain, model.transient_ts()) {
+        (ModalDomain::Continuous, t) => {
+            let r = Rational::continuous(n, if options.direct { n } else { n - 1 }, data.omega())?;
+            match t {
+                Some(ts)
+                    if r.basis().max_degree() > 0
+                        && matches!(r.basis(), PolyBasis::PartialFractions { .. }) =>
+                {
+                    r.with_sampled_transient(ts)?
+                }
+                _ => r,
+            }
         }
-        ModalDomain::Zoh { ts } => Rational::discrete(n, n, ts)?,
+        (ModalDomain::Zoh { ts }, Some(_)) => Rational::discrete(n, n, ts)?.with_transient()?,
+        (ModalDomain::Zoh { ts }, None) => Rational::discrete(n, n, ts)?,
     };
     let linear_stages = Pipeline {
         ml: None,
