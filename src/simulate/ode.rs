@@ -1,11 +1,11 @@
 //! Time-varying linear ODEs `Σ αₙ(t) y⁽ⁿ⁾ = Σ βₙ(t) u⁽ⁿ⁾` integrated by an adaptive
 //! Dormand–Prince 5(4) method.
 
+use crate::Real;
 use crate::data::TimeData;
 use crate::error::{FdidError, Result};
 use crate::simulate::Excitation;
 use crate::simulate::multisine::Multisine;
-use crate::Real;
 use std::fmt;
 use std::sync::Arc;
 
@@ -286,7 +286,11 @@ impl TimeVaryingOde {
     /// The right-hand side `f(t) = Σₙ βₙ(t) u⁽ⁿ⁾(t)`; `du` is scratch of length `N_β + 1`.
     fn forcing<I: Excitation + ?Sized>(&self, input: &I, t: f64, du: &mut [f64]) -> f64 {
         input.derivatives_into(t, du);
-        self.beta.iter().zip(du.iter()).map(|(b, d)| b.eval(t) * d).sum()
+        self.beta
+            .iter()
+            .zip(du.iter())
+            .map(|(b, d)| b.eval(t) * d)
+            .sum()
     }
 
     /// `α_{N_α}(t)`, checked to be finite and non-zero.
@@ -296,11 +300,44 @@ impl TimeVaryingOde {
             return Err(FdidError::InvalidArgument {
                 name: "alpha",
                 value: format!("α_{}({t}) = {a}", self.order()),
-                reason: "the leading coefficient must be finite and non-zero on the record"
-                    .into(),
+                reason: "the leading coefficient must be finite and non-zero on the record".into(),
             });
         }
         Ok(a)
+    }
+
+    /// For a polynomial `α_{N_α}(t)`: no real root in `[0, t_end]` (roots as eigenvalues
+    /// of the companion matrix; a root counts as real when `|Im r| ≤ 1e-9 (1 + |r|)`).
+    fn check_leading_polynomial(&self, t_end: f64) -> Result<()> {
+        let Coefficient::Polynomial(c) = &self.alpha[self.order()] else {
+            return Ok(());
+        };
+        let deg = match c.iter().rposition(|v| *v != 0.0) {
+            None => return self.leading(0.0).map(|_| ()),
+            Some(d) => d,
+        };
+        if deg == 0 {
+            return Ok(());
+        }
+        let mut m = nalgebra::DMatrix::<f64>::zeros(deg, deg);
+        for j in 0..deg {
+            m[(0, j)] = -c[deg - 1 - j] / c[deg];
+        }
+        for i in 1..deg {
+            m[(i, i - 1)] = 1.0;
+        }
+        for r in m.complex_eigenvalues().iter() {
+            if r.im.abs() <= 1e-9 * (1.0 + r.norm()) && r.re >= 0.0 && r.re <= t_end {
+                return Err(FdidError::InvalidArgument {
+                    name: "alpha",
+                    value: format!("α_{}(t) = 0 at t ≈ {}", self.order(), r.re),
+                    reason: format!(
+                        "the leading coefficient must not vanish on the record [0, {t_end}] s"
+                    ),
+                });
+            }
+        }
+        Ok(())
     }
 
     /// `ẋ = A(t) x + e_last f(t) / α_{N_α}(t)` (companion form, see the type's doc).
@@ -335,7 +372,10 @@ impl TimeVaryingOde {
     /// # Errors
     /// - [`FdidError::InvalidArgument`] named `"ts"` when `T_s` is not positive and
     ///   finite, named after an integrator setting when it is out of range, or named
-    ///   `"alpha"` when `α_{N_α}(t)` vanishes (or is not finite) at some `t` of the record;
+    ///   `"alpha"` when `α_{N_α}(t)` vanishes on the record: for a polynomial, when it
+    ///   has a real root in `[0, (n − 1) T_s]` (checked before integrating); for a
+    ///   function, when it is zero or not finite where evaluated (a solution that blows
+    ///   up as `α_{N_α}` approaches zero may instead end in `NotConverged`);
     /// - [`FdidError::TooShort`] when `n = 0`;
     /// - [`FdidError::LengthMismatch`] when `x0.len() != N_α`;
     /// - [`FdidError::NonFinite`] naming `"x0"`;
@@ -375,6 +415,7 @@ impl TimeVaryingOde {
             });
         }
         crate::error::check_finite("x0", x0)?;
+        self.check_leading_polynomial((n - 1) as f64 * ts)?;
         let mut du = vec![0.0; self.beta.len()];
         if na == 0 {
             // static: y = f(t) / α₀(t)
