@@ -75,6 +75,7 @@ pub mod pipeline;
 pub mod problem;
 pub mod roots;
 pub mod scalar;
+pub mod simulate;
 pub mod solver;
 pub mod stats;
 pub mod validation;
