@@ -99,7 +99,9 @@ pub struct FitArgs {
 
     /// Estimator: ml = Levy, then Sanathanan-Koerner, then maximum likelihood
     /// (Levenberg-Marquardt); levy = Levy linear least squares only; sk = Levy, then
-    /// Sanathanan-Koerner; tls = total least squares on the equation error
+    /// Sanathanan-Koerner; tls = total least squares on the equation error; eiv =
+    /// errors-in-variables maximum likelihood (noise on the input too; needs input noise
+    /// variances: a time record with --periods P >= 2 or a spectra file with var_u,var_y)
     #[arg(long, value_enum, default_value_t = CriterionArg::Ml)]
     pub criterion: CriterionArg,
 
@@ -113,6 +115,23 @@ pub struct FitArgs {
     /// whole record is transformed
     #[arg(long, value_name = "P")]
     pub periods: Option<usize>,
+
+    /// Fit a delayed model G(iw) e^{-i w tau}: tau (s) is one more parameter, started from
+    /// the phase slope (McKelvey section 4). With --criterion ml or eiv
+    #[arg(long)]
+    pub delay: bool,
+
+    /// Add the transient (leakage) term T of a non-periodic record, Y = G U + T: in z,
+    /// T = (t1 + t2 z^-1 + ...)/A (eqs. 4-5); in s, the sampled transient of eqs. 9-10
+    /// (needs nb <= na). Needs a time record
+    #[arg(long)]
+    pub transient: bool,
+
+    /// Estimate a noise model H = C/D of orders (N, N) in z^-1 with the system, by maximum
+    /// likelihood (McKelvey eq. 26). Needs one time record (no --periods P >= 2) and
+    /// --criterion ml. At most 100
+    #[arg(long, value_name = "N")]
+    pub noise_order: Option<usize>,
 
     /// Print one JSON object instead of text
     #[arg(long)]
@@ -139,6 +158,8 @@ pub enum CriterionArg {
     Sk,
     /// Total least squares (SVD null vector)
     Tls,
+    /// Levy -> Sanathanan-Koerner -> ML -> errors-in-variables maximum likelihood
+    Eiv,
 }
 
 impl CriterionArg {
@@ -149,6 +170,7 @@ impl CriterionArg {
             Self::Levy => "levy",
             Self::Sk => "sk",
             Self::Tls => "tls",
+            Self::Eiv => "eiv",
         }
     }
 
@@ -159,6 +181,10 @@ impl CriterionArg {
             Self::Levy => "Levy linear least squares",
             Self::Sk => "Levy -> Sanathanan-Koerner",
             Self::Tls => "total least squares",
+            Self::Eiv => {
+                "Levy -> Sanathanan-Koerner -> maximum likelihood -> errors-in-variables \
+                 maximum likelihood (eq. 42)"
+            }
         }
     }
 }
