@@ -359,6 +359,9 @@ fn fit_with_delay(
     }
 }
 
+/// A delayed rational model with a noise model.
+type DelayedWithNoise = WithNoiseModel<Delayed<Rational<f64>>>;
+
 /// The delayed model with a noise model H = C/D of orders (n, n), as
 /// [`fit_noise_model`] does for an undelayed one: [`fit_delayed`] with flat weighting on
 /// the excited lines as the start (η = 0, H = 1), then the concentrated ML criterion of
@@ -367,7 +370,7 @@ fn fit_delay_noise_model(
     model: &Rational<f64>,
     data: &FrequencyData<f64>,
     n: usize,
-) -> Result<Fit<f64, WithNoiseModel<Delayed<Rational<f64>>>>, Failure> {
+) -> Result<Fit<f64, DelayedWithNoise>, Failure> {
     let excited: Vec<bool> = data.u().iter().map(|u| u.norm_sqr() > 0.0).collect();
     let flat = Pipeline {
         weighting: NoiseWeighting::Flat,
