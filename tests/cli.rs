@@ -829,6 +829,16 @@ fn transient_term_fits_a_short_non_periodic_record() {
         assert!(close(*p, e, 1e-9), "pole {p:?}, expected {e:?}");
     }
     assert!(num(&with, "relative_residual") < 1e-10);
+    // the equation error stays linear: the linear criteria estimate the transient too
+    for c in ["levy", "sk", "tls"] {
+        let v = json(
+            &path,
+            &[&base[..], &["--transient", "--criterion", c]].concat(),
+        );
+        for (p, e) in pairs(&v["poles"]).iter().zip(dt_poles()) {
+            assert!(close(*p, e, 1e-9), "{c}: pole {p:?}, expected {e:?}");
+        }
+    }
     // continuous time: the sampled transient of eqs. 9–10, one coefficient per pole
     let s = json(
         &path,
@@ -972,6 +982,19 @@ fn errors_in_variables_on_a_periodic_record() {
     );
     let p = num(&v, "cost_p");
     assert!((0.0..=1.0).contains(&p));
+    // with the transient term (zero for this periodic record)
+    let v = json(
+        &path,
+        &[&base[..], &["--criterion", "eiv", "--transient"]].concat(),
+    );
+    assert_eq!(v["transient"], 2);
+    assert_eq!(
+        v["stages"].as_array().unwrap().last().unwrap()["name"],
+        "eiv"
+    );
+    for (p, e) in pairs(&v["poles"]).iter().zip(dt_poles()) {
+        assert!(close(*p, e, 5e-3), "pole {p:?}, expected {e:?}");
+    }
     // with a delay too: the delayed model under errors-in-variables
     let path = dir.file("delayed.csv", &periodic_record(256, 4, 2.5, 0.02, 0.02));
     let v = json(
@@ -1163,4 +1186,57 @@ fn unsupported_combinations_are_usage_errors() {
     for (args, needles) in cases {
         expect_usage(&args, &needles);
     }
+}
+
+#[test]
+fn errors_in_variables_on_a_spectra_file() {
+    let dir = Scratch::new("eivspectra");
+    // noise-free spectra of G(s) = 2/(s² + 0.4 s + 1) with stated noise variances
+    let mut rng = Lcg(99);
+    let mut text = String::from("f,u_re,u_im,y_re,y_im,var_u,var_y\n");
+    for k in 1..=100 {
+        let w = 0.02 * k as f64;
+        let g = g_ct(w);
+        let u = C::polar(1.0, TAU * rng.next());
+        let y = C(g.0, g.1).mul(u);
+        text.push_str(&format!(
+            "{:e},{:e},{:e},{:e},{:e},1e-4,2e-4\n",
+            w / TAU,
+            u.0,
+            u.1,
+            y.0,
+            y.1
+        ));
+    }
+    let path = dir.file("spectra.csv", &text);
+    let args = [
+        "--domain",
+        "s",
+        "--na",
+        "2",
+        "--nb",
+        "0",
+        "--criterion",
+        "eiv",
+    ];
+    let v = json(&path, &args);
+    assert_eq!(v["noise_known"], true);
+    for (p, e) in pairs(&v["poles"]).iter().zip(CT_POLES) {
+        assert!(close(*p, e, 1e-9), "pole {p:?}, expected {e:?}");
+    }
+    assert!(num(&v, "cost") < 1e-12);
+    // known variances: the expected cost is N − p/2
+    assert_eq!(num(&v, "cost_expected"), 100.0 - 1.5);
+    // a frequency response with output variances only has no input noise to model
+    let mut frf = String::from("f,re,im,var\n");
+    for k in 1..=100 {
+        let w = 0.02 * k as f64;
+        let g = g_ct(w);
+        frf.push_str(&format!("{:e},{:e},{:e},1e-4\n", w / TAU, g.0, g.1));
+    }
+    let path = dir.file("frf.csv", &frf);
+    let mut a = vec!["fit", path.to_str().unwrap()];
+    a.extend_from_slice(&args);
+    expect_error(&a, "var_u");
+    assert_eq!(fdid(&a).status.code(), Some(1));
 }
