@@ -2,7 +2,11 @@
 //!
 //! `fdid fit DATA --domain s|z --na N --nb M …` reads a CSV file (frequency response,
 //! input/output spectra or a time record), fits a rational model and prints poles, zeros,
-//! gain, cost, noise level and θ with standard deviations, as text or as one JSON object.
+//! gain, cost, noise level, validation statistics and θ with standard deviations, as text
+//! or as one JSON object. `--delay` adds a time delay G·e^{−iωτ} (McKelvey section 4),
+//! `--transient` the transient term of a non-periodic record (eqs. 4–5, 9–10),
+//! `--noise-order N` a noise model H = C/D estimated by maximum likelihood (eq. 26), and
+//! `--criterion eiv` errors-in-variables maximum likelihood (eq. 42).
 
 mod cli;
 

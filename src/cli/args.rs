@@ -12,6 +12,7 @@ Examples:
   fdid fit data/eis_battery.csv --domain s --na 6 --nb 6 --band :1000
   fdid fit data/robot_arm.csv --domain z --na 4 --nb 4 --periods 1
   fdid fit frf.csv --domain z --ts 0.001 --na 2 --nb 2 --json
+  fdid fit step.csv --domain z --na 2 --nb 1 --transient --noise-order 1 --delay
 
 Run `fdid fit --help` for the data file formats and every option.";
 
@@ -28,21 +29,41 @@ also estimates per-line noise variances when P >= 2). The DC line (f = 0) and ev
 line where the input spectrum |U| is exactly zero are dropped: the input carries no
 information about G there. --domain s on a time record fits a continuous-time model to
 the DFT lines; this is an approximation, valid for band-limited data well below Nyquist.
+With --noise-order the lines without input are kept (they inform the noise model) and
+the Nyquist line is dropped as well (the DFT of a real record is real there).
 
 Frequency data carry no sample time: --domain z needs --ts. For a time record Ts comes
 from the t column; --ts may only repeat it.
 
 Output: domain, orders, criterion, lines used, cost V = sum |Y - G U|^2 / sigma^2,
-noise variance lambda = V/N, poles (rad/s, or z-plane for z, with natural frequency in
+noise variance lambda = V/N, the validation line (V against its expected value under the
+noise model with its p-value, and the Ljung-Box whiteness p-value of the normalised
+residuals across frequency), poles (rad/s, or z-plane for z, with natural frequency in
 Hz and damping ratio), zeros, gain, what each estimation stage did, and theta with
 standard deviations. With --json one JSON object:
   {\"domain\":\"s\"|\"z\", \"poles\":[[re,im],..], \"zeros\":[[re,im],..], \"cost\":x,
-   \"noise_variance\":x, \"frf\":[[f_hz,re,im],..], ...}
+   \"noise_variance\":x, \"frf\":[[f_hz,re,im],..], \"delay\":x|null,
+   \"cost_expected\":x|null, \"cost_p\":x|null, \"whiteness_p\":x|null,
+   \"covariance\":[[..],..]|null, \"noise_model\":{\"c\":[1,c1,..],\"d\":[1,d1,..],..}|null, ...}
 where poles and zeros are in rad/s (s) or in the z-plane (z; zeros at the origin left
-out) and frf is the fitted model at the frequencies (Hz) used in the fit. Further keys:
-na, nb, criterion, ts, lines, gain, stable, theta, theta_std, frf_std, stages,
-weighting, noise_known, relative_residual, notes, form (how theta parameterises the
-model), basis_poles. Values that are not finite are written as null.
+out) and frf is the fitted model (with the delay) at the frequencies (Hz) used in the
+fit. delay is tau in seconds, null without --delay; cost_expected and cost_p are null
+when the noise level is estimated from the residuals (flat weighting, noise model);
+covariance is that of theta (rows in the order of theta_names); noise_model holds C and
+D in ascending powers of z^-1 and the zeros and poles of H, null without --noise-order.
+Further keys: na, nb, criterion, ts, lines, gain, stable, theta, theta_names, theta_std,
+frf_std, stages, weighting, noise_known, relative_residual, notes, form (how theta
+parameterises the model), basis_poles, delay_std, delay_samples (tau/Ts, null without a
+sample time), transient (number of transient coefficients, 0 without --transient),
+noise_order, whiteness_lags. theta is [rational part, t1..tn (--transient), tau
+(--delay), c1..cN, d1..dN (--noise-order)]. Values that are not finite are written as null.
+
+Model extensions (they combine: --delay --transient --noise-order N all at once works):
+  --delay           G(iw) e^{-i w tau}; with --criterion ml or eiv
+  --transient       Y = G U + T for a non-periodic time record; any criterion
+  --noise-order N   ML with H = C/D of orders (N, N) on one time record; --criterion ml
+  --criterion eiv   input noise variances from --periods P >= 2 or var_u,var_y columns;
+                    combines with --delay and --transient, not with --noise-order
 
 Errors are reported on one line starting with `error:`; the exit status is 1 for bad
 data or a failed fit and 2 for bad usage.
@@ -50,7 +71,9 @@ data or a failed fit and 2 for bad usage.
 Examples:
   fdid fit data/eis_battery.csv --domain s --na 6 --nb 6 --band :1000
   fdid fit data/robot_arm.csv --domain z --na 4 --nb 4 --periods 1
-  fdid fit record.csv --domain z --na 2 --nb 1 --periods 4 --json";
+  fdid fit record.csv --domain z --na 2 --nb 1 --periods 4 --json
+  fdid fit record.csv --domain z --na 2 --nb 1 --periods 4 --criterion eiv --delay
+  fdid fit step.csv --domain z --na 2 --nb 1 --transient --noise-order 1";
 
 /// Frequency-domain system identification: fit rational transfer functions in s or z to
 /// measured frequency responses, spectra or periodic time records.
@@ -99,7 +122,9 @@ pub struct FitArgs {
 
     /// Estimator: ml = Levy, then Sanathanan-Koerner, then maximum likelihood
     /// (Levenberg-Marquardt); levy = Levy linear least squares only; sk = Levy, then
-    /// Sanathanan-Koerner; tls = total least squares on the equation error
+    /// Sanathanan-Koerner; tls = total least squares on the equation error; eiv =
+    /// errors-in-variables maximum likelihood (noise on the input too; needs input noise
+    /// variances: a time record with --periods P >= 2 or a spectra file with var_u,var_y)
     #[arg(long, value_enum, default_value_t = CriterionArg::Ml)]
     pub criterion: CriterionArg,
 
@@ -113,6 +138,23 @@ pub struct FitArgs {
     /// whole record is transformed
     #[arg(long, value_name = "P")]
     pub periods: Option<usize>,
+
+    /// Fit a delayed model G(iw) e^{-i w tau}: tau (s) is one more parameter, started from
+    /// the phase slope (McKelvey section 4). With --criterion ml or eiv
+    #[arg(long)]
+    pub delay: bool,
+
+    /// Add the transient (leakage) term T of a non-periodic record, Y = G U + T: in z,
+    /// T = (t1 + t2 z^-1 + ...)/A (eqs. 4-5); in s, the sampled transient of eqs. 9-10
+    /// (needs nb <= na). Needs a time record
+    #[arg(long)]
+    pub transient: bool,
+
+    /// Estimate a noise model H = C/D of orders (N, N) in z^-1 with the system, by maximum
+    /// likelihood (McKelvey eq. 26). Needs one time record (no --periods P >= 2) and
+    /// --criterion ml. At most 100
+    #[arg(long, value_name = "N")]
+    pub noise_order: Option<usize>,
 
     /// Print one JSON object instead of text
     #[arg(long)]
@@ -139,6 +181,8 @@ pub enum CriterionArg {
     Sk,
     /// Total least squares (SVD null vector)
     Tls,
+    /// Levy -> Sanathanan-Koerner -> ML -> errors-in-variables maximum likelihood
+    Eiv,
 }
 
 impl CriterionArg {
@@ -149,6 +193,7 @@ impl CriterionArg {
             Self::Levy => "levy",
             Self::Sk => "sk",
             Self::Tls => "tls",
+            Self::Eiv => "eiv",
         }
     }
 
@@ -159,6 +204,10 @@ impl CriterionArg {
             Self::Levy => "Levy linear least squares",
             Self::Sk => "Levy -> Sanathanan-Koerner",
             Self::Tls => "total least squares",
+            Self::Eiv => {
+                "Levy -> Sanathanan-Koerner -> maximum likelihood -> errors-in-variables \
+                 maximum likelihood (eq. 42)"
+            }
         }
     }
 }

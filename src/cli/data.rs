@@ -2,6 +2,7 @@
 
 use super::Failure;
 use super::args::{DomainArg, FitArgs, parse_band};
+use fdid::criterion::interior_lines;
 use fdid::io::{Measurement, read_csv};
 use fdid::prelude::*;
 use std::result::Result;
@@ -12,6 +13,10 @@ pub struct Prepared {
     pub data: FrequencyData<f64>,
     /// Sample time of the model (z only).
     pub ts: Option<f64>,
+    /// Sample time of the measurement: the time record's, or --ts for frequency data.
+    pub record_ts: Option<f64>,
+    /// Whether the data come from a time record (t,u,y).
+    pub time_record: bool,
     /// One-line description of the source.
     pub source: String,
     /// How the lines are weighted.
@@ -28,6 +33,7 @@ pub fn prepare(args: &FitArgs) -> Result<Prepared, Failure> {
         e => Failure::runtime(format!("{}: {e}", args.data.display())),
     })?;
     let mut notes = Vec::new();
+    let time_record = matches!(measurement, Measurement::Time(_));
     let (data, ts, mut source) = match measurement {
         Measurement::Frequency(data) => {
             if let Some(p) = args.periods {
@@ -83,7 +89,13 @@ pub fn prepare(args: &FitArgs) -> Result<Prepared, Failure> {
                 None => (record.dft(), "DFT of the whole record".to_string()),
             };
             let total = data.len();
-            let data = drop_uninformative(data)?;
+            // a noise model is also identified from the lines without input
+            let data = drop_uninformative(data, args.noise_order.is_some())?;
+            let (data, what) = if args.noise_order.is_some() {
+                (interior_lines(&data)?, "DC or Nyquist")
+            } else {
+                (data, "DC or zero input")
+            };
             let dropped = total - data.len();
             if args.domain == DomainArg::S {
                 notes.push(
@@ -100,7 +112,7 @@ pub fn prepare(args: &FitArgs) -> Result<Prepared, Failure> {
                 },
                 format!(
                     "time record, {n} samples, Ts = {ts} s, {how}; {total} lines, {dropped} \
-                     dropped (DC or zero input)"
+                     dropped ({what})"
                 ),
             )
         }
@@ -130,31 +142,44 @@ pub fn prepare(args: &FitArgs) -> Result<Prepared, Failure> {
         }
     };
 
+    let record_ts = data.ts();
     let (data, weighting) = weighting(data, &mut notes)?;
     Ok(Prepared {
         data,
         ts,
+        record_ts,
+        time_record,
         source,
         weighting,
         notes,
     })
 }
 
-/// Drops the DC line and every line with an exactly zero input spectrum.
-fn drop_uninformative(data: FrequencyData<f64>) -> Result<FrequencyData<f64>, Failure> {
-    let keep: Vec<bool> = data
+/// Drops the DC line and, unless `keep_unexcited`, every line with an exactly zero input
+/// spectrum; fails when the input is zero on every line above DC.
+fn drop_uninformative(
+    data: FrequencyData<f64>,
+    keep_unexcited: bool,
+) -> Result<FrequencyData<f64>, Failure> {
+    let excited = |w: f64, u: &Complex<f64>| w > 0.0 && u.norm_sqr() > 0.0;
+    if !data
         .omega()
         .iter()
         .zip(data.u())
-        .map(|(w, u)| *w > 0.0 && u.norm_sqr() > 0.0)
-        .collect();
-    if !keep.iter().any(|k| *k) {
+        .any(|(w, u)| excited(*w, u))
+    {
         return Err(Failure::runtime(
             "the input spectrum is zero on every line above DC: the record carries no \
              information about the system"
                 .into(),
         ));
     }
+    let keep: Vec<bool> = data
+        .omega()
+        .iter()
+        .zip(data.u())
+        .map(|(w, u)| excited(*w, u) || (keep_unexcited && *w > 0.0))
+        .collect();
     select(&data, &keep)
 }
 

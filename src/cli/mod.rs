@@ -5,8 +5,11 @@ mod data;
 mod report;
 
 use args::{Cli, Command, CriterionArg, DomainArg, FitArgs, MAX_ORDER};
+use data::Prepared;
+use fdid::criterion::{EivProblem, NoiseModelProblem, NoiseModelResiduals};
 use fdid::fit::Stage;
 use fdid::prelude::*;
+use report::{Parts, Report};
 use std::result::Result;
 
 /// A failure, reported as one `error:` line with exit status `code`.
@@ -45,14 +48,20 @@ pub fn run(cli: &Cli) -> Result<String, Failure> {
 
 /// `fdid fit`.
 fn fit(args: &FitArgs) -> Result<String, Failure> {
-    for (name, v) in [("--na", args.na), ("--nb", args.nb)] {
+    for (name, v) in [
+        ("--na", args.na),
+        ("--nb", args.nb),
+        ("--noise-order", args.noise_order.unwrap_or(0)),
+    ] {
         if v > MAX_ORDER {
             return Err(Failure::usage(format!(
                 "invalid {name} {v}: orders above {MAX_ORDER} are not supported"
             )));
         }
     }
+    check_combinations(args)?;
     let prepared = data::prepare(args)?;
+    check_data_kind(args, &prepared)?;
     let data = &prepared.data;
     let p = args.na + args.nb + 1;
     if 2 * data.len() < p {
@@ -63,8 +72,147 @@ fn fit(args: &FitArgs) -> Result<String, Failure> {
         }
         .into());
     }
+    let model = model(args, &prepared)?;
+    let method = Method::of(args);
+    let report = match (args.delay, args.noise_order) {
+        (false, None) => {
+            let fit = estimate_with(args.criterion, &model, data)?;
+            Report::new(
+                args,
+                &prepared,
+                &fit,
+                method.parts(fit.model(), false, None),
+            )?
+        }
+        (true, None) => {
+            let fit = fit_with_delay(args.criterion, &model, data)?;
+            Report::new(
+                args,
+                &prepared,
+                &fit,
+                method.parts(fit.model().inner(), true, None),
+            )?
+        }
+        (false, Some(n)) => {
+            let fit = fit_noise_model(&Pipeline::default(), &model, data, n, n)?;
+            let noise = fit.model().noise::<f64>();
+            Report::new(
+                args,
+                &prepared,
+                &fit,
+                method.parts(fit.model().system(), false, Some(noise)),
+            )?
+        }
+        (true, Some(n)) => {
+            let fit = fit_delay_noise_model(&model, data, n)?;
+            let noise = fit.model().noise::<f64>();
+            Report::new(
+                args,
+                &prepared,
+                &fit,
+                method.parts(fit.model().system().inner(), true, Some(noise)),
+            )?
+        }
+    };
+    Ok(if args.json {
+        report.json()
+    } else {
+        report.text()
+    })
+}
+
+/// Rejects the combinations of flags the estimators do not compose, naming both flags.
+fn check_combinations(args: &FitArgs) -> Result<(), Failure> {
+    let c = args.criterion.name();
+    if let Some(n) = args.noise_order {
+        if n == 0 {
+            return Err(Failure::usage(
+                "invalid --noise-order 0: the noise model H = C/D needs order 1 or more \
+                 (without --noise-order the noise is taken as white)"
+                    .into(),
+            ));
+        }
+        if args.criterion != CriterionArg::Ml {
+            return Err(Failure::usage(format!(
+                "--noise-order cannot be combined with --criterion {c}: the noise model is \
+                 estimated by maximum likelihood (--criterion ml)"
+            )));
+        }
+        if let Some(p) = args.periods.filter(|p| *p >= 2) {
+            return Err(Failure::usage(format!(
+                "--noise-order cannot be combined with --periods {p}: the noise model is \
+                 estimated from one record (drop --periods, or use --periods {p} without \
+                 --noise-order to weight by the nonparametric noise variances)"
+            )));
+        }
+    }
+    if args.delay && !matches!(args.criterion, CriterionArg::Ml | CriterionArg::Eiv) {
+        return Err(Failure::usage(format!(
+            "--delay cannot be combined with --criterion {c}: the delay enters nonlinearly \
+             and is fitted by --criterion ml or eiv"
+        )));
+    }
+    if args.transient && args.domain == DomainArg::S && args.nb > args.na {
+        return Err(Failure::usage(format!(
+            "--transient with --domain s needs --nb <= --na (the partial-fraction form), \
+             got --na {} --nb {}",
+            args.na, args.nb
+        )));
+    }
+    Ok(())
+}
+
+/// Rejects flags that the kind of data at hand cannot serve.
+fn check_data_kind(args: &FitArgs, prepared: &Prepared) -> Result<(), Failure> {
+    let file = args.data.display();
+    if !prepared.time_record {
+        if args.transient {
+            return Err(Failure::usage(format!(
+                "--transient needs a time record (t,u,y): the transient of a non-periodic \
+                 record is modelled on its DFT, but {file} holds frequency data"
+            )));
+        }
+        if let Some(n) = args.noise_order {
+            return Err(Failure::usage(format!(
+                "--noise-order {n} needs a time record (t,u,y): the noise model is estimated \
+                 from the DFT of one record, but {file} holds frequency data"
+            )));
+        }
+    }
+    if args.criterion == CriterionArg::Eiv {
+        match prepared.data.noise() {
+            None => {
+                return Err(Failure::usage(format!(
+                    "--criterion eiv needs input and output noise variances: pass a time \
+                     record with --periods P >= 2 or a spectra file with var_u,var_y columns \
+                     ({file} with these options gives none{})",
+                    if prepared
+                        .notes
+                        .iter()
+                        .any(|n| n.contains("variance is zero"))
+                    {
+                        ": its noise variances are zero"
+                    } else {
+                        ""
+                    }
+                )));
+            }
+            Some(noise) if noise.var_u.iter().all(|v| *v == 0.0) => {
+                return Err(Failure::runtime(format!(
+                    "--criterion eiv: the input noise variance var_u is zero on every line of \
+                     {file}: there is no input noise to model; use --criterion ml"
+                )));
+            }
+            Some(_) => {}
+        }
+    }
+    Ok(())
+}
+
+/// The rational model of the flags, with the transient term when asked for.
+fn model(args: &FitArgs, prepared: &Prepared) -> Result<Rational<f64>, Failure> {
     let model = match (args.domain, prepared.ts) {
-        (DomainArg::S, _) => Rational::continuous(args.na, args.nb, data.omega())?,
+        (DomainArg::S, _) => Rational::continuous(args.na, args.nb, prepared.data.omega())?,
         (DomainArg::Z, Some(ts)) => Rational::discrete(args.na, args.nb, ts)?,
         (DomainArg::Z, None) => {
             return Err(Failure::usage(
@@ -72,9 +220,74 @@ fn fit(args: &FitArgs) -> Result<String, Failure> {
             ));
         }
     };
-    let fit = estimate_with(args.criterion, &model, data)?;
-    let out = report::Report::new(args, &prepared, &fit)?;
-    Ok(if args.json { out.json() } else { out.text() })
+    if !args.transient {
+        return Ok(model);
+    }
+    Ok(match (args.domain, prepared.record_ts) {
+        (DomainArg::Z, _) => model.with_transient()?,
+        (DomainArg::S, Some(ts)) => model.with_sampled_transient(ts)?,
+        (DomainArg::S, None) => {
+            return Err(Failure::usage(
+                "--transient needs a time record (t,u,y) for its sample time".into(),
+            ));
+        }
+    })
+}
+
+/// How the estimate was made, for the report.
+struct Method {
+    description: String,
+    weighting: Option<String>,
+}
+
+impl Method {
+    fn of(args: &FitArgs) -> Self {
+        let mut description = if args.delay {
+            "delay from the phase slope, Levy -> Sanathanan-Koerner -> maximum likelihood on \
+             the delay-compensated lines, maximum likelihood of the delayed model (eq. 23)"
+                .to_string()
+        } else {
+            args.criterion.description().to_string()
+        };
+        let mut weighting = None;
+        if args.delay && args.criterion == CriterionArg::Eiv {
+            description.push_str(", errors-in-variables maximum likelihood (eq. 42)");
+        }
+        if args.criterion == CriterionArg::Eiv {
+            weighting = Some(
+                "1/sigma_k(theta), sigma_k^2 = var_y + |G|^2 var_u - 2 Re(conj(G) cov_yu) \
+                 (errors-in-variables, eq. 42)"
+                    .into(),
+            );
+        }
+        if let Some(n) = args.noise_order {
+            description = format!(
+                "start: {description}, with flat weighting; then maximum likelihood with the \
+                 noise model H = C/D of orders ({n}, {n}) (eq. 26)"
+            );
+            weighting =
+                Some("1/|H_k| from the estimated noise model; lambda estimated (eq. 25)".into());
+        }
+        Self {
+            description,
+            weighting,
+        }
+    }
+
+    fn parts<'a>(
+        &self,
+        rational: &'a Rational<f64>,
+        delay: bool,
+        noise: Option<NoiseModel<f64>>,
+    ) -> Parts<'a> {
+        Parts {
+            rational,
+            delay,
+            noise,
+            description: self.description.clone(),
+            weighting: self.weighting.clone(),
+        }
+    }
 }
 
 /// Runs the chosen estimator.
@@ -97,5 +310,134 @@ fn estimate_with(
             }];
             Fit::new(model.clone(), data, theta, tls.weighting, stages)?
         }
+        CriterionArg::Eiv => fit_eiv(&Pipeline::default(), model, data)?,
     })
+}
+
+/// The delayed model G e^{−iωτ}: [`fit_delayed`] (output-error ML, eq. 23) and, for
+/// `eiv`, errors-in-variables ML (eq. 42) from there.
+fn fit_with_delay(
+    criterion: CriterionArg,
+    model: &Rational<f64>,
+    data: &FrequencyData<f64>,
+) -> Result<Fit<f64, Delayed<Rational<f64>>>, Failure> {
+    let eiv = ErrorsInVariables::default();
+    match criterion {
+        CriterionArg::Ml => Ok(fit_delayed(&Pipeline::default(), model, data)?),
+        CriterionArg::Eiv => {
+            // validate first, so that unsuitable data get the errors-in-variables message
+            drop(eiv.problem(model, data)?);
+            let start = fit_delayed(&Pipeline::default(), model, data)?;
+            let delayed = start.model().clone();
+            let mut stages = start.stages().to_vec();
+            let theta0 = start.theta().to_vec();
+            drop(start);
+            let lm = LevenbergMarquardt::default();
+            let solution = estimate(&delayed, data, &eiv, &lm, Some(&theta0))?;
+            let theta = solution.theta.clone();
+            stages.push(Stage {
+                name: "eiv".into(),
+                solution,
+            });
+            if let Some(tau) = delayed.delay(&theta) {
+                delayed.check_delay(tau)?;
+            }
+            let problem = EivProblem::new(&delayed, data, eiv.use_covariance)?;
+            Ok(Fit::from_problem(
+                delayed.clone(),
+                data,
+                theta,
+                &problem,
+                NoiseLevel::Known,
+                stages,
+            )?)
+        }
+        c => Err(Failure::usage(format!(
+            "--delay cannot be combined with --criterion {}",
+            c.name()
+        ))),
+    }
+}
+
+/// A delayed rational model with a noise model.
+type DelayedWithNoise = WithNoiseModel<Delayed<Rational<f64>>>;
+
+/// The delayed model with a noise model H = C/D of orders (n, n), as
+/// [`fit_noise_model`] does for an undelayed one: [`fit_delayed`] with flat weighting on
+/// the excited lines as the start (η = 0, H = 1), then the concentrated ML criterion of
+/// McKelvey eq. 26.
+fn fit_delay_noise_model(
+    model: &Rational<f64>,
+    data: &FrequencyData<f64>,
+    n: usize,
+) -> Result<Fit<f64, DelayedWithNoise>, Failure> {
+    let excited: Vec<bool> = data.u().iter().map(|u| u.norm_sqr() > 0.0).collect();
+    let flat = Pipeline {
+        weighting: NoiseWeighting::Flat,
+        ..Pipeline::default()
+    };
+    let start = fit_delayed(&flat, model, &data.select_lines(&excited)?.without_noise())?;
+    let fit = noise_model_ml(start, data, n)?;
+    let delayed = fit.model().system();
+    if let Some(tau) = delayed.delay(fit.model().split(fit.theta()).0) {
+        delayed.check_delay(tau)?;
+    }
+    Ok(fit)
+}
+
+/// Maximum likelihood with a noise model H = C/D of orders (n, n) (McKelvey eq. 26,
+/// [`NoiseModelMl`]) from the system estimate `start` and η = 0; H made stable and
+/// inversely stable ([`NoiseModel::stabilised`], which leaves the criterion unchanged) and
+/// polished once more when a root was reflected; statistics from the innovations
+/// (Y − Ŷ)/H (λ estimated).
+fn noise_model_ml<M: ModelStructure<f64> + Clone>(
+    start: Fit<f64, M>,
+    data: &FrequencyData<f64>,
+    n: usize,
+) -> Result<Fit<f64, WithNoiseModel<M>>, FdidError> {
+    let ts = data.ts().ok_or_else(|| FdidError::InvalidArgument {
+        name: "ts",
+        value: "none".into(),
+        reason: "a noise model H(z) is discrete time: the data need a sample time".into(),
+    })?;
+    let noise = NoiseModel::new(n, n, ts)?;
+    let full = WithNoiseModel::new(start.model().clone(), noise);
+    let p = start.model().n_params();
+    let mut stages = start.stages().to_vec();
+    let mut theta = start.theta().to_vec();
+    theta.extend(std::iter::repeat_n(0.0, noise.n_params()));
+    drop(start);
+    let lm = LevenbergMarquardt::default();
+    let solution = estimate(&full, data, &NoiseModelMl, &lm, Some(&theta))?;
+    theta = solution.theta.clone();
+    stages.push(Stage {
+        name: "noise-model ml".into(),
+        solution,
+    });
+    let stabilise = |theta: &mut Vec<f64>| -> Result<bool, FdidError> {
+        let eta = noise.stabilised(&theta[p..])?;
+        let changed = eta != theta[p..];
+        theta.truncate(p);
+        theta.extend(eta);
+        Ok(changed)
+    };
+    if stabilise(&mut theta)? {
+        let solution = estimate(&full, data, &NoiseModelMl, &lm, Some(&theta))?;
+        theta = solution.theta.clone();
+        stages.push(Stage {
+            name: "noise-model ml (H stabilised)".into(),
+            solution,
+        });
+        stabilise(&mut theta)?;
+    }
+    let problem =
+        NoiseModelProblem::new(&full, data)?.with_residuals(NoiseModelResiduals::Innovations);
+    Fit::from_problem(
+        full.clone(),
+        data,
+        theta,
+        &problem,
+        NoiseLevel::Estimated,
+        stages,
+    )
 }

@@ -1,11 +1,13 @@
 //! The results of a fit, as text or as one JSON object.
 
 use super::Failure;
-use super::args::{DomainArg, FitArgs};
+use super::args::{CriterionArg, DomainArg, FitArgs};
 use super::data::Prepared;
 use fdid::basis::PolyBasis;
+use fdid::model::Output;
 use fdid::prelude::*;
 use fdid::solver::Termination;
+use fdid::validation::Validation;
 use serde_json::{Value, json};
 use std::fmt::Write as _;
 use std::result::Result;
@@ -46,15 +48,38 @@ impl Form {
     }
 }
 
+/// What the fitted model holds besides its rational part, and how it was estimated.
+pub struct Parts<'a> {
+    /// The (inner) rational model: the form and naming of its θ entries, which come first.
+    pub rational: &'a Rational<f64>,
+    /// θ holds a delay τ (s) after the rational entries.
+    pub delay: bool,
+    /// θ ends with the parameters η = [c₁ … c_nc, d₁ … d_nd] of this noise model.
+    pub noise: Option<NoiseModel<f64>>,
+    /// What the estimator ran.
+    pub description: String,
+    /// How the lines are weighted, when the criterion decides it (else the data's).
+    pub weighting: Option<String>,
+}
+
+/// The fitted noise model H = C/D.
+struct NoiseRow {
+    c: Vec<f64>,
+    d: Vec<f64>,
+    zeros: Vec<Complex<f64>>,
+    poles: Vec<Complex<f64>>,
+}
+
 /// Everything printed about a fit.
 pub struct Report {
     form: Form,
     domain: DomainArg,
     ts: Option<f64>,
+    record_ts: Option<f64>,
     na: usize,
     nb: usize,
     criterion: &'static str,
-    criterion_description: &'static str,
+    criterion_description: String,
     file: String,
     source: String,
     weighting: String,
@@ -65,6 +90,7 @@ pub struct Report {
     cost: f64,
     noise_variance: f64,
     noise_known: bool,
+    errors_in_variables: bool,
     relative_residual: f64,
     poles: Vec<Complex<f64>>,
     zeros: Vec<Complex<f64>>,
@@ -72,15 +98,26 @@ pub struct Report {
     stable: bool,
     theta: Vec<f64>,
     theta_std: Option<Vec<f64>>,
+    covariance: Option<Vec<Vec<f64>>>,
+    validation: Validation,
+    /// Number of θ entries of the rational part without its transient coefficients.
+    n_rational: usize,
+    /// Number of transient coefficients.
+    n_transient: usize,
+    /// τ (s) and its standard deviation.
+    delay: Option<(f64, Option<f64>)>,
+    noise_model: Option<NoiseRow>,
     stages: Vec<StageRow>,
 }
 
 impl Report {
-    /// Collects the results of `fit`.
-    pub fn new(
+    /// Collects the results of `fit`, a model whose θ is laid out as `parts` says:
+    /// [rational (with its transient coefficients last), τ, c₁ … c_nc, d₁ … d_nd].
+    pub fn new<M: ModelStructure<f64> + PolesZeros<f64>>(
         args: &FitArgs,
         prepared: &Prepared,
-        fit: &Fit<f64, Rational<f64>>,
+        fit: &Fit<f64, M>,
+        parts: Parts<'_>,
     ) -> Result<Self, Failure> {
         let ts = prepared.ts;
         let key = |z: &Complex<f64>| {
@@ -115,31 +152,75 @@ impl Report {
                 cost: s.solution.cost,
             })
             .collect();
+        let theta = fit.theta().to_vec();
+        let theta_std = fit.theta_std();
+        let n_transient = parts.rational.n_transient();
+        let n_rp = parts.rational.n_params();
+        let delay = parts
+            .delay
+            .then(|| {
+                theta
+                    .get(n_rp)
+                    .map(|t| (*t, theta_std.as_ref().map(|s| s[n_rp])))
+            })
+            .flatten();
+        let noise_model = match parts.noise {
+            None => None,
+            Some(h) => {
+                let eta = &theta[theta.len() - h.n_params()..];
+                let (c, d) = h.polynomials(eta);
+                Some(NoiseRow {
+                    c,
+                    d,
+                    zeros: h.zeros(eta)?,
+                    poles: h.poles(eta)?,
+                })
+            }
+        };
+        let covariance = fit.covariance().map(|c| {
+            c.row_iter()
+                .map(|r| r.iter().copied().collect())
+                .collect::<Vec<Vec<f64>>>()
+        });
         Ok(Self {
-            form: Form::of(fit.model().basis()),
+            form: Form::of(parts.rational.basis()),
             domain: args.domain,
             ts,
+            record_ts: prepared.record_ts,
             na: args.na,
             nb: args.nb,
             criterion: args.criterion.name(),
-            criterion_description: args.criterion.description(),
+            criterion_description: parts.description,
             file: args.data.display().to_string(),
             source: prepared.source.clone(),
-            weighting: prepared.weighting.clone(),
+            weighting: parts
+                .weighting
+                .unwrap_or_else(|| prepared.weighting.clone()),
             notes: prepared.notes.clone(),
-            f_hz: prepared.data.freq_hz(),
+            f_hz: fit
+                .omega()
+                .iter()
+                .map(|w| w / std::f64::consts::TAU)
+                .collect(),
             frf: fit.response().to_vec(),
             frf_std: fit.response_std().map(<[f64]>::to_vec),
             cost: fit.cost(),
             noise_variance: fit.noise_variance(),
             noise_known: fit.noise_known(),
-            relative_residual: relative_residual(&prepared.data, fit.response()),
+            errors_in_variables: args.criterion == CriterionArg::Eiv,
+            relative_residual: relative_residual(fit.model(), fit.theta(), &prepared.data),
             poles,
             zeros,
             gain: fit.gain(),
             stable,
-            theta: fit.theta().to_vec(),
-            theta_std: fit.theta_std(),
+            theta,
+            theta_std,
+            covariance,
+            validation: fit.validation().clone(),
+            n_rational: n_rp - n_transient,
+            n_transient,
+            delay,
+            noise_model,
             stages,
         })
     }
@@ -151,8 +232,30 @@ impl Report {
         }
     }
 
-    /// Names of the parameters θ, and what they are.
+    /// Names of the parameters θ, and what they are: the rational part, then t1 … tn
+    /// (transient), tau (delay), c1 …, d1 … (noise model).
     fn theta_names(&self) -> (Vec<String>, &'static str) {
+        let (mut names, caption) = self.rational_names();
+        names.extend((1..=self.n_transient).map(|k| format!("t{k}")));
+        if self.delay.is_some() {
+            names.push("tau".into());
+        }
+        if let Some(h) = &self.noise_model {
+            names.extend((1..h.c.len()).map(|k| format!("c{k}")));
+            names.extend((1..h.d.len()).map(|k| format!("d{k}")));
+        }
+        if names.len() == self.theta.len() {
+            (names, caption)
+        } else {
+            (
+                (1..=self.theta.len()).map(|k| format!("p{k}")).collect(),
+                caption,
+            )
+        }
+    }
+
+    /// Names of the entries of θ of the rational part (without the transient).
+    fn rational_names(&self) -> (Vec<String>, &'static str) {
         let (na, nb) = (self.na, self.nb);
         let (a, b, caption): (Vec<String>, Vec<String>, _) = match self.form {
             Form::Orthonormal => (
@@ -183,14 +286,33 @@ impl Report {
             ),
         };
         let names: Vec<String> = a.into_iter().chain(b).collect();
-        if names.len() == self.theta.len() {
+        if names.len() == self.n_rational {
             (names, caption)
         } else {
             (
-                (1..=self.theta.len()).map(|k| format!("p{k}")).collect(),
+                (1..=self.n_rational).map(|k| format!("p{k}")).collect(),
                 caption,
             )
         }
+    }
+
+    /// Cost against its expected value and whiteness of the residuals, on one line.
+    fn validation_line(&self) -> String {
+        let v = &self.validation;
+        let cost = match (v.cost_expected, v.cost_p) {
+            (Some(e), Some(p)) => format!("V = {} vs expected {} (p = {})", g(v.cost), g(e), g(p)),
+            (Some(e), None) => format!("V = {} vs expected {}", g(v.cost), g(e)),
+            _ => "cost test n/a (noise level estimated from the residuals)".to_string(),
+        };
+        let white = match v.whiteness_p {
+            Some(p) => format!(
+                "whiteness p = {} ({} lags, Ljung-Box)",
+                g(p),
+                v.whiteness_lags
+            ),
+            None => "whiteness test n/a (fewer than 8 lines)".to_string(),
+        };
+        format!("{cost}; {white}")
     }
 
     /// The JSON object (one line).
@@ -217,6 +339,27 @@ impl Report {
                 })
             })
             .collect();
+        let v = &self.validation;
+        let opt = |x: Option<f64>| x.map_or(Value::Null, num);
+        let (delay, delay_std) = match self.delay {
+            Some((t, s)) => (num(t), opt(s)),
+            None => (Value::Null, Value::Null),
+        };
+        let delay_samples = match (self.delay, self.record_ts) {
+            (Some((t, _)), Some(ts)) => num(t / ts),
+            _ => Value::Null,
+        };
+        let noise_model = self.noise_model.as_ref().map_or(Value::Null, |h| {
+            json!({
+                "c": nums(&h.c),
+                "d": nums(&h.d),
+                "zeros": pairs(&h.zeros),
+                "poles": pairs(&h.poles),
+            })
+        });
+        let covariance = self.covariance.as_ref().map_or(Value::Null, |c| {
+            Value::Array(c.iter().map(|row| nums(row)).collect())
+        });
         let obj = json!({
             "domain": self.domain_name(),
             "poles": pairs(&self.poles),
@@ -244,6 +387,18 @@ impl Report {
                 _ => Value::Null,
             },
             "stages": stages,
+            "theta_names": self.theta_names().0,
+            "covariance": covariance,
+            "delay": delay,
+            "delay_std": delay_std,
+            "delay_samples": delay_samples,
+            "transient": self.n_transient,
+            "noise_order": self.noise_model.as_ref().map_or(Value::Null, |h| json!(h.d.len() - 1)),
+            "noise_model": noise_model,
+            "cost_expected": opt(v.cost_expected),
+            "cost_p": opt(v.cost_p),
+            "whiteness_p": opt(v.whiteness_p),
+            "whiteness_lags": v.whiteness_lags,
         });
         let mut s = obj.to_string();
         s.push('\n');
@@ -287,20 +442,54 @@ impl Report {
             g(fmax)
         );
         let _ = writeln!(w, "weighting    {}", self.weighting);
+        let resid = if self.n_transient > 0 {
+            "Y - G U - T"
+        } else {
+            "Y - G U"
+        };
+        let scale = if self.noise_model.is_some() {
+            " / |H_k|^2"
+        } else if self.errors_in_variables {
+            " / sigma_k(theta)^2"
+        } else if self.noise_known {
+            " / sigma_k^2"
+        } else {
+            ""
+        };
         let _ = writeln!(
             w,
-            "cost         V = {}{}",
-            g(self.cost),
-            if self.noise_known {
-                " (sum of |Y - G U|^2 / sigma_k^2)"
-            } else {
-                " (sum of |Y - G U|^2)"
-            }
+            "cost         V = {} (sum of |{resid}|^2{scale})",
+            g(self.cost)
         );
         let _ = writeln!(w, "noise var.   lambda = V/N = {}", g(self.noise_variance));
+        let _ = writeln!(w, "validation   {}", self.validation_line());
+        if let Some((tau, std)) = self.delay {
+            let pm = |s: Option<f64>| s.map_or_else(String::new, |s| format!(" +/- {}", g(s)));
+            let samples = self.record_ts.map_or_else(String::new, |ts| {
+                format!(
+                    " = {}{} samples of Ts = {} s",
+                    g(tau / ts),
+                    pm(std.map(|s| s / ts)),
+                    g(ts)
+                )
+            });
+            let _ = writeln!(
+                w,
+                "delay        tau = {}{} s{samples}  (G = G_0 exp(-i w tau))",
+                g(tau),
+                pm(std)
+            );
+        }
+        if self.n_transient > 0 {
+            let _ = writeln!(
+                w,
+                "transient    Y = G U + T, {} coefficients t1..t{} (leakage of a non-periodic record)",
+                self.n_transient, self.n_transient
+            );
+        }
         let _ = writeln!(
             w,
-            "rel. resid.  {} (sqrt(sum |Y - G U|^2 / sum |Y|^2), unweighted)",
+            "rel. resid.  {} (sqrt(sum |{resid}|^2 / sum |Y|^2), unweighted)",
             g(self.relative_residual)
         );
         let _ = writeln!(
@@ -362,12 +551,56 @@ impl Report {
             }
         }
 
+        if let Some(h) = &self.noise_model {
+            let _ = writeln!(w);
+            let poly = |p: &[f64]| {
+                let mut t = String::from("1");
+                for (k, v) in p.iter().enumerate().skip(1) {
+                    let sign = if *v < 0.0 { '-' } else { '+' };
+                    let _ = write!(t, " {sign} {} z^-{k}", g(v.abs()));
+                }
+                t
+            };
+            let _ = writeln!(
+                w,
+                "noise model  H = C/D, orders ({}, {}); lambda = {} is the innovation variance",
+                h.c.len() - 1,
+                h.d.len() - 1,
+                g(self.noise_variance)
+            );
+            let _ = writeln!(w, "  C = {}", poly(&h.c));
+            let _ = writeln!(w, "  D = {}", poly(&h.d));
+            for (title, roots) in [("zeros", &h.zeros), ("poles", &h.poles)] {
+                let list: Vec<String> = roots
+                    .iter()
+                    .map(|z| {
+                        format!(
+                            "{} {} {}i",
+                            g(z.re),
+                            if z.im < 0.0 { "-" } else { "+" },
+                            g(z.im.abs())
+                        )
+                    })
+                    .collect();
+                let _ = writeln!(
+                    w,
+                    "  {title} of H (z-plane): {}",
+                    if list.is_empty() {
+                        "none".into()
+                    } else {
+                        list.join(", ")
+                    }
+                );
+            }
+        }
+
         let _ = writeln!(w);
         let _ = writeln!(w, "stages");
+        let width = self.stages.iter().map(|s| s.name.len()).max().unwrap_or(0);
         for s in &self.stages {
             let _ = writeln!(
                 w,
-                "  {:<6} {:>5} iterations  {:<22} cost {}",
+                "  {:<width$} {:>5} iterations  {:<22} cost {}",
                 s.name,
                 s.iterations,
                 s.termination,
@@ -409,11 +642,19 @@ impl Report {
     }
 }
 
-/// sqrt(Σ|Y − G U|² / Σ|Y|²) over the lines fitted.
-fn relative_residual(data: &FrequencyData<f64>, g: &[Complex<f64>]) -> f64 {
+/// sqrt(Σ|Y − Ŷ|² / Σ|Y|²) over the lines fitted, Ŷ = G U + T.
+fn relative_residual<M: ModelStructure<f64>>(
+    model: &M,
+    theta: &[f64],
+    data: &FrequencyData<f64>,
+) -> f64 {
+    let mut out = Output::new(data.len(), model.n_params());
+    if !out.evaluate(model, theta, data, false) {
+        return f64::NAN;
+    }
     let (mut r, mut y) = (0.0, 0.0);
-    for ((gk, yk), uk) in g.iter().zip(data.y()).zip(data.u()) {
-        r += (*yk - *gk * *uk).norm_sqr();
+    for (yh, yk) in out.yhat.iter().zip(data.y()) {
+        r += (*yk - *yh).norm_sqr();
         y += yk.norm_sqr();
     }
     (r / y).sqrt()
