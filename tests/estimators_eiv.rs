@@ -18,7 +18,7 @@
 
 mod common;
 
-use common::{Noise, RandomSystem, dt_theta, random_dt_system, rel_rms};
+use common::{Noise, RandomSystem, central_difference, dt_theta, random_dt_system, rel_rms};
 use fdid::criterion::{EivProblem, MlProblem};
 use fdid::prelude::*;
 use fdid::problem::NonlinearProblem;
@@ -49,46 +49,6 @@ fn sem(x: &[f64]) -> f64 {
 fn chi2_quantile(df: f64, z: f64) -> f64 {
     let a = 2.0 / (9.0 * df);
     df * (1.0 - a + z * a.sqrt()).powi(3)
-}
-
-/// Richardson-extrapolated central difference of `f` along coordinate `j` at `theta`,
-/// with the step picked (among 10⁻¹ … 10⁻⁸ · max(1, |θ_j|)) where the estimate changes
-/// least towards the next smaller step (as tests/estimators_jacobian.rs).
-fn central_difference<F: Fn(&[f64]) -> Vec<f64>>(f: F, theta: &[f64], j: usize) -> Vec<f64> {
-    let diff = |h: f64| {
-        let mut tp = theta.to_vec();
-        let mut tm = theta.to_vec();
-        tp[j] += h;
-        tm[j] -= h;
-        let (fp, fm) = (f(&tp), f(&tm));
-        let dh = tp[j] - tm[j];
-        fp.iter()
-            .zip(&fm)
-            .map(|(a, b)| (a - b) / dh)
-            .collect::<Vec<f64>>()
-    };
-    let richardson = |h: f64| {
-        let (d1, d2) = (diff(h), diff(h / 2.0));
-        d1.iter()
-            .zip(&d2)
-            .map(|(a, b)| (4.0 * b - a) / 3.0)
-            .collect::<Vec<f64>>()
-    };
-    let scale = theta[j].abs().max(1.0);
-    let estimates: Vec<Vec<f64>> = (1..=8)
-        .map(|e| richardson(scale * 10f64.powi(-e)))
-        .collect();
-    let spread = |i: usize| {
-        estimates[i]
-            .iter()
-            .zip(&estimates[i + 1])
-            .map(|(x, y)| (x - y).abs())
-            .fold(0.0, f64::max)
-    };
-    let best = (0..estimates.len() - 1)
-        .min_by(|x, y| spread(*x).total_cmp(&spread(*y)))
-        .unwrap();
-    estimates[best].clone()
 }
 
 /// Checks `problem.jacobian_into` at `theta` against central differences of

@@ -18,7 +18,7 @@
 
 mod common;
 
-use common::{dt_theta, random_dt_system};
+use common::{central_difference, dt_theta, random_dt_system};
 use fdid::criterion::MlProblem;
 use fdid::prelude::*;
 use fdid::problem::NonlinearProblem;
@@ -28,45 +28,6 @@ use rand::{Rng, SeedableRng};
 
 const REL_TOL: f64 = 1e-6;
 const CASES: u64 = 200;
-
-/// Richardson-extrapolated central difference of the vector function `f` along
-/// coordinate `j` at `theta`, with the step chosen as described in the module docs.
-fn central_difference<F: Fn(&[f64]) -> Vec<f64>>(f: F, theta: &[f64], j: usize) -> Vec<f64> {
-    let diff = |h: f64| {
-        let mut tp = theta.to_vec();
-        let mut tm = theta.to_vec();
-        tp[j] += h;
-        tm[j] -= h;
-        let (fp, fm) = (f(&tp), f(&tm));
-        let dh = tp[j] - tm[j];
-        fp.iter()
-            .zip(&fm)
-            .map(|(a, b)| (a - b) / dh)
-            .collect::<Vec<f64>>()
-    };
-    let richardson = |h: f64| {
-        let (d1, d2) = (diff(h), diff(h / 2.0));
-        d1.iter()
-            .zip(&d2)
-            .map(|(a, b)| (4.0 * b - a) / 3.0)
-            .collect::<Vec<f64>>()
-    };
-    let scale = theta[j].abs().max(1.0);
-    let estimates: Vec<Vec<f64>> = (1..=8)
-        .map(|e| richardson(scale * 10f64.powi(-e)))
-        .collect();
-    let spread = |i: usize| {
-        estimates[i]
-            .iter()
-            .zip(&estimates[i + 1])
-            .map(|(x, y)| (x - y).abs())
-            .fold(0.0, f64::max)
-    };
-    let best = (0..estimates.len() - 1)
-        .min_by(|x, y| spread(*x).total_cmp(&spread(*y)))
-        .unwrap();
-    estimates[best].clone()
-}
 
 /// A random CT grid: 1–3 decades from 10^U(−2, 2) rad/s, 5–120 lines, log-spaced or
 /// log-uniform random (sorted).

@@ -22,7 +22,7 @@
 
 mod common;
 
-use common::{Noise, dt_theta, random_dt_system, rel_rms};
+use common::{Noise, dt_theta, lfilter, random_dt_system, rel_rms};
 use fdid::criterion::{NoiseModelProblem, NoiseModelResiduals, interior_lines};
 use fdid::prelude::*;
 use fdid::problem::NonlinearProblem;
@@ -34,22 +34,6 @@ use rand::{Rng, SeedableRng};
 // ---------------------------------------------------------------------------------------
 // Simulation
 // ---------------------------------------------------------------------------------------
-
-/// y = B(q⁻¹)/A(q⁻¹) x (direct form II transposed, zero initial state, a₀ = 1).
-fn lfilter(b: &[f64], a: &[f64], x: &[f64]) -> Vec<f64> {
-    let n = b.len().max(a.len());
-    let coef = |v: &[f64], i: usize| v.get(i).copied().unwrap_or(0.0);
-    let mut z = vec![0.0; n];
-    x.iter()
-        .map(|xt| {
-            let y = coef(b, 0) * xt + z[0];
-            for i in 0..n - 1 {
-                z[i] = coef(b, i + 1) * xt + z[i + 1] - coef(a, i + 1) * y;
-            }
-            y
-        })
-        .collect()
-}
 
 /// The DT test case: G = B/A (order 2), H = C/D, innovations of standard deviation `sigma`.
 #[derive(Debug, Clone)]

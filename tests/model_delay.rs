@@ -14,7 +14,10 @@
 
 mod common;
 
-use common::{Noise, RandomSystem, a_ct4, dt_theta, logspace, random_ct_system, random_dt_system};
+use common::{
+    Noise, RandomSystem, a_ct4, central_difference, dt_theta, logspace, random_ct_system,
+    random_dt_system,
+};
 use fdid::criterion::MlProblem;
 use fdid::model::{DelayStart, Output, delay_start, remove_delay};
 use fdid::prelude::*;
@@ -55,45 +58,6 @@ fn frf_data<T: Real>(
 
 fn rel_rms<T: Real>(a: &[Complex<T>], b: &[Complex<f64>]) -> f64 {
     common::rel_rms(a, b)
-}
-
-/// Richardson-extrapolated central difference of `f` along coordinate `j` (steps chosen
-/// as in `estimators_jacobian.rs`: the one whose estimate changes least towards the next
-/// smaller step).
-fn central_difference<F: Fn(&[f64]) -> Vec<f64>>(f: F, theta: &[f64], j: usize) -> Vec<f64> {
-    let diff = |h: f64| {
-        let (mut tp, mut tm) = (theta.to_vec(), theta.to_vec());
-        tp[j] += h;
-        tm[j] -= h;
-        let (fp, fm) = (f(&tp), f(&tm));
-        let dh = tp[j] - tm[j];
-        fp.iter()
-            .zip(&fm)
-            .map(|(a, b)| (a - b) / dh)
-            .collect::<Vec<f64>>()
-    };
-    let richardson = |h: f64| {
-        let (d1, d2) = (diff(h), diff(h / 2.0));
-        d1.iter()
-            .zip(&d2)
-            .map(|(a, b)| (4.0 * b - a) / 3.0)
-            .collect::<Vec<f64>>()
-    };
-    let scale = theta[j].abs().max(1.0);
-    let estimates: Vec<Vec<f64>> = (1..=8)
-        .map(|e| richardson(scale * 10f64.powi(-e)))
-        .collect();
-    let spread = |i: usize| {
-        estimates[i]
-            .iter()
-            .zip(&estimates[i + 1])
-            .map(|(x, y)| (x - y).abs())
-            .fold(0.0, f64::max)
-    };
-    let best = (0..estimates.len() - 1)
-        .min_by(|x, y| spread(*x).total_cmp(&spread(*y)))
-        .unwrap();
-    estimates[best].clone()
 }
 
 /// max over parameters of max_k |J_kj − D_kj| / max_k |J_kj| for the complex Jacobian of

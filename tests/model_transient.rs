@@ -11,31 +11,10 @@
 
 mod common;
 
-use common::{Noise, a_ct4, dt_theta, random_dt_system, rel_rms};
+use common::{Noise, a_ct4, dt_theta, lfilter, random_dt_system, rel_rms};
 use fdid::prelude::*;
 use nalgebra::DMatrix;
 use quickcheck::{QuickCheck, TestResult};
-
-/// y[n] = Σ b_j u[n−j] − Σ a_j y[n−j] with θ = [a₁ … a_na, b₀ … b_nb], zero initial state.
-fn lfilter(theta: &[f64], na: usize, u: &[f64]) -> Vec<f64> {
-    let (a, b) = theta.split_at(na);
-    let mut y = vec![0.0; u.len()];
-    for n in 0..u.len() {
-        let mut v = 0.0;
-        for (j, bj) in b.iter().enumerate() {
-            if n >= j {
-                v += bj * u[n - j];
-            }
-        }
-        for (j, aj) in a.iter().enumerate() {
-            if n > j {
-                v -= aj * y[n - 1 - j];
-            }
-        }
-        y[n] = v;
-    }
-    y
-}
 
 /// A record of `n` samples of the random DT system `seed` driven by white noise, whose
 /// state at the first sample comes from `pre` samples of earlier input: the DFT data and
@@ -47,7 +26,9 @@ fn dt_record(seed: u64, na: usize, nb: usize, n: usize) -> (FrequencyData<f64>, 
     let pre = 300;
     let mut rng = Noise::new(seed ^ 0x5eed);
     let u: Vec<f64> = (0..pre + n).map(|_| rng.gauss()).collect();
-    let y = lfilter(&theta, na, &u);
+    let (a, b) = theta.split_at(na);
+    let a: Vec<f64> = std::iter::once(1.0).chain(a.iter().copied()).collect();
+    let y = lfilter(b, &a, &u);
     let data = TimeData::new(u[pre..].to_vec(), y[pre..].to_vec(), ts)
         .unwrap()
         .dft();

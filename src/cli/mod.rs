@@ -6,7 +6,7 @@ mod report;
 
 use args::{Cli, Command, CriterionArg, DomainArg, FitArgs, MAX_ORDER};
 use data::Prepared;
-use fdid::criterion::{EivProblem, NoiseModelProblem, NoiseModelResiduals};
+use fdid::criterion::EivProblem;
 use fdid::fit::Stage;
 use fdid::prelude::*;
 use report::{Parts, Report};
@@ -401,43 +401,5 @@ fn noise_model_ml<M: ModelStructure<f64> + Clone>(
         reason: "a noise model H(z) is discrete time: the data need a sample time".into(),
     })?;
     let noise = NoiseModel::new(n, n, ts)?;
-    let full = WithNoiseModel::new(start.model().clone(), noise);
-    let p = start.model().n_params();
-    let mut stages = start.stages().to_vec();
-    let mut theta = start.theta().to_vec();
-    theta.extend(std::iter::repeat_n(0.0, noise.n_params()));
-    drop(start);
-    let lm = LevenbergMarquardt::default();
-    let solution = estimate(&full, data, &NoiseModelMl, &lm, Some(&theta))?;
-    theta = solution.theta.clone();
-    stages.push(Stage {
-        name: "noise-model ml".into(),
-        solution,
-    });
-    let stabilise = |theta: &mut Vec<f64>| -> Result<bool, FdidError> {
-        let eta = noise.stabilised(&theta[p..])?;
-        let changed = eta != theta[p..];
-        theta.truncate(p);
-        theta.extend(eta);
-        Ok(changed)
-    };
-    if stabilise(&mut theta)? {
-        let solution = estimate(&full, data, &NoiseModelMl, &lm, Some(&theta))?;
-        theta = solution.theta.clone();
-        stages.push(Stage {
-            name: "noise-model ml (H stabilised)".into(),
-            solution,
-        });
-        stabilise(&mut theta)?;
-    }
-    let problem =
-        NoiseModelProblem::new(&full, data)?.with_residuals(NoiseModelResiduals::Innovations);
-    Fit::from_problem(
-        full.clone(),
-        data,
-        theta,
-        &problem,
-        NoiseLevel::Estimated,
-        stages,
-    )
+    fdid::criterion::refine_noise_model(&start, data, noise, &LevenbergMarquardt::default())
 }

@@ -28,7 +28,7 @@ pub use equation_error::EquationErrorSystem;
 pub use levy::{Levy, LevyProblem};
 pub use ml::{MaximumLikelihood, MlProblem};
 pub use noise_model::{NoiseModelMl, NoiseModelProblem, NoiseModelResiduals};
-pub use noise_model::{fit_noise_model, interior_lines};
+pub use noise_model::{fit_noise_model, interior_lines, refine_noise_model};
 pub use sk::{SanathananKoerner, SkProblem};
 pub use tls::{TlsProblem, TotalLeastSquares};
 

@@ -7,7 +7,7 @@ use crate::fit::{Fit, NoiseLevel, Stage};
 use crate::model::{EquationError, ModelStructure, NoiseModel, Output, WithNoiseModel};
 use crate::pipeline::{Pipeline, estimate};
 use crate::problem::NonlinearProblem;
-use crate::solver::Solver;
+use crate::solver::LevenbergMarquardt;
 use crate::{Complex, Real};
 use nalgebra::DMatrix;
 use num_traits::Float;
@@ -377,20 +377,37 @@ pub fn fit_noise_model<T: Real, M: EquationError<T> + Clone>(
         let start_data = data.select_lines(&excited)?.without_noise();
         flat.fit(model, &start_data)?
     };
-    let mut stages = start_fit.stages().to_vec();
-    let full = WithNoiseModel::new(start_fit.model().clone(), noise);
-    let mut theta = start_fit.theta().to_vec();
+    refine_noise_model(&start_fit, &data, noise, &pipeline.ml.unwrap_or_default())
+}
+
+/// The noise-model stage of [`fit_noise_model`] for any model structure: from a fitted
+/// system model `start` (e.g. a [`crate::model::Delayed`] fit), ML on the concentrated
+/// criterion (26) over [θ_G, η] from [θ̂_G, 0] with Levenberg–Marquardt; H is then made
+/// stable and inversely stable ([`NoiseModel::stabilised`], which leaves the criterion
+/// unchanged) and polished once more when a root was reflected; the statistics come from
+/// the innovations (Y − Ŷ)/H with λ estimated. `data` should hold the interior lines
+/// ([`interior_lines`]).
+///
+/// # Errors
+/// As [`NoiseModelProblem::new`] and the solver.
+pub fn refine_noise_model<T: Real, M: ModelStructure<T> + Clone>(
+    start: &Fit<T, M>,
+    data: &FrequencyData<T>,
+    noise: NoiseModel<T>,
+    lm: &LevenbergMarquardt,
+) -> Result<Fit<T, WithNoiseModel<M>>> {
+    let mut stages = start.stages().to_vec();
+    let full = WithNoiseModel::new(start.model().clone(), noise);
+    let p = start.model().n_params();
+    let mut theta = start.theta().to_vec();
     theta.extend(std::iter::repeat_n(T::zero(), noise.n_params()));
-    let lm = pipeline.ml.unwrap_or_default();
-    let criterion = NoiseModelMl;
-    let sol = estimate(&full, &data, &criterion, &lm, Some(&theta))?;
+    let sol = estimate(&full, data, &NoiseModelMl, lm, Some(&theta))?;
     theta = sol.theta.clone();
     stages.push(Stage {
         name: "noise-model ml".into(),
         solution: sol,
     });
     let stabilise = |theta: &mut Vec<T>| -> Result<bool> {
-        let p = full.system().n_params();
         let eta = noise.stabilised(&theta[p..])?;
         let changed = eta != theta[p..];
         theta.truncate(p);
@@ -398,8 +415,7 @@ pub fn fit_noise_model<T: Real, M: EquationError<T> + Clone>(
         Ok(changed)
     };
     if stabilise(&mut theta)? {
-        let problem = criterion.problem(&full, &data)?;
-        let sol = lm.solve(&problem, Some(&theta))?;
+        let sol = estimate(&full, data, &NoiseModelMl, lm, Some(&theta))?;
         theta = sol.theta.clone();
         stages.push(Stage {
             name: "noise-model ml (H stabilised)".into(),
@@ -408,10 +424,10 @@ pub fn fit_noise_model<T: Real, M: EquationError<T> + Clone>(
         stabilise(&mut theta)?;
     }
     let problem =
-        NoiseModelProblem::new(&full, &data)?.with_residuals(NoiseModelResiduals::Innovations);
+        NoiseModelProblem::new(&full, data)?.with_residuals(NoiseModelResiduals::Innovations);
     Fit::from_problem(
         full.clone(),
-        &data,
+        data,
         theta,
         &problem,
         NoiseLevel::Estimated,

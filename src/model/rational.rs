@@ -693,18 +693,7 @@ impl<T: Real> ModelStructure<T> for Rational<T> {
             }
         }
         if let PolyBasis::DelayPowers { ts } = &self.basis {
-            let nyquist = T::pi() / *ts;
-            if let Some(w) = data
-                .omega()
-                .iter()
-                .find(|w| **w > nyquist * (T::one() + nyquist_slack::<T>()))
-            {
-                return Err(FdidError::InvalidArgument {
-                    name: "omega",
-                    value: format!("{w} rad/s"),
-                    reason: format!("above the Nyquist frequency {nyquist} rad/s of Ts = {ts} s"),
-                });
-            }
+            check_below_nyquist(*ts, data)?;
         }
         Ok(())
     }
@@ -831,6 +820,11 @@ fn check_transient_data<T: Real>(ts: T, data: &FrequencyData<T>) -> Result<()> {
             reason: format!("the data's sample time differs from the transient's ({ts})"),
         });
     }
+    check_below_nyquist(ts, data)
+}
+
+/// Fails naming the first line above the Nyquist frequency π/Ts.
+fn check_below_nyquist<T: Real>(ts: T, data: &FrequencyData<T>) -> Result<()> {
     let nyquist = T::pi() / ts;
     if let Some(w) = data
         .omega()

@@ -410,3 +410,64 @@ pub fn dt_theta(sys: &RandomSystem) -> Vec<f64> {
     theta.extend(b.iter().map(|v| v * sys.zpk.gain));
     theta
 }
+
+// ---------------------------------------------------------------------------------------
+// Finite differences and filters shared by the Jacobian and time-record tests.
+// ---------------------------------------------------------------------------------------
+
+/// Richardson-extrapolated central difference of the vector function `f` along coordinate
+/// `j` at `theta`, with the step picked among 10⁻¹ … 10⁻⁸ · max(1, |θ_j|) where the estimate
+/// changes least towards the next smaller step.
+pub fn central_difference<F: Fn(&[f64]) -> Vec<f64>>(f: F, theta: &[f64], j: usize) -> Vec<f64> {
+    let diff = |h: f64| {
+        let mut tp = theta.to_vec();
+        let mut tm = theta.to_vec();
+        tp[j] += h;
+        tm[j] -= h;
+        let (fp, fm) = (f(&tp), f(&tm));
+        let dh = tp[j] - tm[j];
+        fp.iter()
+            .zip(&fm)
+            .map(|(a, b)| (a - b) / dh)
+            .collect::<Vec<f64>>()
+    };
+    let richardson = |h: f64| {
+        let (d1, d2) = (diff(h), diff(h / 2.0));
+        d1.iter()
+            .zip(&d2)
+            .map(|(a, b)| (4.0 * b - a) / 3.0)
+            .collect::<Vec<f64>>()
+    };
+    let scale = theta[j].abs().max(1.0);
+    let estimates: Vec<Vec<f64>> = (1..=8)
+        .map(|e| richardson(scale * 10f64.powi(-e)))
+        .collect();
+    let spread = |i: usize| {
+        estimates[i]
+            .iter()
+            .zip(&estimates[i + 1])
+            .map(|(x, y)| (x - y).abs())
+            .fold(0.0, f64::max)
+    };
+    let best = (0..estimates.len() - 1)
+        .min_by(|x, y| spread(*x).total_cmp(&spread(*y)))
+        .unwrap();
+    estimates[best].clone()
+}
+
+/// y = B(q⁻¹)/A(q⁻¹) x with zero initial state (a₀ must be 1):
+/// y[n] = Σ_j b_j x[n−j] − Σ_{j≥1} a_j y[n−j].
+pub fn lfilter(b: &[f64], a: &[f64], x: &[f64]) -> Vec<f64> {
+    let mut y = vec![0.0; x.len()];
+    for n in 0..x.len() {
+        let mut v = 0.0;
+        for (j, bj) in b.iter().enumerate().take(n + 1) {
+            v += bj * x[n - j];
+        }
+        for (j, aj) in a.iter().enumerate().skip(1).take(n) {
+            v -= aj * y[n - j];
+        }
+        y[n] = v;
+    }
+    y
+}
