@@ -290,14 +290,21 @@ impl<T: Real> LpmEstimate<T> {
 /// `K_k = [U r^0, …, U r^R, r^0, …, r^R]` and `θ_k = [G_k, g_1, …, g_R, T_k, t_1, …, t_R]`.
 ///
 /// # Estimates
-/// The columns are scaled (offsets `r/n`, unit column norms) and `θ̂_k` is the least
-/// squares solution from a Householder QR `K_k = Q R` (never the normal equations):
+/// `θ̂_k` is the least squares solution from a Householder QR `K_k = Q R` (never the
+/// normal equations):
 ///
 /// - `Ĝ_k = θ̂_0`, `T̂_k = θ̂_{R+1}`;
 /// - residual `e_k = Y_k − K_k θ̂_k`, noise variance `σ̂²_V,k = ‖e_k‖² / q`,
 ///   `q = 2n + 1 − 2(R + 1)`;
 /// - `var(Ĝ_k) = σ̂²_V,k [(K_kᴴ K_k)⁻¹]_{00}`, with `(KᴴK)⁻¹ = R⁻¹ R⁻ᴴ`, so
 ///   `[(KᴴK)⁻¹]_{00} = ‖row 0 of R⁻¹‖²` (and likewise `var(T̂_k)` from row `R + 1`).
+///
+/// For conditioning the same polynomials are computed in a scaled basis: powers of
+/// `x = (j − c)/n`, the offset from the window centre `c` (`x ∈ [−1, 1]`), with unit
+/// column norms `d`. Inside the band `c = k` and the formulas above hold as written; in a
+/// shifted window the values at line `k` are `aᵀθ̂` with `a = (x_k^s / d_s)_{s=0..R}` on
+/// the block of `G` (or of `T`), `x_k = (k − c)/n`, and `var = σ̂²_V,k ‖aᵀ R⁻¹‖²` — the
+/// same estimates in a better conditioned basis.
 ///
 /// For circular complex white noise of variance `σ²_V` over the window, `E σ̂²_V,k = σ²_V`
 /// and `2q σ̂²_V,k / σ²_V ∼ χ²(2q)`; the bias of `Ĝ_k` is of the order of the
@@ -383,9 +390,10 @@ pub fn lpm<T: Real>(data: &FrequencyData<T>, settings: Lpm) -> Result<LpmEstimat
 
     for k in 0..lines {
         let start = k.saturating_sub(half).min(lines - width);
+        let centre = T::from_usize_lossy(start + half);
         for (row, j) in (start..start + width).enumerate() {
-            // scaled offset x = r / n, r = j − k
-            let x = (T::from_usize_lossy(j) - T::from_usize_lossy(k)) / n_t;
+            // offset from the window centre, scaled to [−1, 1]
+            let x = (T::from_usize_lossy(j) - centre) / n_t;
             let mut p = T::one();
             for s in 0..order {
                 k_mat[(row, s)] = u[j] * p;
@@ -410,7 +418,8 @@ pub fn lpm<T: Real>(data: &FrequencyData<T>, settings: Lpm) -> Result<LpmEstimat
                     reason: format!(
                         "the local polynomial regression is singular (condition number \
                          {condition:.3e}): the input does not vary enough over the window \
-                         to separate G from the transient"
+                         to separate G from the transient, or the degree is too high for \
+                         the precision"
                     ),
                 },
             }
@@ -437,12 +446,28 @@ pub fn lpm<T: Real>(data: &FrequencyData<T>, settings: Lpm) -> Result<LpmEstimat
         let theta = &r_inv * qty.rows(0, cols);
         let resid = &rhs - &k_mat * &theta;
         let sigma2 = resid.norm_squared() / q;
-        let row_norm2 = |i: usize| r_inv.row(i).norm_squared() / (scale[i] * scale[i]);
-        frf.push(theta[0] / scale[0]);
-        transient.push(theta[order] / scale[order]);
+        // the local polynomials evaluated at line k (x_k = 0 except in shifted windows):
+        // value aᵀθ̂ and variance σ̂² ‖aᵀ R⁻¹‖² for a = (x_k^s / d_s) on one block
+        let x_k = (T::from_usize_lossy(k) - centre) / n_t;
+        let evaluate = |block: usize| -> (Complex<T>, T) {
+            let mut value = zero;
+            let mut row = r_inv.row(block) * Complex::new(T::zero(), T::zero());
+            let mut p = T::one();
+            for s in block..block + order {
+                let a = p / scale[s];
+                value += theta[s] * a;
+                row += r_inv.row(s) * Complex::new(a, T::zero());
+                p *= x_k;
+            }
+            (value, sigma2 * row.norm_squared())
+        };
+        let (g_k, var_g) = evaluate(0);
+        let (t_k, var_t) = evaluate(order);
+        frf.push(g_k);
+        transient.push(t_k);
         noise_variance.push(sigma2);
-        frf_variance.push(sigma2 * row_norm2(0));
-        transient_variance.push(sigma2 * row_norm2(order));
+        frf_variance.push(var_g);
+        transient_variance.push(var_t);
     }
     crate::error::check_finite_complex("LPM frequency response", &frf)?;
     crate::error::check_finite_complex("LPM transient", &transient)?;
