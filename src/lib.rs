@@ -99,6 +99,7 @@ pub mod prelude {
     pub use crate::criterion::{ErrorsInVariables, fit_eiv};
     pub use crate::criterion::{NoiseModelMl, fit_noise_model};
     pub use crate::data::{FrequencyData, NoiseVariances, TimeData};
+    pub use crate::data::{Lpm, LpmEstimate, lpm};
     pub use crate::error::{FdidError, Result};
     pub use crate::fit::{Fit, NoiseLevel};
     pub use crate::ltv::{LtvFit, LtvOde};

@@ -2,11 +2,13 @@
 //! frequency-domain data with band selection and merging of experiments.
 
 mod frequency;
+mod lpm;
 mod merge;
 mod periodic;
 mod time;
 
 pub use frequency::{FrequencyData, NoiseVariances};
+pub use lpm::{Lpm, LpmEstimate, lpm};
 pub use merge::merge;
 pub use periodic::PeriodicAverage;
 pub(crate) use time::check_ts;
