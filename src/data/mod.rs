@@ -1,11 +1,13 @@
 //! Measured data: time records, their DFT (McKelvey eq. 1), periodic averaging, and
 //! frequency-domain data with band selection and merging of experiments.
 
+mod distortion;
 mod frequency;
 mod merge;
 mod periodic;
 mod time;
 
+pub use distortion::{DetectionLine, DetectionTest, DistortionAnalysis, OddMultisineDesign};
 pub use frequency::{FrequencyData, NoiseVariances};
 pub use merge::merge;
 pub use periodic::PeriodicAverage;
