@@ -81,8 +81,7 @@ impl OddMultisineDesign {
             return Err(FdidError::InvalidArgument {
                 name: "group",
                 value: group.to_string(),
-                reason: "one odd line out of every group is left out: need a group of ≥ 2"
-                    .into(),
+                reason: "one odd line out of every group is left out: need a group of ≥ 2".into(),
             });
         }
         let odd: Vec<usize> = (band[0]..=band[1]).filter(|k| k % 2 == 1).collect();
@@ -213,7 +212,11 @@ pub struct DetectionLine<T: Real> {
 ///
 /// The decision p-value [`DetectionTest::p_value`] is `p_fisher`: it is exact for every
 /// `P ≥ 2`, whereas the `F(2, d₂)` terms are heavy tailed (the fourth moment is infinite
-/// for `P ≤ 5`) and the two-moment χ² fit of the sum is then only approximate.
+/// for `P ≤ 5`) and the two-moment χ² fit of the sum is then only approximate. It is also
+/// the more powerful of the two on spread-out distortion: with `P = 4` and 20 odd
+/// detection lines at a distortion-to-noise ratio of 0 dB per line, the Bonferroni
+/// decision fires in 45 % of the runs with Fisher's statistic against 29 % with the sum
+/// (tests/data_distortion.rs, 300 seeds).
 ///
 /// The distortion power `D = mean_j (|Ȳ_j|² − σ̂²_j)` estimates the mean power of the
 /// periodic distortion `|Y_S,k|²` at these lines without bias (`E|Ȳ|² = |Y_S|² + σ²`,
@@ -357,7 +360,9 @@ impl<T: Real> DistortionAnalysis<T> {
     /// - [`FdidError::InvalidArgument`] named `"excited"` for a line above the last DFT
     ///   line `⌊M/2⌋` of a period; named `"band"` when `k_min = 0`, `k_min > k_max` or
     ///   `k_max` is not below the Nyquist line (`2 k_max ≥ M`);
-    /// - [`FdidError::ZeroInput`] when the input is zero at an excited line of the band.
+    /// - [`FdidError::ZeroInput`] when the input at an excited line of the band is zero or
+    ///   at the rounding level, `|Ū_k| ≤ 10³ ε max_j |Ū_j|` (`ε` the machine epsilon of
+    ///   `T`): the line is not excited.
     pub fn new(
         record: &TimeData<T>,
         periods: usize,
@@ -414,8 +419,7 @@ impl<T: Real> DistortionAnalysis<T> {
             return Err(FdidError::InvalidArgument {
                 name: "periods",
                 value: periods.to_string(),
-                reason: "the noise variance comes from the spread between periods: need ≥ 2"
-                    .into(),
+                reason: "the noise variance comes from the spread between periods: need ≥ 2".into(),
             });
         }
         let averages = records
@@ -497,11 +501,8 @@ impl<T: Real> DistortionAnalysis<T> {
     /// # Errors
     /// [`FdidError::NonFinite`] if a value is not finite.
     pub fn bla_data(&self) -> Result<FrequencyData<T>> {
-        let data = FrequencyData::from_frf(
-            self.omega_excited.clone(),
-            self.bla.clone(),
-            Some(self.ts),
-        )?;
+        let data =
+            FrequencyData::from_frf(self.omega_excited.clone(), self.bla.clone(), Some(self.ts))?;
         let data = data.with_noise(NoiseVariances::output_only(self.bla_total_variance.clone()))?;
         match self.bla_variance_dof() {
             Some(dof) => data.with_variance_dof(dof),
@@ -601,7 +602,11 @@ impl<T: Real> DistortionAnalysis<T> {
             "nonlinear distortion (α = {alpha}, {} period(s) × {} realisation(s)): {}\n  {}\n  {}\n  noise level {:.1} dB (relative to the output at the excited lines)\n",
             self.periods,
             self.realisations,
-            if nonlinear { "detected" } else { "not detected" },
+            if nonlinear {
+                "detected"
+            } else {
+                "not detected"
+            },
             describe("odd lines", self.odd.as_ref()),
             describe("even lines", self.even.as_ref()),
             self.noise_db(),
@@ -673,9 +678,7 @@ impl LinePlan {
             .clone()
             .filter(|&k| !is_excited[k] && k % 2 == 1)
             .collect();
-        let even: Vec<usize> = in_band
-            .filter(|&k| !is_excited[k] && k % 2 == 0)
-            .collect();
+        let even: Vec<usize> = in_band.filter(|&k| !is_excited[k] && k % 2 == 0).collect();
         if odd.is_empty() && even.is_empty() {
             return Err(FdidError::TooShort {
                 what: "detection (non-excited) lines in the band",
@@ -837,10 +840,17 @@ fn assemble<T: Real>(
         let nv = noise_of(avg);
         let mut g = Vec::with_capacity(plan.excited.len());
         let mut gv = Vec::with_capacity(plan.excited.len());
+        // an input at the rounding level of the largest excited line is no excitation
+        let u_max = plan
+            .excited
+            .iter()
+            .map(|&k| d.u()[k].norm())
+            .fold(T::zero(), |a, b| if b > a { b } else { a });
+        let u_floor = T::lit(1e3) * <T as num_traits::Float>::epsilon() * u_max;
         for (i, &k) in plan.excited.iter().enumerate() {
             let (y, u) = (f64c(d.y()[k]), f64c(d.u()[k]));
             let u2 = u.norm_sqr();
-            if !(u2 > 0.0) {
+            if !(d.u()[k].norm() > u_floor) || !(u2 > 0.0) {
                 return Err(FdidError::ZeroInput {
                     index: k,
                     omega: omega_all[k].to_f64_lossless(),
