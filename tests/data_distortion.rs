@@ -318,7 +318,7 @@ fn bla_monte_carlo_linear() {
     for seed in 0..seeds {
         // one phase realisation: a linear system has no stochastic nonlinear part
         let rec = simulate::<f64>(&d, &f, Setup::linear(periods, 0.1), 7, 5000 + seed);
-        let nl = DistortionAnalysis::new(&rec, periods, &d.excited().to_vec(), BAND).unwrap();
+        let nl = DistortionAnalysis::new(&rec, periods, d.excited(), BAND).unwrap();
         for (i, (&k, g)) in nl.excited().iter().zip(nl.bla()).enumerate() {
             let e = *g - g_at(&f, k);
             err_sum[i] += e;
@@ -588,7 +588,9 @@ fn realisations_total_variance_matches_interpolated_nonlinear_variance() {
         z2 += (*g - g_at(&f, k) * gain).norm_sqr() / v;
     }
     z2 /= all.excited().len() as f64;
-    println!("BLA vs G (1 + 3bσ²) = G × {gain:.4}: mean |z|² = {z2:.3} (F(2, 30) mean 1.07 if the Gaussian BLA were exact)");
+    println!(
+        "BLA vs G (1 + 3bσ²) = G × {gain:.4}: mean |z|² = {z2:.3} (F(2, 30) mean 1.07 if the Gaussian BLA were exact)"
+    );
     assert!(z2 < 2.0, "mean |z|² {z2}");
     // the BLA differs from G itself by far more than its uncertainty
     let far: f64 = all

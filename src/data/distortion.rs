@@ -44,7 +44,8 @@ use std::f64::consts::TAU;
 /// even distortion. [`OddMultisineDesign::multisine`] builds the excitation
 /// `u(t) = Σ_{k excited} A cos(2π k t / T_period + φ_k)` with independent uniform phases
 /// (a *random-phase* multisine, whose distortion behaves as a noise-like term over phase
-/// realisations).
+/// realisations). Sampled over whole periods its DFT (McKelvey eq. 1) is zero at every
+/// detection line, so whatever the output shows there is noise or distortion.
 ///
 /// ```
 /// use fdid::data::OddMultisineDesign;
