@@ -1,12 +1,14 @@
 //! Measured data: time records, their DFT (McKelvey eq. 1), periodic averaging, and
 //! frequency-domain data with band selection and merging of experiments.
 
+mod distortion;
 mod frequency;
 mod lpm;
 mod merge;
 mod periodic;
 mod time;
 
+pub use distortion::{DetectionLine, DetectionTest, DistortionAnalysis, OddMultisineDesign};
 pub use frequency::{FrequencyData, NoiseVariances};
 pub use lpm::{Lpm, LpmEstimate, lpm};
 pub use merge::merge;
