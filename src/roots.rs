@@ -182,7 +182,9 @@ pub(crate) fn partial_fraction_leading<T: Real>(basis: &PolyBasis<T>, coeffs: &[
     Some(pf.markov().1)
 }
 
-fn eigenvalues<T: Real>(m: DMatrix<T>) -> Result<Vec<Complex<T>>> {
+/// Eigenvalues of a real matrix from its real Schur form; typed errors when the iteration
+/// does not converge or a value is not finite.
+pub(crate) fn eigenvalues<T: Real>(m: DMatrix<T>) -> Result<Vec<Complex<T>>> {
     let d = m.nrows();
     let schur = nalgebra::Schur::try_new(m, T::default_epsilon(), 200 * d.max(10)).ok_or(
         FdidError::NotConverged {

@@ -363,21 +363,7 @@ fn roots_scaled<T: Real>(e: &[T], scale: T) -> Result<Vec<Complex<T>>> {
     for k in 0..d {
         m[(k, d - 1)] = -e[k] / lead;
     }
-    let schur = nalgebra::Schur::try_new(m, T::default_epsilon(), 200 * d.max(10)).ok_or(
-        FdidError::NotConverged {
-            method: "Schur eigenvalue iteration",
-            reason: format!("no convergence for a companion matrix of size {d}"),
-        },
-    )?;
-    let ev = schur.complex_eigenvalues();
-    if ev
-        .iter()
-        .any(|v| !(Float::is_finite(v.re) && Float::is_finite(v.im)))
-    {
-        return Err(FdidError::Numerical {
-            what: "eigenvalues of the instantaneous companion matrix".into(),
-        });
-    }
+    let ev = crate::roots::eigenvalues(m)?;
     Ok(ev
         .iter()
         .map(|v| Complex::new(v.re * scale, v.im * scale))
