@@ -5,7 +5,8 @@
 //! Each step runs every [`Detector`] on the normalised residuals r_k of the current fit
 //! (the terms of McKelvey's ML cost, eq. 23), refits the proposal of every [`Finding`]
 //! below the level α ([`fit_spec`]), keeps those the likelihood-ratio test of
-//! [`lrt::lr_test`] accepts at α, and takes the one that explains most (smallest LR
+//! [`lrt::lr_test`] accepts at α (for a new noise model the concentrated-likelihood test
+//! [`lrt::concentrated_lr_test`] with W = ln(V/N), eq. 26), and takes the one that explains most (smallest LR
 //! p-value, then the largest cost drop per added parameter). The loop
 //! stops when the fit is consistent with the noise (cost and whiteness tests of
 //! [`crate::validation::Validation`] pass at α), when no detector fires, or after
@@ -79,7 +80,7 @@ pub struct Report {
 ///
 /// | field | default | meaning |
 /// |---|---|---|
-/// | `detectors` | [`TimeDelay`](detectors::TimeDelay), [`MissingResonance`](detectors::MissingResonance), [`Transient`](detectors::Transient) | the tests run at each step |
+/// | `detectors` | [`TimeDelay`](detectors::TimeDelay), [`MissingResonance`](detectors::MissingResonance), [`Transient`](detectors::Transient), [`ColoredNoise`](detectors::ColoredNoise) | the tests run at each step |
 /// | `max_steps` | 4 | most augmentations accepted |
 ///
 /// The level α comes from the [`Context`].
@@ -97,6 +98,7 @@ impl Default for Workflow {
                 Box::new(detectors::TimeDelay),
                 Box::new(detectors::MissingResonance),
                 Box::new(detectors::Transient),
+                Box::new(detectors::ColoredNoise),
             ],
             max_steps: 4,
         }
@@ -148,14 +150,27 @@ impl Workflow {
                 if next.n_params <= current.n_params {
                     continue;
                 }
-                let Ok(test) = lrt::lr_test(
-                    current.cost,
-                    current.n_params,
-                    next.cost,
-                    next.n_params,
-                    data.len(),
-                    current.noise_known,
-                ) else {
+                let test = if next.spec.noise_order != current.spec.noise_order {
+                    // a new noise model: concentrated likelihoods W = ln(V/N) (eq. 26)
+                    let n = data.len() as f64;
+                    lrt::concentrated_lr_test(
+                        (current.cost / n).ln(),
+                        current.n_params,
+                        (next.cost / n).ln(),
+                        next.n_params,
+                        data.len(),
+                    )
+                } else {
+                    lrt::lr_test(
+                        current.cost,
+                        current.n_params,
+                        next.cost,
+                        next.n_params,
+                        data.len(),
+                        current.noise_known,
+                    )
+                };
+                let Ok(test) = test else {
                     continue;
                 };
                 if !(test.p_value < alpha) {
