@@ -53,7 +53,7 @@ fn periodic_data(g: impl Fn(f64) -> Complex<f64>, var: f64, seed: u64) -> Freque
 
 #[test]
 fn clean_data_false_alarm_rate() {
-    let seeds = 50;
+    let seeds = 200;
     let mut alarms = 0;
     for seed in 0..seeds {
         let data = periodic_data(g2, 1e-3, seed);

@@ -4,6 +4,7 @@ use crate::criterion::{EivProblem, NoiseWeighting, refine_noise_model};
 use crate::fit::Stage;
 use crate::model::{NoiseModel, Output};
 use crate::prelude::*;
+use nalgebra::DMatrix;
 
 /// The model's domain.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -104,9 +105,13 @@ pub struct SpecFit {
     pub validation: Validation,
     /// Normalised residuals r_k.
     pub residuals: Vec<Complex<f64>>,
-    /// The scale of each line's normalisation, |Y_k − Ŷ_k|/|r_k| (σ_k; 1 where r_k = 0 and
-    /// the data give no variance).
-    pub scale: Vec<f64>,
+    /// Each line's normaliser c_k = (Y_k − Ŷ_k)/r_k (σ_k for eq. 23 or 42, H_k·g with a
+    /// noise model; 1 where r_k = 0).
+    pub scale: Vec<Complex<f64>>,
+    /// ∂r/∂θ, real-stacked (2N × p, rows Re and Im of line k): −(∂Ŷ_k/∂θ)/c_k (zero
+    /// columns for noise-model parameters). Not serialised.
+    #[cfg_attr(feature = "serde", serde(skip))]
+    pub jacobian: DMatrix<f64>,
     /// Frequencies (rad/s).
     pub omega: Vec<f64>,
     /// The model response Ĝ(ω_k) (including the delay factor).
@@ -237,16 +242,29 @@ fn summarise<M: ModelStructure<f64> + PolesZeros<f64>>(
     let model = fit.model();
     let theta = fit.theta();
     let mut out = Output::new(data.len(), model.n_params());
-    out.evaluate(model, theta, data, false);
+    out.evaluate(model, theta, data, true);
     let residuals = fit.residuals().to_vec();
-    let scale = residuals
+    let scale: Vec<Complex<f64>> = residuals
         .iter()
         .zip(data.y().iter().zip(&out.yhat))
         .map(|(r, (y, yh))| {
-            let (e, rn) = ((y - yh).norm(), r.norm());
-            if rn > 0.0 && e > 0.0 { e / rn } else { 1.0 }
+            let e = y - yh;
+            if r.norm() > 0.0 && e.norm() > 0.0 {
+                e / r
+            } else {
+                Complex::new(1.0, 0.0)
+            }
         })
         .collect();
+    let (n, p) = out.dyhat.shape();
+    let mut jacobian = DMatrix::zeros(2 * n, p);
+    for k in 0..n {
+        for j in 0..p {
+            let d = -out.dyhat[(k, j)] / scale[k];
+            jacobian[(2 * k, j)] = d.re;
+            jacobian[(2 * k + 1, j)] = d.im;
+        }
+    }
     let delay = if spec.delay {
         // the delay is the last parameter of the delayed system (before a noise model)
         let tau_index = theta.len() - 1 - 2 * spec.noise_order.unwrap_or(0);
@@ -265,6 +283,7 @@ fn summarise<M: ModelStructure<f64> + PolesZeros<f64>>(
         validation: fit.validation().clone(),
         residuals,
         scale,
+        jacobian,
         omega: fit.omega().to_vec(),
         response: out.g.clone(),
         output: out.yhat.clone(),

@@ -10,8 +10,10 @@ use nalgebra::{DMatrix, DVector};
 /// The leakage of a non-periodic record adds T(z) = I(z⁻¹)/A(z⁻¹) to Y = GU (McKelvey
 /// eq. 1 with the record's initial and final states); on the fitted model the normalised
 /// residual then holds r_k ≈ Σ_j c_j z_k^{−j}/(Â(z_k⁻¹) σ_k), j = 0 … m,
-/// m = max(na, nb), c_j complex, Â from the fitted poles (z = e^{iωts}). The real-stacked
-/// LS projection P r onto these q = 2(m + 1) regressors (QR) gives the statistic
+/// m = max(na, nb), c_j complex, Â from the fitted poles (z = e^{iωts}). The regressors
+/// are projected off the model's residual Jacobian (a score test: what the fitted
+/// parameters can absorb is not counted); the real-stacked LS projection P r onto these
+/// q = 2(m + 1) regressors (QR) gives the statistic
 /// 2‖Pr‖²/μ ~ χ²(q) with known noise, or
 /// F = (‖Pr‖²/q)/((‖r‖² − ‖Pr‖²)/(2N − p − q)) ~ F(q, 2N − p − q) with the noise level
 /// estimated. Applies only to non-periodic time records without a transient term.
@@ -64,7 +66,11 @@ impl Detector for Transient {
             r[2 * k] = fit.residuals[k].re;
             r[2 * k + 1] = fit.residuals[k].im;
         }
-        // scale the columns before the QR
+        // remove what the model's own parameters produce (score test), scale the columns
+        for j in 0..q {
+            let c = super::delay::project_off(&fit.jacobian, x.column(j).into_owned());
+            x.set_column(j, &c);
+        }
         for mut c in x.column_iter_mut() {
             let norm = c.norm();
             if norm > 0.0 {
