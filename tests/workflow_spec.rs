@@ -274,4 +274,40 @@ fn power_table() {
         }
         println!("{tau} | {}", hits as f64 / seeds as f64);
     }
+    println!("resonance peak (noise std) | P(missing_resonance first)");
+    let (r, th) = (0.98f64, 2.0f64);
+    let mode = |w: f64, gain: f64| {
+        let zi = Complex::new(0.0, -w).exp();
+        zi * gain / (Complex::new(1.0, 0.0) - zi * (2.0 * r * th.cos()) + zi * zi * (r * r))
+    };
+    let var: f64 = 1e-3;
+    for height in [1.0, 2.0, 3.0, 5.0, 8.0] {
+        // the mode's peak |.| = height σ
+        let gain = height * var.sqrt() / mode(th, 1.0).norm();
+        let mut hits = 0;
+        for seed in 0..seeds {
+            let base = lines(4000 + seed, var, true, 0.0);
+            let y: Vec<Complex<f64>> = base
+                .y()
+                .iter()
+                .zip(base.u().iter().zip(base.omega()))
+                .map(|(y, (u, w))| y + mode(*w, gain) * u)
+                .collect();
+            let data = FrequencyData::new(base.omega().to_vec(), y, base.u().to_vec(), Some(1.0))
+                .unwrap()
+                .with_noise(base.noise().unwrap().clone())
+                .unwrap();
+            let report = Workflow::default()
+                .run(
+                    &data,
+                    ModelSpec::discrete(2, 2, 1.0),
+                    Context::periodic(0.05),
+                )
+                .unwrap();
+            if report.effects.first() == Some(&fdid::workflow::Effect::MissingResonance) {
+                hits += 1;
+            }
+        }
+        println!("{height} | {}", hits as f64 / seeds as f64);
+    }
 }

@@ -118,7 +118,7 @@ pub struct SpecFit {
     pub response: Vec<Complex<f64>>,
     /// The modelled output Ŷ_k = Ĝ U_k + T_k.
     pub output: Vec<Complex<f64>>,
-    /// Standard deviation of |Ĝ|, if the covariance exists.
+    /// σ_G(ω_k) with σ_G² = E|Ĝ_k − G_k|² (first order, from the covariance), if it exists.
     pub response_std: Option<Vec<f64>>,
     /// Poles of the system part.
     pub poles: Vec<Complex<f64>>,
