@@ -5,7 +5,9 @@ mod common;
 
 use common::{Noise, random_dt_system, rel_rms};
 use fdid::prelude::*;
-use fdid::workflow::detectors::{ColoredNoise, MissingResonance, TimeDelay, Transient};
+use fdid::workflow::detectors::{
+    Added, ColoredNoise, MissingResonance, OrderIncrease, TimeDelay, Transient,
+};
 use fdid::workflow::{Context, Detector, ModelSpec, SpecCriterion, SpecDomain, Workflow, fit_spec};
 use quickcheck::TestResult;
 use rand::{Rng, SeedableRng, rngs::StdRng};
@@ -159,8 +161,10 @@ fn detectors_are_calibrated_on_correct_models() {
     let alpha = 0.05;
     let seeds = 200;
     let limit = alpha + 3.0 * (alpha * (1.0 - alpha) / seeds as f64).sqrt();
-    let detectors: [(&dyn Detector, bool, bool); 4] = [
+    let detectors: [(&dyn Detector, bool, bool); 6] = [
         (&TimeDelay, true, true),
+        (&OrderIncrease(Added::Pole), true, true),
+        (&OrderIncrease(Added::Zero), false, true),
         (&MissingResonance, true, true),
         (&Transient, true, false),
         (&ColoredNoise, false, false),

@@ -80,7 +80,7 @@ pub struct Report {
 ///
 /// | field | default | meaning |
 /// |---|---|---|
-/// | `detectors` | [`TimeDelay`](detectors::TimeDelay), [`MissingResonance`](detectors::MissingResonance), [`Transient`](detectors::Transient), [`ColoredNoise`](detectors::ColoredNoise) | the tests run at each step |
+/// | `detectors` | [`TimeDelay`](detectors::TimeDelay), [`MissingResonance`](detectors::MissingResonance), [`Transient`](detectors::Transient), [`ColoredNoise`](detectors::ColoredNoise), [`OrderIncrease`](detectors::OrderIncrease) for a pole and a zero | the tests run at each step |
 /// | `max_steps` | 4 | most augmentations accepted |
 ///
 /// The level α comes from the [`Context`].
@@ -99,6 +99,8 @@ impl Default for Workflow {
                 Box::new(detectors::MissingResonance),
                 Box::new(detectors::Transient),
                 Box::new(detectors::ColoredNoise),
+                Box::new(detectors::OrderIncrease(detectors::Added::Pole)),
+                Box::new(detectors::OrderIncrease(detectors::Added::Zero)),
             ],
             max_steps: 4,
         }
