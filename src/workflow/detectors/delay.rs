@@ -14,7 +14,8 @@ use nalgebra::{DMatrix, DVector};
 /// the residual Jacobian J, from its SVD): the score (Lagrange-multiplier) test of an
 /// added delay. Estimate δ̂ = a⊥ᵀr/‖a⊥‖², var δ̂ = μλ/(2‖a⊥‖²) (real-stacked; μ = E|r_k|²
 /// under the null, λ = 1 for a known noise level, else λ̂ = V/(N − p/2)); statistic
-/// t = δ̂/std δ̂, two-sided p = erfc(|t|/√2).
+/// t = δ̂/std δ̂, two-sided p = erfc(|t|/√2) (Student's t with 2N − p degrees of
+/// freedom when λ is estimated).
 ///
 /// Proposal: the same spec with `delay = true`; detail: `slope` (δ̂, s), `slope_std`, `t`.
 #[derive(Debug, Clone, Copy, Default)]
@@ -60,7 +61,7 @@ impl Detector for TimeDelay {
         let slope = num / den;
         let std = (mean * lambda / (2.0 * den)).sqrt();
         let t = slope / std;
-        let p_value = erfc(t.abs() / std::f64::consts::SQRT_2);
+        let p_value = two_sided_p(t, fit);
         let proposal = crate::workflow::ModelSpec {
             delay: true,
             ..fit.spec.clone()
@@ -105,4 +106,16 @@ pub(crate) fn project_off(j: &DMatrix<f64>, a: DVector<f64>) -> DVector<f64> {
         }
     }
     out
+}
+
+/// Two-sided p-value of a score statistic t: erfc(|t|/√2) from the normal when the noise
+/// level is known; with λ̂ estimated, Student's t with ν = 2N − p degrees of freedom,
+/// P(|T| > |t|) = P(F(1, ν) > t²).
+pub(crate) fn two_sided_p(t: f64, fit: &SpecFit) -> f64 {
+    let nu = 2 * fit.residuals.len();
+    if fit.noise_known || nu <= fit.n_params {
+        erfc(t.abs() / std::f64::consts::SQRT_2)
+    } else {
+        crate::workflow::lrt::f_sf(t * t, 1.0, (nu - fit.n_params) as f64)
+    }
 }

@@ -1,4 +1,4 @@
-use crate::stats::erfc;
+use super::delay::two_sided_p;
 use crate::workflow::finding::{Context, Detail, Detector, Effect, Finding, residual_power};
 use crate::workflow::spec::{SpecDomain, SpecFit};
 use crate::{Complex, FrequencyData};
@@ -21,7 +21,8 @@ pub enum Added {
 /// fitted poles. Normalised and projected off the model's residual Jacobian,
 /// d⊥ = (I − P_J)(−∂Ŷ/∂θ_new / c_k) real-stacked; the estimate of the new coefficient is
 /// β̂ = −d⊥ᵀr/‖d⊥‖² (one Gauss–Newton step of McKelvey eq. 23 on the larger model), its
-/// variance μλ/(2‖d⊥‖²); statistic t = β̂/std β̂, two-sided p = erfc(|t|/√2). A
+/// variance μλ/(2‖d⊥‖²); statistic t = β̂/std β̂, two-sided p = erfc(|t|/√2) (Student's
+/// t with 2N − p degrees of freedom when λ is estimated). A
 /// broadband slope mismatch at high or low frequency shows up here as a significant
 /// added coefficient. Applies to z-domain specs; `None` for s-domain ones.
 ///
@@ -78,7 +79,7 @@ impl Detector for OrderIncrease {
         let coefficient = -d.dot(&r) / den;
         let std = (mean * lambda / (2.0 * den)).sqrt();
         let t = coefficient / std;
-        let p_value = erfc(t.abs() / std::f64::consts::SQRT_2);
+        let p_value = two_sided_p(t, fit);
         let mut proposal = fit.spec.clone();
         match self.0 {
             Added::Pole => proposal.na += 1,
