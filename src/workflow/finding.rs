@@ -131,6 +131,16 @@ impl Context {
         }
     }
 
+    /// The context of frequency data without a time record (no transient, no noise
+    /// model) at level `alpha`.
+    pub fn frequency_data(alpha: f64) -> Self {
+        Self {
+            periodic: false,
+            time_record: false,
+            alpha,
+        }
+    }
+
     /// The context of the DFT of one non-periodic record at level `alpha`.
     pub fn non_periodic(alpha: f64) -> Self {
         Self {
