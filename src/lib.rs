@@ -79,6 +79,7 @@ pub mod simulate;
 pub mod solver;
 pub mod stats;
 pub mod validation;
+pub mod workflow;
 
 pub use criterion::{Criterion, Levy, MaximumLikelihood, SanathananKoerner, TotalLeastSquares};
 pub use criterion::{ErrorsInVariables, fit_eiv};

@@ -1,0 +1,75 @@
+use crate::FrequencyData;
+use crate::stats::chi2_sf;
+use crate::workflow::finding::{Context, Detail, Detector, Effect, Finding, residual_power};
+use crate::workflow::spec::SpecFit;
+
+/// A localised excess of normalised residual power: a missing lightly damped pole pair.
+///
+/// Under the null each |r_k|² has mean μ and variance v (μ = v = 1 for exact noise
+/// variances, where 2|r_k|² ~ χ²(2), the terms of the ML cost of McKelvey eq. 23; the
+/// F(2, 2ν) moments for sample variances). For every window of w consecutive lines,
+/// w = 3 … max(3, N/20), the window sum S is compared with the scaled χ² of the same mean
+/// and variance, S ≈ g χ²(h), g = v/(2μ), h = 2wμ²/v; the statistic is the smallest
+/// upper-tail probability, the p-value that times the number of windows tried
+/// (Bonferroni, capped at 1).
+///
+/// Proposal: na + 2, nb + 2; detail: `peak_omega` (rad/s, the largest |r_k| in the best
+/// window), `width` (rad/s, the window's span), `damping` ≈ width/(2 peak_omega),
+/// `lines` (w). Starting the refit from a pole pair at the peak is a later refinement.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct MissingResonance;
+
+impl Detector for MissingResonance {
+    fn effect(&self) -> Effect {
+        Effect::MissingResonance
+    }
+
+    fn detect(&self, _data: &FrequencyData<f64>, fit: &SpecFit, _ctx: &Context) -> Option<Finding> {
+        let (power, mean, var) = residual_power(fit);
+        let n = power.len();
+        let w_max = (n / 20).max(3);
+        if n < 3 || !(var > 0.0) {
+            return None;
+        }
+        let mut prefix = vec![0.0; n + 1];
+        for (k, p) in power.iter().enumerate() {
+            prefix[k + 1] = prefix[k] + p;
+        }
+        let (mut best, mut best_at, mut windows) = (1.0_f64, (0, 3), 0usize);
+        for w in 3..=w_max.min(n) {
+            let g = var / (2.0 * mean);
+            let h = 2.0 * w as f64 * mean * mean / var;
+            for start in 0..=(n - w) {
+                windows += 1;
+                let s = prefix[start + w] - prefix[start];
+                let p = chi2_sf(s / g, h);
+                if p < best {
+                    best = p;
+                    best_at = (start, w);
+                }
+            }
+        }
+        let (start, w) = best_at;
+        let peak = (start..start + w)
+            .max_by(|a, b| power[*a].total_cmp(&power[*b]))
+            .unwrap_or(start);
+        let peak_omega = fit.omega[peak];
+        let width = fit.omega[start + w - 1] - fit.omega[start];
+        let proposal = crate::workflow::ModelSpec {
+            na: fit.spec.na + 2,
+            nb: fit.spec.nb + 2,
+            ..fit.spec.clone()
+        };
+        Some(Finding {
+            effect: Effect::MissingResonance,
+            statistic: best,
+            p_value: (best * windows as f64).min(1.0),
+            detail: Detail::default()
+                .with("peak_omega", peak_omega)
+                .with("width", width)
+                .with("damping", width / (2.0 * peak_omega))
+                .with("lines", w as f64),
+            proposal,
+        })
+    }
+}

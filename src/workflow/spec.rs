@@ -1,0 +1,294 @@
+//! A model description (domain, orders, delay, transient, noise model, criterion) and its
+//! fit by the composed estimators, reduced to what the detectors need.
+use crate::criterion::{EivProblem, NoiseWeighting, refine_noise_model};
+use crate::fit::Stage;
+use crate::model::{NoiseModel, Output};
+use crate::prelude::*;
+use nalgebra::DMatrix;
+
+/// The model's domain.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(rename_all = "lowercase"))]
+pub enum SpecDomain {
+    /// Continuous time, G(s) = B(s)/A(s) at s = iω.
+    S,
+    /// Discrete time with sample time `ts` (s), G(z) = B(z⁻¹)/A(z⁻¹) at z = e^{iωts}.
+    Z {
+        /// Sample time (s).
+        ts: f64,
+    },
+}
+
+/// The estimation criterion.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(rename_all = "lowercase"))]
+pub enum SpecCriterion {
+    /// Output-error maximum likelihood (McKelvey eq. 23), started by Levy → SK.
+    Ml,
+    /// Errors-in-variables maximum likelihood (eq. 42).
+    Eiv,
+}
+
+/// A model structure as the workflow manipulates it.
+///
+/// | field | meaning |
+/// |---|---|
+/// | `domain` | s, or z with its sample time |
+/// | `na`, `nb` | denominator and numerator degrees |
+/// | `delay` | multiply by e^{−iωτ} with τ estimated ([`Delayed`]) |
+/// | `transient` | add the transient term T(ω) of a non-periodic record (Ŷ = GU + T) |
+/// | `noise_order` | a noise model H = C/D of orders (n, n) (eq. 26) |
+/// | `criterion` | ML (eq. 23) or EIV (eq. 42) |
+#[derive(Debug, Clone, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+pub struct ModelSpec {
+    /// The model's domain.
+    pub domain: SpecDomain,
+    /// Denominator degree.
+    pub na: usize,
+    /// Numerator degree.
+    pub nb: usize,
+    /// With an estimated time delay.
+    pub delay: bool,
+    /// With a transient term (non-periodic records).
+    pub transient: bool,
+    /// Order of a parametric noise model H = C/D, if any.
+    pub noise_order: Option<usize>,
+    /// The criterion.
+    pub criterion: SpecCriterion,
+}
+
+impl ModelSpec {
+    /// A plain discrete-time ML spec of orders (`na`, `nb`) with sample time `ts`.
+    pub fn discrete(na: usize, nb: usize, ts: f64) -> Self {
+        Self {
+            domain: SpecDomain::Z { ts },
+            na,
+            nb,
+            delay: false,
+            transient: false,
+            noise_order: None,
+            criterion: SpecCriterion::Ml,
+        }
+    }
+
+    /// A plain continuous-time ML spec of orders (`na`, `nb`).
+    pub fn continuous(na: usize, nb: usize) -> Self {
+        Self {
+            domain: SpecDomain::S,
+            ..Self::discrete(na, nb, 1.0)
+        }
+    }
+}
+
+/// The result of [`fit_spec`]: the statistics the detectors and the likelihood-ratio test
+/// use. Residuals are the normalised r_k = (Y_k − Ŷ_k)/σ_k of the criterion (eq. 23 or 42;
+/// with a noise model the innovations).
+#[derive(Debug, Clone)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+pub struct SpecFit {
+    /// The spec that was fitted.
+    pub spec: ModelSpec,
+    /// Number of estimated parameters p (system, delay and noise model).
+    pub n_params: usize,
+    /// The cost V = Σ|r_k|².
+    pub cost: f64,
+    /// λ̂ = V/N.
+    pub noise_variance: f64,
+    /// Whether r is normalised by a given noise level (else λ is estimated).
+    pub noise_known: bool,
+    /// Degrees of freedom of sample noise variances (periodic records), if any.
+    pub variance_dof: Option<usize>,
+    /// Cost and whiteness tests.
+    pub validation: Validation,
+    /// Normalised residuals r_k.
+    pub residuals: Vec<Complex<f64>>,
+    /// Each line's normaliser c_k = (Y_k − Ŷ_k)/r_k (σ_k for eq. 23 or 42, H_k·g with a
+    /// noise model; 1 where r_k = 0).
+    pub scale: Vec<Complex<f64>>,
+    /// ∂r/∂θ, real-stacked (2N × p, rows Re and Im of line k): −(∂Ŷ_k/∂θ)/c_k (zero
+    /// columns for noise-model parameters). Not serialised.
+    #[cfg_attr(feature = "serde", serde(skip))]
+    pub jacobian: DMatrix<f64>,
+    /// Frequencies (rad/s).
+    pub omega: Vec<f64>,
+    /// The model response Ĝ(ω_k) (including the delay factor).
+    pub response: Vec<Complex<f64>>,
+    /// The modelled output Ŷ_k = Ĝ U_k + T_k.
+    pub output: Vec<Complex<f64>>,
+    /// σ_G(ω_k) with σ_G² = E|Ĝ_k − G_k|² (first order, from the covariance), if it exists.
+    pub response_std: Option<Vec<f64>>,
+    /// Poles of the system part.
+    pub poles: Vec<Complex<f64>>,
+    /// The estimated delay τ (s) with its standard deviation, for `delay` specs.
+    pub delay: Option<(f64, Option<f64>)>,
+}
+
+use crate::validation::Validation;
+
+impl SpecFit {
+    /// Whether the residuals are consistent with the noise at level `alpha`: the cost test
+    /// (when the noise level is known) and the whiteness test both pass at α/2 each
+    /// (Bonferroni, so that a correct model fails with probability at most α).
+    pub fn consistent_with_noise(&self, alpha: f64) -> bool {
+        let v = &self.validation;
+        let level = alpha / 2.0;
+        v.cost_p.is_none_or(|p| p >= level) && v.whiteness_p.is_none_or(|p| p >= level)
+    }
+}
+
+/// Fits `spec` to `data` with the composed estimators: Levy → SK → ML ([`Pipeline`]);
+/// [`fit_delayed`] for a delay; [`fit_noise_model`] for a noise model; [`fit_eiv`] for EIV.
+///
+/// # Errors
+/// [`FdidError::InvalidArgument`] for combinations that do not exist (a noise model with
+/// EIV; a continuous-time transient without a sample time; a z-domain spec with a
+/// non-positive sample time); the estimators' errors.
+pub fn fit_spec(spec: &ModelSpec, data: &FrequencyData<f64>) -> Result<SpecFit> {
+    let mut model = match spec.domain {
+        SpecDomain::S => Rational::continuous(spec.na, spec.nb, data.omega())?,
+        SpecDomain::Z { ts } => Rational::discrete(spec.na, spec.nb, ts)?,
+    };
+    if spec.transient {
+        model = match spec.domain {
+            SpecDomain::Z { .. } => model.with_transient()?,
+            SpecDomain::S => {
+                let ts = data.ts().ok_or_else(|| FdidError::InvalidArgument {
+                    name: "transient",
+                    value: "continuous-time spec, data without sample time".into(),
+                    reason: "the sampled transient needs the record's sample time".into(),
+                })?;
+                model.with_sampled_transient(ts)?
+            }
+        };
+    }
+    let pipeline = Pipeline::default();
+    match (spec.delay, spec.noise_order, spec.criterion) {
+        (_, Some(n), SpecCriterion::Eiv) => Err(FdidError::InvalidArgument {
+            name: "noise_order",
+            value: n.to_string(),
+            reason: "a noise model is estimated by ML, not with the EIV criterion".into(),
+        }),
+        (false, None, SpecCriterion::Ml) => summarise(spec, data, &pipeline.fit(&model, data)?),
+        (false, None, SpecCriterion::Eiv) => {
+            summarise(spec, data, &fit_eiv(&pipeline, &model, data)?)
+        }
+        (true, None, SpecCriterion::Ml) => {
+            summarise(spec, data, &fit_delayed(&pipeline, &model, data)?)
+        }
+        (true, None, SpecCriterion::Eiv) => {
+            let eiv = ErrorsInVariables::default();
+            drop(eiv.problem(&model, data)?);
+            let start = fit_delayed(&pipeline, &model, data)?;
+            let delayed = start.model().clone();
+            let mut stages = start.stages().to_vec();
+            let theta0 = start.theta().to_vec();
+            let solution = estimate(
+                &delayed,
+                data,
+                &eiv,
+                &LevenbergMarquardt::default(),
+                Some(&theta0),
+            )?;
+            let theta = solution.theta.clone();
+            stages.push(Stage {
+                name: "eiv".into(),
+                solution,
+            });
+            if let Some(tau) = delayed.delay(&theta) {
+                delayed.check_delay(tau)?;
+            }
+            let problem = EivProblem::new(&delayed, data, eiv.use_covariance)?;
+            let fit = Fit::from_problem(
+                delayed.clone(),
+                data,
+                theta,
+                &problem,
+                NoiseLevel::Known,
+                stages,
+            )?;
+            summarise(spec, data, &fit)
+        }
+        (false, Some(n), SpecCriterion::Ml) => {
+            summarise(spec, data, &fit_noise_model(&pipeline, &model, data, n, n)?)
+        }
+        (true, Some(n), SpecCriterion::Ml) => {
+            let excited: Vec<bool> = data.u().iter().map(|u| u.norm_sqr() > 0.0).collect();
+            let flat = Pipeline {
+                weighting: NoiseWeighting::Flat,
+                ..Pipeline::default()
+            };
+            let start = fit_delayed(&flat, &model, &data.select_lines(&excited)?.without_noise())?;
+            let ts = data.ts().ok_or_else(|| FdidError::InvalidArgument {
+                name: "ts",
+                value: "none".into(),
+                reason: "a noise model H(z) is discrete time: the data need a sample time".into(),
+            })?;
+            let noise = NoiseModel::new(n, n, ts)?;
+            let fit = refine_noise_model(&start, data, noise, &LevenbergMarquardt::default())?;
+            summarise(spec, data, &fit)
+        }
+    }
+}
+
+/// Reduces a fit to a [`SpecFit`].
+fn summarise<M: ModelStructure<f64> + PolesZeros<f64>>(
+    spec: &ModelSpec,
+    data: &FrequencyData<f64>,
+    fit: &Fit<f64, M>,
+) -> Result<SpecFit> {
+    let model = fit.model();
+    let theta = fit.theta();
+    let mut out = Output::new(data.len(), model.n_params());
+    out.evaluate(model, theta, data, true);
+    let residuals = fit.residuals().to_vec();
+    let scale: Vec<Complex<f64>> = residuals
+        .iter()
+        .zip(data.y().iter().zip(&out.yhat))
+        .map(|(r, (y, yh))| {
+            let e = y - yh;
+            if r.norm() > 0.0 && e.norm() > 0.0 {
+                e / r
+            } else {
+                Complex::new(1.0, 0.0)
+            }
+        })
+        .collect();
+    let (n, p) = out.dyhat.shape();
+    let mut jacobian = DMatrix::zeros(2 * n, p);
+    for k in 0..n {
+        for j in 0..p {
+            let d = -out.dyhat[(k, j)] / scale[k];
+            jacobian[(2 * k, j)] = d.re;
+            jacobian[(2 * k + 1, j)] = d.im;
+        }
+    }
+    let delay = if spec.delay {
+        // the delay is the last parameter of the delayed system (before a noise model)
+        let tau_index = theta.len() - 1 - 2 * spec.noise_order.unwrap_or(0);
+        let std_tau = fit.theta_std().map(|s| s[tau_index]);
+        Some((theta[tau_index], std_tau))
+    } else {
+        None
+    };
+    Ok(SpecFit {
+        spec: spec.clone(),
+        n_params: theta.len(),
+        cost: fit.cost(),
+        noise_variance: fit.noise_variance(),
+        noise_known: fit.noise_known(),
+        variance_dof: data.variance_dof(),
+        validation: fit.validation().clone(),
+        residuals,
+        scale,
+        jacobian,
+        omega: fit.omega().to_vec(),
+        response: out.g.clone(),
+        output: out.yhat.clone(),
+        response_std: fit.response_std().map(<[f64]>::to_vec),
+        poles: fit.poles()?,
+        delay,
+    })
+}
