@@ -162,20 +162,25 @@ pub trait Detector {
     fn detect(&self, data: &FrequencyData<f64>, fit: &SpecFit, ctx: &Context) -> Option<Finding>;
 }
 
+/// The scale λ of the normalised residuals: 1 for a known noise level, else
+/// λ̂ = V/(N − p/2) (λ̂ = V/N when there are no degrees of freedom left).
+pub(crate) fn noise_scale(fit: &SpecFit) -> f64 {
+    if fit.noise_known {
+        return 1.0;
+    }
+    let dof = fit.residuals.len() as f64 - fit.n_params as f64 / 2.0;
+    if dof > 0.0 {
+        fit.cost / dof
+    } else {
+        fit.noise_variance
+    }
+}
+
 /// Per-line moments (mean, variance) of |r_k|² under the null: 1 and 1 for exact noise
 /// variances (|r|² ~ ½χ²(2)); F(2, 2ν) moments for sample variances with ν degrees of
 /// freedom; residuals scaled by λ̂ when the noise level is estimated.
 pub(crate) fn residual_power(fit: &SpecFit) -> (Vec<f64>, f64, f64) {
-    let lambda = if fit.noise_known {
-        1.0
-    } else {
-        let dof = fit.residuals.len() as f64 - fit.n_params as f64 / 2.0;
-        if dof > 0.0 {
-            fit.cost / dof
-        } else {
-            fit.noise_variance
-        }
-    };
+    let lambda = noise_scale(fit);
     let power = fit
         .residuals
         .iter()

@@ -4,6 +4,7 @@ mod colored;
 mod delay;
 mod order;
 mod resonance;
+mod score;
 mod transient;
 
 pub use colored::ColoredNoise;

@@ -1,8 +1,7 @@
-use super::delay::two_sided_p;
-use crate::workflow::finding::{Context, Detail, Detector, Effect, Finding, residual_power};
+use super::score::ScoreTest;
+use crate::workflow::finding::{Context, Detail, Detector, Effect, Finding};
 use crate::workflow::spec::{SpecDomain, SpecFit};
 use crate::{Complex, FrequencyData};
-use nalgebra::DVector;
 
 /// Which coefficient an [`OrderIncrease`] test adds.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -19,8 +18,8 @@ pub enum Added {
 /// At b_{nb+1} = 0 (resp. a_{na+1} = 0) the output derivative is
 /// ∂Ŷ_k/∂b = z_k^{−(nb+1)} U_k/Â_k (resp. ∂Ŷ_k/∂a = −Ĝ_k z_k^{−(na+1)} U_k/Â_k), Â from the
 /// fitted poles. Normalised and projected off the model's residual Jacobian,
-/// d⊥ = (I − P_J)(−∂Ŷ/∂θ_new / c_k) real-stacked; the estimate of the new coefficient is
-/// β̂ = −d⊥ᵀr/‖d⊥‖² (one Gauss–Newton step of McKelvey eq. 23 on the larger model), its
+/// d⊥ = (I − P_J)(∂Ŷ/∂θ_new / c_k) real-stacked; the estimate of the new coefficient is
+/// β̂ = d⊥ᵀr/‖d⊥‖² (one Gauss–Newton step of McKelvey eq. 23 on the larger model), its
 /// variance μλ/(2‖d⊥‖²); statistic t = β̂/std β̂, two-sided p = erfc(|t|/√2) (Student's
 /// t with 2N − p degrees of freedom when λ is estimated). A
 /// broadband slope mismatch at high or low frequency shows up here as a significant
@@ -42,44 +41,23 @@ impl Detector for OrderIncrease {
         let SpecDomain::Z { ts } = fit.spec.domain else {
             return None;
         };
-        let (power, mean, _) = residual_power(fit);
-        let lambda = if fit.noise_known {
-            1.0
-        } else {
-            fit.residuals
-                .iter()
-                .zip(&power)
-                .find(|(r, _)| r.norm_sqr() > 0.0)
-                .map(|(r, p)| r.norm_sqr() / p)?
-        };
-        let n = fit.residuals.len();
-        let mut d = DVector::<f64>::zeros(2 * n);
-        let mut r = DVector::<f64>::zeros(2 * n);
         let one = Complex::new(1.0, 0.0);
-        for k in 0..n {
-            let zinv = Complex::new(0.0, -fit.omega[k] * ts).exp();
-            let a = fit.poles.iter().fold(one, |s, p| s * (one - p * zinv));
-            let dyhat = match self.0 {
-                Added::Zero => zinv.powu((fit.spec.nb + 1) as u32) * data.u()[k] / a,
-                Added::Pole => {
-                    -fit.response[k] * zinv.powu((fit.spec.na + 1) as u32) * data.u()[k] / a
-                }
-            };
-            let v = -dyhat / fit.scale[k];
-            d[2 * k] = v.re;
-            d[2 * k + 1] = v.im;
-            r[2 * k] = fit.residuals[k].re;
-            r[2 * k + 1] = fit.residuals[k].im;
-        }
-        let d = super::delay::project_off(&fit.jacobian, d);
-        let den = d.norm_squared();
-        if !(den > 0.0) || !den.is_finite() {
-            return None;
-        }
-        let coefficient = -d.dot(&r) / den;
-        let std = (mean * lambda / (2.0 * den)).sqrt();
-        let t = coefficient / std;
-        let p_value = two_sided_p(t, fit);
+        // d_k = ∂Ŷ_k/∂θ_new / c_k
+        let direction: Vec<Complex<f64>> = (0..fit.residuals.len())
+            .map(|k| {
+                let zinv = Complex::new(0.0, -fit.omega[k] * ts).exp();
+                let a = fit.poles.iter().fold(one, |s, p| s * (one - p * zinv));
+                let dyhat = match self.0 {
+                    Added::Zero => zinv.powu((fit.spec.nb + 1) as u32) * data.u()[k] / a,
+                    Added::Pole => {
+                        -fit.response[k] * zinv.powu((fit.spec.na + 1) as u32) * data.u()[k] / a
+                    }
+                };
+                dyhat / fit.scale[k]
+            })
+            .collect();
+        let test = ScoreTest::new(fit, &direction)?;
+        let (coefficient, std, t, p_value) = (test.estimate, test.std, test.t, test.p_value);
         let mut proposal = fit.spec.clone();
         match self.0 {
             Added::Pole => proposal.na += 1,

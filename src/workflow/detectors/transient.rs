@@ -68,7 +68,7 @@ impl Detector for Transient {
         }
         // remove what the model's own parameters produce (score test), scale the columns
         for j in 0..q {
-            let c = super::delay::project_off(&fit.jacobian, x.column(j).into_owned());
+            let c = super::score::project_off(&fit.jacobian, x.column(j).into_owned());
             x.set_column(j, &c);
         }
         for mut c in x.column_iter_mut() {
