@@ -71,6 +71,8 @@ pub struct Report {
     pub effects: Vec<Effect>,
     /// Whether the final fit passes the cost and whiteness tests at α.
     pub consistent_with_noise: bool,
+    /// The fit of the starting model (before any step).
+    pub initial_fit: SpecFit,
     /// The final fit.
     #[cfg_attr(feature = "serde", serde(rename = "final"))]
     pub final_fit: SpecFit,
@@ -132,7 +134,8 @@ impl Workflow {
                 reason: "the false-alarm level lies in (0, 1)".into(),
             });
         }
-        let mut current = fit_spec(&start, data)?;
+        let initial_fit = fit_spec(&start, data)?;
+        let mut current = initial_fit.clone();
         let mut steps = Vec::new();
         while steps.len() < self.max_steps && !current.consistent_with_noise(alpha) {
             let findings: Vec<Finding> = self
@@ -203,6 +206,7 @@ impl Workflow {
             effects: steps.iter().map(|s| s.effect).collect(),
             steps,
             consistent_with_noise: current.consistent_with_noise(alpha),
+            initial_fit,
             final_fit: current,
         })
     }
