@@ -174,6 +174,7 @@ fn detectors_are_calibrated_on_correct_models() {
             periodic,
             time_record: true,
             alpha,
+            ..Context::periodic(alpha)
         };
         let mut fired = 0;
         for seed in 0..seeds {

@@ -1,7 +1,9 @@
 //! Findings: a named effect, its test statistic and p-value, and the model augmentation
 //! that would explain it.
 use super::spec::{ModelSpec, SpecFit};
-use crate::FrequencyData;
+use crate::data::DistortionAnalysis;
+use crate::{FdidError, FrequencyData, TimeData};
+use std::sync::Arc;
 
 /// The effects the workflow names (issue names via [`Effect::as_str`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -109,8 +111,87 @@ pub struct Finding {
     pub proposal: ModelSpec,
 }
 
+/// A periodic time record behind the averaged spectra that are fitted: `periods` periods
+/// of M = N/`periods` samples, steady state (warm-up dropped). The measurement-level
+/// detectors ([`NonlinearDistortion`](super::detectors::NonlinearDistortion),
+/// [`TimeVariation`](super::detectors::TimeVariation)) read the lines the averaged,
+/// excited-line data do not hold: the non-excited lines of the period grid and the lines
+/// between them in the DFT of the whole record.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PeriodicRecord {
+    record: TimeData<f64>,
+    periods: usize,
+}
+
+impl PeriodicRecord {
+    /// The record of `periods` periods.
+    ///
+    /// # Errors
+    /// [`FdidError::InvalidArgument`] named `"periods"` when `periods < 2` or the record
+    /// length is not a multiple of it; [`FdidError::TooShort`] when a period has fewer
+    /// than 4 samples.
+    pub fn new(record: TimeData<f64>, periods: usize) -> crate::Result<Self> {
+        if periods < 2 || record.len() % periods != 0 {
+            return Err(FdidError::InvalidArgument {
+                name: "periods",
+                value: periods.to_string(),
+                reason: format!(
+                    "need at least 2 periods dividing the record length {}",
+                    record.len()
+                ),
+            });
+        }
+        let m = record.len() / periods;
+        if m < 4 {
+            return Err(FdidError::TooShort {
+                what: "samples per period",
+                needed: 4,
+                got: m,
+            });
+        }
+        Ok(Self { record, periods })
+    }
+
+    /// The time record.
+    pub fn record(&self) -> &TimeData<f64> {
+        &self.record
+    }
+
+    /// The number of periods P.
+    pub fn periods(&self) -> usize {
+        self.periods
+    }
+
+    /// Samples per period M = N/P.
+    pub fn period_len(&self) -> usize {
+        self.record.len() / self.periods
+    }
+
+    /// The period-grid line numbers k (ω = 2πk/(M Ts)) of the frequencies `omega`, or
+    /// `None` when one of them is not on the grid (relative mismatch above 10⁻⁶ of a line)
+    /// or lies beyond the Nyquist line.
+    pub fn period_lines(&self, omega: &[f64]) -> Option<Vec<usize>> {
+        let m = self.period_len();
+        let step = std::f64::consts::TAU / (m as f64 * self.record.ts());
+        omega
+            .iter()
+            .map(|w| {
+                let k = w / step;
+                let r = k.round();
+                ((k - r).abs() < 1e-6 && r >= 0.0 && r <= (m / 2) as f64).then_some(r as usize)
+            })
+            .collect()
+    }
+}
+
 /// What the detectors know about the measurement.
-#[derive(Debug, Clone, Copy, PartialEq)]
+///
+/// Built by [`Context::periodic`], [`Context::non_periodic`] or
+/// [`Context::frequency_data`]; the measurement-level detectors need more than the fitted
+/// lines: [`Context::with_record`] attaches the periodic time record,
+/// [`Context::with_distortion`] a nonlinear distortion analysis (e.g. over several phase
+/// realisations). Without them those detectors do not apply.
+#[derive(Debug, Clone, PartialEq)]
 pub struct Context {
     /// Whether the data are the averaged spectra of a periodic record (no transient,
     /// no leakage); `false` for the DFT of one non-periodic record or for frequency data.
@@ -119,6 +200,12 @@ pub struct Context {
     pub time_record: bool,
     /// The false-alarm level α of each test.
     pub alpha: f64,
+    /// The periodic time record behind the data, if known.
+    pub record: Option<Arc<PeriodicRecord>>,
+    /// A nonlinear distortion analysis of the measurement (odd random-phase multisine),
+    /// if known; else [`NonlinearDistortion`](super::detectors::NonlinearDistortion)
+    /// builds one from `record`.
+    pub distortion: Option<Arc<DistortionAnalysis<f64>>>,
 }
 
 impl Context {
@@ -128,6 +215,8 @@ impl Context {
             periodic: true,
             time_record: true,
             alpha,
+            record: None,
+            distortion: None,
         }
     }
 
@@ -137,7 +226,7 @@ impl Context {
         Self {
             periodic: false,
             time_record: false,
-            alpha,
+            ..Self::periodic(alpha)
         }
     }
 
@@ -146,9 +235,48 @@ impl Context {
         Self {
             periodic: false,
             time_record: true,
-            alpha,
+            ..Self::periodic(alpha)
         }
     }
+
+    /// Attaches the periodic time record of `periods` periods whose averaged spectra
+    /// ([`TimeData::average_periods`]) are the fitted data.
+    ///
+    /// # Errors
+    /// As [`PeriodicRecord::new`].
+    pub fn with_record(mut self, record: TimeData<f64>, periods: usize) -> crate::Result<Self> {
+        self.record = Some(Arc::new(PeriodicRecord::new(record, periods)?));
+        Ok(self)
+    }
+
+    /// Attaches a nonlinear distortion analysis of the measurement.
+    #[must_use]
+    pub fn with_distortion(mut self, analysis: DistortionAnalysis<f64>) -> Self {
+        self.distortion = Some(Arc::new(analysis));
+        self
+    }
+}
+
+/// How the workflow acts on a significant finding ([`Detector::remedy`]).
+#[derive(Debug, Clone, PartialEq)]
+pub enum Remedy {
+    /// Refit [`Finding::proposal`] (a larger model) on the same data; the step is kept
+    /// when the nested likelihood-ratio test accepts it.
+    Refit,
+    /// Refit [`Finding::proposal`] under another criterion (e.g. errors-in-variables,
+    /// McKelvey eq. 42): the weighting changes, so the nested likelihood-ratio test does
+    /// not apply. The step is kept when the detector's test is significant and the full
+    /// negative log-likelihood Σ(ln|c_k|² + |r_k|²) (c_k the line's normaliser, so the
+    /// log-determinant of the noise variances is included) decreases.
+    Criterion,
+    /// Keep the model, change the noise reference: refit the current spec on these data
+    /// (same lines, new noise variances). The step is kept on the detector's own test; the
+    /// workflow continues on the new data.
+    NoiseReference(FrequencyData<f64>),
+    /// The effect lies outside the model class (e.g. a time-varying system for an LTI
+    /// spec): the workflow names it, records it as unmodelled and stops refining the
+    /// model.
+    NotAbsorbed,
 }
 
 /// A test for one effect on the residuals of a fit.
@@ -160,6 +288,28 @@ pub trait Detector {
     /// effect is already in the model) or cannot be computed. The finding is returned
     /// whatever its p-value: the caller compares it with the level.
     fn detect(&self, data: &FrequencyData<f64>, fit: &SpecFit, ctx: &Context) -> Option<Finding>;
+
+    /// Whether the detector tests the measurement (noise reference, criterion, time
+    /// invariance) rather than the model structure. Such detectors run at every step, even
+    /// when the fit is consistent with the noise (the stated noise may hide the effect),
+    /// and their significant findings are acted on before the structural ones: the
+    /// likelihood-ratio tests of structural steps assume the residual is noise at the
+    /// stated level. Default `false`.
+    fn measurement(&self) -> bool {
+        false
+    }
+
+    /// How to act on `finding` (from this detector on `fit` of `data`); `None` when it
+    /// cannot be acted on. Default [`Remedy::Refit`].
+    fn remedy(
+        &self,
+        _data: &FrequencyData<f64>,
+        _fit: &SpecFit,
+        _ctx: &Context,
+        _finding: &Finding,
+    ) -> Option<Remedy> {
+        Some(Remedy::Refit)
+    }
 }
 
 /// The scale λ of the normalised residuals: 1 for a known noise level, else

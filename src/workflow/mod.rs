@@ -12,6 +12,17 @@
 //! [`crate::validation::Validation`] pass at α), when no detector fires, or after
 //! `max_steps`.
 //!
+//! Some effects are properties of the measurement, not missing model terms: input noise
+//! (switch to the errors-in-variables criterion, eq. 42), nonlinear distortion (the model
+//! stays the best linear approximation; the noise reference becomes noise + distortion)
+//! and time variation (outside the LTI model class). Their detectors
+//! ([`Detector::measurement`]) run at every step, are acted on first, and each is
+//! accepted by its own test ([`Remedy`], [`Acceptance`]), since the nested
+//! likelihood-ratio test compares models under one noise reference. The effects a linear
+//! time-invariant model cannot absorb are listed in [`Report::unmodelled`]. The
+//! distortion and time-variation detectors need the periodic time record
+//! ([`Context::with_record`]) or a distortion analysis ([`Context::with_distortion`]).
+//!
 //! ```
 //! use fdid::prelude::*;
 //! use fdid::workflow::{Context, ModelSpec, Workflow};
@@ -38,7 +49,7 @@ mod finding;
 pub mod lrt;
 mod spec;
 
-pub use finding::{Context, Detail, Detector, Effect, Finding};
+pub use finding::{Context, Detail, Detector, Effect, Finding, PeriodicRecord, Remedy};
 pub use spec::{ModelSpec, SpecCriterion, SpecDomain, SpecFit, fit_spec};
 
 use crate::{FdidError, FrequencyData, Result};
@@ -55,10 +66,35 @@ pub struct Step {
     pub cost_before: f64,
     /// Cost after the step.
     pub cost_after: f64,
-    /// p-value of the likelihood-ratio test (smaller model vs augmented one).
+    /// p-value of the test that accepted the step: the likelihood-ratio test (smaller
+    /// model vs augmented one) for a structural step, the detector's own test otherwise
+    /// (see `acceptance`).
     pub lr_p: f64,
     /// The detector's named values.
     pub detail: Detail,
+    /// How the step was accepted.
+    #[cfg_attr(feature = "serde", serde(default))]
+    pub acceptance: Acceptance,
+}
+
+/// How a [`Step`] was accepted (see [`Remedy`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(rename_all = "snake_case"))]
+pub enum Acceptance {
+    /// A larger model, kept by the nested likelihood-ratio test.
+    #[default]
+    LikelihoodRatio,
+    /// Another criterion (errors-in-variables), kept by the detector's test and a
+    /// decrease of the full negative log-likelihood.
+    Criterion,
+    /// The same model judged against a new noise reference (noise + nonlinear
+    /// distortion), kept by the detector's test: the residual left is the effect, not a
+    /// model error.
+    NoiseReference,
+    /// Named but outside the model class (a time-varying system for an LTI model): the
+    /// model is unchanged (`cost_after = cost_before`) and the refinement stops.
+    NotAbsorbed,
 }
 
 /// The workflow's outcome: accepted steps, the effects in order, and the final fit.
@@ -69,8 +105,13 @@ pub struct Report {
     pub steps: Vec<Step>,
     /// The effects of `steps`, in order.
     pub effects: Vec<Effect>,
-    /// Whether the final fit passes the cost and whiteness tests at α.
+    /// Whether the final fit passes the cost and whiteness tests at α (against the final
+    /// noise reference, which includes nonlinear distortion when that was named).
     pub consistent_with_noise: bool,
+    /// Named effects the final model does not absorb (nonlinear distortion, time
+    /// variation): its residual holds them, not a model error.
+    #[cfg_attr(feature = "serde", serde(default))]
+    pub unmodelled: Vec<Effect>,
     /// The fit of the starting model (before any step).
     pub initial_fit: SpecFit,
     /// The final fit.
@@ -82,7 +123,7 @@ pub struct Report {
 ///
 /// | field | default | meaning |
 /// |---|---|---|
-/// | `detectors` | [`TimeDelay`](detectors::TimeDelay), [`MissingResonance`](detectors::MissingResonance), [`Transient`](detectors::Transient), [`ColoredNoise`](detectors::ColoredNoise), [`OrderIncrease`](detectors::OrderIncrease) for a pole and a zero | the tests run at each step |
+/// | `detectors` | [`TimeDelay`](detectors::TimeDelay), [`MissingResonance`](detectors::MissingResonance), [`Transient`](detectors::Transient), [`ColoredNoise`](detectors::ColoredNoise), [`OrderIncrease`](detectors::OrderIncrease) for a pole and a zero; the measurement-level [`InputNoise`](detectors::InputNoise), [`NonlinearDistortion`](detectors::NonlinearDistortion), [`TimeVariation`](detectors::TimeVariation) (these return `None` without the information they need) | the tests run at each step |
 /// | `max_steps` | 4 | most augmentations accepted |
 ///
 /// The level α comes from the [`Context`].
@@ -103,6 +144,9 @@ impl Default for Workflow {
                 Box::new(detectors::ColoredNoise),
                 Box::new(detectors::OrderIncrease(detectors::Added::Pole)),
                 Box::new(detectors::OrderIncrease(detectors::Added::Zero)),
+                Box::new(detectors::InputNoise),
+                Box::new(detectors::NonlinearDistortion),
+                Box::new(detectors::TimeVariation),
             ],
             max_steps: 4,
         }
@@ -122,6 +166,17 @@ impl std::fmt::Debug for Workflow {
 impl Workflow {
     /// Runs the workflow on `data` from the model `start`.
     ///
+    /// Each step first runs the measurement-level detectors ([`Detector::measurement`]:
+    /// input noise, nonlinear distortion, time variation), whatever the fit's consistency,
+    /// and acts on the most significant finding below α whose effect was not acted on yet,
+    /// by its [`Remedy`]: a criterion switch is kept when the detector's test is
+    /// significant and the full negative log-likelihood Σ(ln|c_k|² + |r_k|²) decreases; a
+    /// new noise reference is kept on the detector's test and the loop continues on the
+    /// new data; an effect the model class cannot absorb is named and ends the refinement.
+    /// Otherwise, while the fit is not consistent with the noise, the structural findings
+    /// are refitted and judged by the likelihood-ratio test (see the module
+    /// documentation).
+    ///
     /// # Errors
     /// [`FdidError::InvalidArgument`] for α outside (0, 1); the start fit's errors (a
     /// proposal whose fit fails is skipped).
@@ -135,79 +190,214 @@ impl Workflow {
             });
         }
         let initial_fit = fit_spec(&start, data)?;
+        let mut data = data.clone();
         let mut current = initial_fit.clone();
         let mut steps = Vec::new();
-        while steps.len() < self.max_steps && !current.consistent_with_noise(alpha) {
-            let findings: Vec<Finding> = self
-                .detectors
-                .iter()
-                .filter_map(|d| d.detect(data, &current, &ctx))
-                .filter(|f| f.p_value < alpha && f.proposal != current.spec)
-                .collect();
-            // refit every proposal; keep those the likelihood-ratio test accepts and take
-            // the one that explains most: smallest LR p-value, then (when p-values
-            // underflow) the largest cost drop per added parameter
-            let mut accepted: Option<(Finding, SpecFit, f64, f64)> = None;
-            for finding in findings {
-                let Ok(next) = fit_spec(&finding.proposal, data) else {
-                    continue;
-                };
-                if next.n_params <= current.n_params {
-                    continue;
-                }
-                let test = if next.spec.noise_order != current.spec.noise_order {
-                    // a new noise model: concentrated likelihoods W = ln(V/N) (eq. 26)
-                    let n = data.len() as f64;
-                    lrt::concentrated_lr_test(
-                        (current.cost / n).ln(),
-                        current.n_params,
-                        (next.cost / n).ln(),
-                        next.n_params,
-                        data.len(),
-                    )
-                } else {
-                    lrt::lr_test(
-                        current.cost,
-                        current.n_params,
-                        next.cost,
-                        next.n_params,
-                        data.len(),
-                        current.noise_known,
-                    )
-                };
-                let Ok(test) = test else {
-                    continue;
-                };
-                if !(test.p_value < alpha) {
+        let mut acted: Vec<Effect> = Vec::new();
+        let mut unmodelled = Vec::new();
+        while steps.len() < self.max_steps {
+            match self.measurement_step(&data, &current, &ctx, &acted) {
+                Some(MeasurementStep {
+                    step,
+                    next,
+                    data: new_data,
+                    absorbed,
+                }) => {
+                    acted.push(step.effect);
+                    if !absorbed {
+                        unmodelled.push(step.effect);
+                    }
+                    let stop = next.is_none();
+                    steps.push(step);
+                    if let Some(d) = new_data {
+                        data = d;
+                    }
+                    if let Some(next) = next {
+                        current = next;
+                    }
+                    if stop {
+                        break;
+                    }
                     continue;
                 }
-                let gain = (current.cost - next.cost) / (next.n_params - current.n_params) as f64;
-                let better = accepted.as_ref().is_none_or(|(_, _, p, g)| {
-                    test.p_value < *p || (test.p_value == *p && gain > *g)
-                });
-                if better {
-                    accepted = Some((finding, next, test.p_value, gain));
-                }
+                None if current.consistent_with_noise(alpha) => break,
+                None => {}
             }
-            let Some((finding, next, lr_p, _)) = accepted else {
+            let Some((step, next)) = self.structural_step(&data, &current, &ctx) else {
                 break;
             };
-            steps.push(Step {
-                effect: finding.effect,
-                p_value: finding.p_value,
-                cost_before: current.cost,
-                cost_after: next.cost,
-                lr_p,
-                detail: finding.detail,
-            });
+            steps.push(step);
             current = next;
         }
         Ok(Report {
             effects: steps.iter().map(|s| s.effect).collect(),
             steps,
             consistent_with_noise: current.consistent_with_noise(alpha),
+            unmodelled,
             initial_fit,
             final_fit: current,
         })
     }
+
+    /// The most significant measurement-level finding not acted on yet whose remedy
+    /// succeeds, as a step.
+    fn measurement_step(
+        &self,
+        data: &FrequencyData<f64>,
+        current: &SpecFit,
+        ctx: &Context,
+        acted: &[Effect],
+    ) -> Option<MeasurementStep> {
+        let mut findings: Vec<(&dyn Detector, Finding)> = self
+            .detectors
+            .iter()
+            .filter(|d| d.measurement() && !acted.contains(&d.effect()))
+            .filter_map(|d| Some((d.as_ref(), d.detect(data, current, ctx)?)))
+            .filter(|(_, f)| f.p_value < ctx.alpha)
+            .collect();
+        findings.sort_by(|a, b| a.1.p_value.total_cmp(&b.1.p_value));
+        for (detector, finding) in findings {
+            let step = |cost_after: f64, acceptance: Acceptance| Step {
+                effect: finding.effect,
+                p_value: finding.p_value,
+                cost_before: current.cost,
+                cost_after,
+                lr_p: finding.p_value,
+                detail: finding.detail.clone(),
+                acceptance,
+            };
+            match detector.remedy(data, current, ctx, &finding) {
+                Some(Remedy::Criterion) => {
+                    let Ok(next) = fit_spec(&finding.proposal, data) else {
+                        continue;
+                    };
+                    if !(negative_log_likelihood(&next) < negative_log_likelihood(current)) {
+                        continue;
+                    }
+                    return Some(MeasurementStep {
+                        step: step(next.cost, Acceptance::Criterion),
+                        next: Some(next),
+                        data: None,
+                        absorbed: true,
+                    });
+                }
+                Some(Remedy::NoiseReference(new_data)) => {
+                    let Ok(next) = fit_spec(&current.spec, &new_data) else {
+                        continue;
+                    };
+                    return Some(MeasurementStep {
+                        step: step(next.cost, Acceptance::NoiseReference),
+                        next: Some(next),
+                        data: Some(new_data),
+                        absorbed: false,
+                    });
+                }
+                Some(Remedy::NotAbsorbed) => {
+                    return Some(MeasurementStep {
+                        step: step(current.cost, Acceptance::NotAbsorbed),
+                        next: None,
+                        data: None,
+                        absorbed: false,
+                    });
+                }
+                Some(Remedy::Refit) | None => {}
+            }
+        }
+        None
+    }
+
+    /// Refits every structural proposal; keeps those the likelihood-ratio test accepts and
+    /// takes the one that explains most: smallest LR p-value, then (when p-values
+    /// underflow) the largest cost drop per added parameter.
+    fn structural_step(
+        &self,
+        data: &FrequencyData<f64>,
+        current: &SpecFit,
+        ctx: &Context,
+    ) -> Option<(Step, SpecFit)> {
+        let alpha = ctx.alpha;
+        let findings: Vec<Finding> = self
+            .detectors
+            .iter()
+            .filter(|d| !d.measurement())
+            .filter_map(|d| d.detect(data, current, ctx))
+            .filter(|f| f.p_value < alpha && f.proposal != current.spec)
+            .collect();
+        let mut accepted: Option<(Finding, SpecFit, f64, f64)> = None;
+        for finding in findings {
+            let Ok(next) = fit_spec(&finding.proposal, data) else {
+                continue;
+            };
+            if next.n_params <= current.n_params {
+                continue;
+            }
+            let test = if next.spec.noise_order != current.spec.noise_order {
+                // a new noise model: concentrated likelihoods W = ln(V/N) (eq. 26)
+                let n = data.len() as f64;
+                lrt::concentrated_lr_test(
+                    (current.cost / n).ln(),
+                    current.n_params,
+                    (next.cost / n).ln(),
+                    next.n_params,
+                    data.len(),
+                )
+            } else {
+                lrt::lr_test(
+                    current.cost,
+                    current.n_params,
+                    next.cost,
+                    next.n_params,
+                    data.len(),
+                    current.noise_known,
+                )
+            };
+            let Ok(test) = test else {
+                continue;
+            };
+            if !(test.p_value < alpha) {
+                continue;
+            }
+            let gain = (current.cost - next.cost) / (next.n_params - current.n_params) as f64;
+            let better = accepted
+                .as_ref()
+                .is_none_or(|(_, _, p, g)| test.p_value < *p || (test.p_value == *p && gain > *g));
+            if better {
+                accepted = Some((finding, next, test.p_value, gain));
+            }
+        }
+        let (finding, next, lr_p, _) = accepted?;
+        Some((
+            Step {
+                effect: finding.effect,
+                p_value: finding.p_value,
+                cost_before: current.cost,
+                cost_after: next.cost,
+                lr_p,
+                detail: finding.detail,
+                acceptance: Acceptance::LikelihoodRatio,
+            },
+            next,
+        ))
+    }
+}
+
+/// A measurement-level step: the step, the new fit (`None`: the effect is not absorbed
+/// and the refinement stops), new data (a new noise reference), and whether the model
+/// absorbs the effect.
+struct MeasurementStep {
+    step: Step,
+    next: Option<SpecFit>,
+    data: Option<FrequencyData<f64>>,
+    absorbed: bool,
+}
+
+/// The negative log-likelihood of a fit under its own noise reference, up to a constant:
+/// Σ_k (ln|c_k|² + |r_k|²) with c_k the line's normaliser (σ_k of eq. 23 or 42), so that
+/// fits under different weightings compare.
+fn negative_log_likelihood(fit: &SpecFit) -> f64 {
+    fit.scale
+        .iter()
+        .zip(&fit.residuals)
+        .map(|(c, r)| c.norm_sqr().ln() + r.norm_sqr())
+        .sum()
 }

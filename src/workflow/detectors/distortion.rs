@@ -1,0 +1,145 @@
+use crate::data::DistortionAnalysis;
+use crate::workflow::finding::{Context, Detail, Detector, Effect, Finding, Remedy};
+use crate::workflow::spec::SpecFit;
+use crate::{FrequencyData, NoiseVariances};
+use std::sync::Arc;
+
+/// Energy above the noise at the non-excited lines of an odd random-phase multisine:
+/// nonlinear distortion, which no linear model removes.
+///
+/// The test is that of [`DistortionAnalysis`]: at the odd and, separately, the even
+/// detection lines each |Ȳ_k|²/σ̂²_k ~ F(2, 2(P − 1)) under "noise only" (the linear data
+/// model of McKelvey eq. 19), combined by Fisher's method into an exact p-value per kind;
+/// the finding's p-value is the smaller one times the number m ≤ 2 of kinds tested
+/// (Bonferroni), its statistic the Fisher statistic of that kind. The analysis is the
+/// [`Context`]'s ([`Context::with_distortion`], e.g. over several phase realisations) or
+/// else built from its periodic record ([`Context::with_record`]) with the fitted lines as
+/// the excited lines and the band they span.
+///
+/// **The model stays linear.** At the excited lines the output of a random-phase
+/// multisine is Y = G_BLA U + Y_S + N: the stochastic nonlinear contribution Y_S behaves
+/// as a noise of variance σ²_S,k that does not average over periods, so the fit of a
+/// linear model is the parametric best linear approximation (BLA) and its residual keeps
+/// Y_S. The remedy ([`Remedy::NoiseReference`]) keeps the model and adds σ̂²_S,k
+/// ([`DistortionAnalysis::excited_distortion_power`], interpolated from the odd detection
+/// lines) to the output noise variance of each fitted line, so that the final fit is
+/// judged against "noise + nonlinear distortion": the residual that remains is
+/// distortion, not a model error, and the workflow reports the effect as unmodelled. The
+/// step is accepted on this test alone (the nested likelihood-ratio test does not apply:
+/// the model does not change). The fitted data must be the averaged spectra of one
+/// realisation (the record's).
+///
+/// Applies to output-error or EIV fits with given noise variances; `None` without an
+/// analysis or record, when a fitted line is not an excited line of the analysis, or when
+/// no detection test exists. Detail: `odd_p`, `even_p` (the two tests' p-values, when
+/// present), `odd_db`, `even_db` (distortion power at the detection lines relative to the
+/// output power at the excited lines, dB, when above the noise), `noise_db` (noise power
+/// relative to the output), `distortion_to_noise_db` (mean σ̂²_S,k over the mean output
+/// noise variance at the fitted lines, when positive), `realisations`.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct NonlinearDistortion;
+
+impl NonlinearDistortion {
+    /// The analysis of `ctx` (given or built from its record) and, for each fitted line,
+    /// its index among the analysis's excited lines.
+    fn analysis(
+        fit: &SpecFit,
+        ctx: &Context,
+    ) -> Option<(Arc<DistortionAnalysis<f64>>, Vec<usize>)> {
+        let analysis = match (&ctx.distortion, &ctx.record) {
+            (Some(a), _) => a.clone(),
+            (None, Some(rec)) => {
+                let lines = rec.period_lines(&fit.omega)?;
+                let lo = *lines.iter().min()?;
+                let hi = *lines.iter().max()?;
+                Arc::new(DistortionAnalysis::new(rec.record(), rec.periods(), &lines, [lo, hi]).ok()?)
+            }
+            (None, None) => return None,
+        };
+        let omega = analysis.omega();
+        let index = fit
+            .omega
+            .iter()
+            .map(|w| {
+                omega
+                    .iter()
+                    .position(|v| (v - w).abs() <= 1e-9 * w.abs().max(1e-300))
+            })
+            .collect::<Option<Vec<usize>>>()?;
+        Some((analysis, index))
+    }
+}
+
+impl Detector for NonlinearDistortion {
+    fn effect(&self) -> Effect {
+        Effect::NonlinearDistortion
+    }
+
+    fn measurement(&self) -> bool {
+        true
+    }
+
+    fn detect(&self, data: &FrequencyData<f64>, fit: &SpecFit, ctx: &Context) -> Option<Finding> {
+        let noise = data.noise()?;
+        let (analysis, index) = Self::analysis(fit, ctx)?;
+        let tests: Vec<_> = [analysis.odd(), analysis.even()]
+            .into_iter()
+            .flatten()
+            .collect();
+        let best = tests
+            .iter()
+            .min_by(|a, b| a.p_value().total_cmp(&b.p_value()))?;
+        let p_value = (best.p_value() * tests.len() as f64).min(1.0);
+        let mut detail = Detail::default();
+        if let Some(t) = analysis.odd() {
+            detail = detail.with("odd_p", t.p_value());
+            if let Some(db) = t.distortion_db {
+                detail = detail.with("odd_db", db);
+            }
+        }
+        if let Some(t) = analysis.even() {
+            detail = detail.with("even_p", t.p_value());
+            if let Some(db) = t.distortion_db {
+                detail = detail.with("even_db", db);
+            }
+        }
+        detail = detail.with("noise_db", analysis.noise_db());
+        if let Some(ds) = analysis.excited_distortion_power() {
+            let d = index.iter().map(|i| ds[*i]).sum::<f64>() / index.len() as f64;
+            let v = noise.var_y.iter().sum::<f64>() / noise.var_y.len() as f64;
+            if d > 0.0 && v > 0.0 {
+                detail = detail.with("distortion_to_noise_db", 10.0 * (d / v).log10());
+            }
+        }
+        Some(Finding {
+            effect: Effect::NonlinearDistortion,
+            statistic: best.fisher_statistic,
+            p_value,
+            detail: detail.with("realisations", analysis.realisations() as f64),
+            proposal: fit.spec.clone(),
+        })
+    }
+
+    fn remedy(
+        &self,
+        data: &FrequencyData<f64>,
+        fit: &SpecFit,
+        ctx: &Context,
+        _finding: &Finding,
+    ) -> Option<Remedy> {
+        let noise = data.noise()?;
+        let (analysis, index) = Self::analysis(fit, ctx)?;
+        let mut var_y = noise.var_y.clone();
+        if let Some(ds) = analysis.excited_distortion_power() {
+            for (v, i) in var_y.iter_mut().zip(&index) {
+                *v += ds[*i].max(0.0);
+            }
+        }
+        let reference = NoiseVariances {
+            var_y,
+            ..noise.clone()
+        };
+        // the degrees of freedom of the sample variances are kept
+        Some(Remedy::NoiseReference(data.clone().with_noise(reference).ok()?))
+    }
+}

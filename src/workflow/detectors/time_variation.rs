@@ -1,0 +1,131 @@
+use crate::workflow::finding::{Context, Detail, Detector, Effect, Finding, Remedy};
+use crate::workflow::lrt::f_sf;
+use crate::workflow::spec::SpecFit;
+use crate::FrequencyData;
+
+/// Skirts around the excited lines of a periodic record: a time-varying system.
+///
+/// Take the DFT of the whole record of N = P M samples (McKelvey eq. 1): the periodic
+/// excitation and the steady-state response of a time-invariant system (linear or not)
+/// live on the lines l = kP of the period grid; the lines in between hold noise only, of
+/// a spectrum that is smooth in frequency. A time-varying system multiplies the response
+/// by functions of t: with coefficients polynomial in t the output holds terms
+/// tᵖ x(t), x periodic, whose spectrum is the spectrum of tᵖ, a hyperbola in the offset
+/// |l − kP|, pasted around every excited line kP (Lataire and Pintelon, *Frequency domain
+/// total least squares estimator of time-varying systems*, eq. 17 and appendix VII-B:
+/// the "skirts"). So time variation concentrates power on the lines next to the excited
+/// ones, unlike nonlinear distortion (periodic: only on the lines kP) and unlike noise or
+/// a transient (smooth over the in-between lines).
+///
+/// With K the excited period lines (the fitted data's frequencies), the *adjacent* lines
+/// A = {kP ± 1 : k ∈ K} and the *reference* lines R = {kP ± j : 2 ≤ j ≤ P − 2, k ∈ K} ∖ A
+/// (P ≥ 4; lines 0 and N/2 and the multiples of P excluded) interleave, so under
+/// "time-invariant system, noise with a smooth spectrum" the mean output powers
+/// P_A = mean_{l∈A} |Y_l|², P_R = mean_{l∈R} |Y_l|² estimate the same variance from
+/// independent complex normal lines and F = P_A/P_R ~ F(2|A|, 2|R|); the one-sided
+/// p-value is P(F(2|A|, 2|R|) > F).
+///
+/// Applies when the [`Context`] holds the periodic record ([`Context::with_record`]) of
+/// P ≥ 4 periods and every fitted line is on its period grid; `None` otherwise.
+///
+/// An LTI [`ModelSpec`](crate::workflow::ModelSpec) cannot absorb a time-varying system
+/// ([`Remedy::NotAbsorbed`]): the workflow names the effect, stops refining the LTI model
+/// and reports it as unmodelled; a time-varying model is [`crate::ltv`] (fitted on the
+/// time record, outside the workflow). Proposal: the current spec unchanged. Detail:
+/// `skirt_ratio` (F), `skirt_to_noise_db` (10 log₁₀((P_A − P_R)/P_R), present when
+/// P_A > P_R), `skirt_to_output_db` (the same excess relative to the mean output power at
+/// the excited lines), `adjacent_lines` (|A|), `reference_lines` (|R|).
+#[derive(Debug, Clone, Copy, Default)]
+pub struct TimeVariation;
+
+impl Detector for TimeVariation {
+    fn effect(&self) -> Effect {
+        Effect::TimeVariation
+    }
+
+    fn measurement(&self) -> bool {
+        true
+    }
+
+    fn detect(&self, _data: &FrequencyData<f64>, fit: &SpecFit, ctx: &Context) -> Option<Finding> {
+        let rec = ctx.record.as_ref()?;
+        let p = rec.periods();
+        if p < 4 {
+            return None;
+        }
+        let excited = rec.period_lines(&fit.omega)?;
+        let full = rec.record().dft();
+        let n_lines = full.len(); // ⌊N/2⌋ + 1
+        let n = rec.record().len();
+        let usable = |l: usize| l > 0 && l < n_lines && !(n % 2 == 0 && l == n / 2) && l % p != 0;
+        let mut adjacent = vec![false; n_lines];
+        let mut reference = vec![false; n_lines];
+        let mut output = 0.0;
+        for &k in &excited {
+            let c = k * p;
+            if c < n_lines {
+                output += full.y()[c].norm_sqr();
+            }
+            // offsets j = 1 (adjacent) and 2 … P − 2 (reference) on both sides
+            for j in 1..p - 1 {
+                let sides = [Some(c + j), c.checked_sub(j)];
+                for l in sides.into_iter().flatten() {
+                    if usable(l) {
+                        if j == 1 {
+                            adjacent[l] = true;
+                        } else {
+                            reference[l] = true;
+                        }
+                    }
+                }
+            }
+        }
+        let pick = |set: &[bool], not: &[bool]| -> (usize, f64) {
+            let mut count = 0;
+            let mut sum = 0.0;
+            for (l, (s, x)) in set.iter().zip(not).enumerate() {
+                if *s && !*x {
+                    count += 1;
+                    sum += full.y()[l].norm_sqr();
+                }
+            }
+            (count, sum)
+        };
+        let none = vec![false; n_lines];
+        let (na, sa) = pick(&adjacent, &none);
+        let (nr, sr) = pick(&reference, &adjacent);
+        if na == 0 || nr == 0 || !(sr > 0.0) {
+            return None;
+        }
+        let (pa, pr) = (sa / na as f64, sr / nr as f64);
+        let ratio = pa / pr;
+        let p_value = f_sf(ratio, 2.0 * na as f64, 2.0 * nr as f64);
+        let output = output / excited.len() as f64;
+        let mut detail = Detail::default().with("skirt_ratio", ratio);
+        if pa > pr {
+            detail = detail.with("skirt_to_noise_db", 10.0 * ((pa - pr) / pr).log10());
+            if output > 0.0 {
+                detail = detail.with("skirt_to_output_db", 10.0 * ((pa - pr) / output).log10());
+            }
+        }
+        Some(Finding {
+            effect: Effect::TimeVariation,
+            statistic: ratio,
+            p_value,
+            detail: detail
+                .with("adjacent_lines", na as f64)
+                .with("reference_lines", nr as f64),
+            proposal: fit.spec.clone(),
+        })
+    }
+
+    fn remedy(
+        &self,
+        _data: &FrequencyData<f64>,
+        _fit: &SpecFit,
+        _ctx: &Context,
+        _finding: &Finding,
+    ) -> Option<Remedy> {
+        Some(Remedy::NotAbsorbed)
+    }
+}
