@@ -52,7 +52,9 @@ impl NonlinearDistortion {
                 let lines = rec.period_lines(&fit.omega)?;
                 let lo = *lines.iter().min()?;
                 let hi = *lines.iter().max()?;
-                Arc::new(DistortionAnalysis::new(rec.record(), rec.periods(), &lines, [lo, hi]).ok()?)
+                Arc::new(
+                    DistortionAnalysis::new(rec.record(), rec.periods(), &lines, [lo, hi]).ok()?,
+                )
             }
             (None, None) => return None,
         };
@@ -140,6 +142,8 @@ impl Detector for NonlinearDistortion {
             ..noise.clone()
         };
         // the degrees of freedom of the sample variances are kept
-        Some(Remedy::NoiseReference(data.clone().with_noise(reference).ok()?))
+        Some(Remedy::NoiseReference(
+            data.clone().with_noise(reference).ok()?,
+        ))
     }
 }

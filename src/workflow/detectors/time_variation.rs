@@ -1,7 +1,7 @@
+use crate::FrequencyData;
 use crate::workflow::finding::{Context, Detail, Detector, Effect, Finding, Remedy};
 use crate::workflow::lrt::f_sf;
 use crate::workflow::spec::SpecFit;
-use crate::FrequencyData;
 
 /// Skirts around the excited lines of a periodic record: a time-varying system.
 ///
