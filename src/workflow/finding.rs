@@ -131,7 +131,7 @@ impl PeriodicRecord {
     /// length is not a multiple of it; [`FdidError::TooShort`] when a period has fewer
     /// than 4 samples.
     pub fn new(record: TimeData<f64>, periods: usize) -> crate::Result<Self> {
-        if periods < 2 || record.len() % periods != 0 {
+        if periods < 2 || !record.len().is_multiple_of(periods) {
             return Err(FdidError::InvalidArgument {
                 name: "periods",
                 value: periods.to_string(),

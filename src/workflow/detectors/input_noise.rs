@@ -119,7 +119,7 @@ impl Detector for InputNoise {
                 .map(|(w, h)| w * (1.0 - h) * (1.0 + w))
                 .sum::<f64>();
         let v1 = var * e.iter().map(|w| (w * (1.0 + w)).powi(2)).sum::<f64>();
-        if !(m0 > 0.0 && v0 > 0.0 && m1 > 0.0 && v1 > 0.0) || !s.is_finite() {
+        if !(m0 > 0.0 && v0 > 0.0 && m1 > 0.0 && v1 > 0.0 && s.is_finite()) {
             return None;
         }
         let upper = |m: f64, v: f64| chi2_sf(s * 2.0 * m / v, 2.0 * m * m / v);

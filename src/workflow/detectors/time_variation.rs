@@ -57,7 +57,9 @@ impl Detector for TimeVariation {
         let full = rec.record().dft();
         let n_lines = full.len(); // ⌊N/2⌋ + 1
         let n = rec.record().len();
-        let usable = |l: usize| l > 0 && l < n_lines && !(n % 2 == 0 && l == n / 2) && l % p != 0;
+        let usable = |l: usize| {
+            l > 0 && l < n_lines && !(n.is_multiple_of(2) && l == n / 2) && !l.is_multiple_of(p)
+        };
         let mut adjacent = vec![false; n_lines];
         let mut reference = vec![false; n_lines];
         let mut output = 0.0;
