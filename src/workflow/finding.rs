@@ -242,6 +242,35 @@ impl Context {
     /// Attaches the periodic time record of `periods` periods whose averaged spectra
     /// ([`TimeData::average_periods`]) are the fitted data.
     ///
+    /// ```
+    /// use fdid::prelude::*;
+    /// use fdid::simulate::{Multisine, SplitMix64};
+    /// use fdid::workflow::{Context, Effect, ModelSpec, Workflow};
+    /// # fn main() -> fdid::Result<()> {
+    /// // y(t) = 0.5 u(t) + a(t) y(t−1), a drifting from 0.5 to 0.6: a time-varying system
+    /// let (m, p) = (256, 6);
+    /// let lines: Vec<usize> = (1..=60).collect();
+    /// let ms = Multisine::from_lines(m as f64, lines.clone(), vec![1.0; 60], (0..60).map(|k| k as f64).collect())?;
+    /// let u = ms.sample(1.0, (p + 1) * m);
+    /// let mut rng = SplitMix64::new(1);
+    /// let mut y = vec![0.0; u.len()];
+    /// for t in 1..u.len() {
+    ///     let a = 0.5 + 0.1 * t as f64 / u.len() as f64;
+    ///     y[t] = 0.5 * u[t] + a * y[t - 1];
+    /// }
+    /// let y: Vec<f64> = y.iter().map(|v| v + 0.01 * rng.gaussian()).collect();
+    /// let record = TimeData::new(u[m..].to_vec(), y[m..].to_vec(), 1.0)?;
+    /// let all = record.average_periods(p)?;
+    /// let keep: Vec<bool> = (0..all.len()).map(|k| lines.contains(&k)).collect();
+    /// let data = all.select_lines(&keep)?;
+    /// let ctx = Context::periodic(0.05).with_record(record, p)?;
+    /// let report = Workflow::default().run(&data, ModelSpec::discrete(1, 0, 1.0), ctx)?;
+    /// assert_eq!(report.effects.first(), Some(&Effect::TimeVariation));
+    /// assert_eq!(report.unmodelled, vec![Effect::TimeVariation]);
+    /// # Ok(())
+    /// # }
+    /// ```
+    ///
     /// # Errors
     /// As [`PeriodicRecord::new`].
     pub fn with_record(mut self, record: TimeData<f64>, periods: usize) -> crate::Result<Self> {
