@@ -33,11 +33,13 @@
 //! # Ok(())
 //! # }
 //! ```
+mod bands;
 pub mod detectors;
 mod finding;
 pub mod lrt;
 mod spec;
 
+pub use bands::{Band, disagreement_bands};
 pub use finding::{Context, Detail, Detector, Effect, Finding};
 pub use spec::{ModelSpec, SpecCriterion, SpecDomain, SpecFit, fit_spec};
 
