@@ -60,7 +60,7 @@ fn coverage(report: &fdid::workflow::Report, g: impl Fn(f64) -> Complex<f64>) ->
     inside as f64 / f.omega.len() as f64
 }
 
-/// A delay of 0.8 samples and an extra lightly damped mode at 2 rad/sample: both are
+/// A delay of 2.5 samples and an extra lightly damped mode at 2 rad/sample: both are
 /// named (in either order), the final model is consistent with the noise and covers the
 /// truth.
 #[test]
@@ -72,7 +72,7 @@ fn hidden_delay_and_resonance_are_both_found() {
     let (r, th) = (0.98f64, 2.0f64);
     let ar = [1.0, -2.0 * r * th.cos(), r * r];
     let br = [0.0, 0.01, 0.0];
-    let tau = 0.8;
+    let tau = 2.5;
     let truth = |w: f64| {
         let zi = Complex::new(0.0, -w).exp();
         (poly(&B2, zi) / poly(&A2, zi) + poly(&br, zi) / poly(&ar, zi))

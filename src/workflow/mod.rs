@@ -37,6 +37,7 @@ mod bands;
 pub mod detectors;
 mod finding;
 pub mod lrt;
+mod revise;
 mod spec;
 
 pub use bands::{Band, disagreement_bands};
@@ -204,6 +205,7 @@ impl Workflow {
             });
             current = next;
         }
+        self.revise(data, &ctx, &mut steps, &mut current);
         Ok(Report {
             effects: steps.iter().map(|s| s.effect).collect(),
             steps,
