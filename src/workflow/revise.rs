@@ -50,8 +50,8 @@ impl Workflow {
     ) {
         for _ in 0..steps.len() {
             let mut improved = false;
-            for i in 0..steps.len() {
-                let effect = steps[i].effect;
+            for slot in steps.iter_mut() {
+                let effect = slot.effect;
                 if !swappable(effect) {
                     continue;
                 }
@@ -102,7 +102,7 @@ impl Workflow {
                     best = Some((step, next));
                 }
                 if let Some((step, next)) = best {
-                    steps[i] = step;
+                    *slot = step;
                     *current = next;
                     improved = true;
                 }
