@@ -152,7 +152,7 @@ fn hidden_input_noise_is_named_first() {
         );
         if report.effects.first() == Some(&Effect::InputNoise) {
             first += 1;
-            assert_eq!(report.steps[0].acceptance, Acceptance::Criterion);
+            assert_eq!(report.steps[0].acceptance(), Acceptance::Criterion);
         }
         assert_eq!(report.final_fit.spec.criterion, SpecCriterion::Eiv);
         assert!(cov >= 0.9, "seed {seed}: coverage {cov}");
@@ -288,7 +288,7 @@ fn hidden_distortion_is_named_first() {
         if report.effects.first() == Some(&Effect::NonlinearDistortion) {
             first += 1;
             let step = step.unwrap();
-            assert_eq!(step.acceptance, Acceptance::NoiseReference);
+            assert_eq!(step.acceptance(), Acceptance::NoiseReference);
             let d = step.detail.get("distortion_to_noise_db").unwrap();
             assert!(d > 3.0 && d < 25.0, "distortion to noise {d} dB");
             assert!(step.detail.get("odd_p").unwrap() < 1e-6);
@@ -331,7 +331,7 @@ fn hidden_time_variation_is_named_first() {
             first += 1;
             let step = report.steps.last().unwrap();
             assert_eq!(step.effect, Effect::TimeVariation);
-            assert_eq!(step.acceptance, Acceptance::NotAbsorbed);
+            assert_eq!(step.acceptance(), Acceptance::NotAbsorbed);
             assert_eq!(step.cost_after, step.cost_before);
             assert!(step.detail.get("skirt_ratio").unwrap() > 1.0);
         }

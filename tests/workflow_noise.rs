@@ -81,7 +81,7 @@ fn transient_and_coloured_noise_are_both_found() {
 
 #[test]
 fn white_noise_false_alarm_rate() {
-    let seeds = 100;
+    let seeds = 200;
     let mut alarms = 0;
     for seed in 0..seeds {
         let data = record(600 + seed, 0.02, 0.0);
@@ -95,4 +95,27 @@ fn white_noise_false_alarm_rate() {
     let rate = alarms as f64 / seeds as f64;
     println!("white-noise false-alarm rate {rate} ({alarms}/{seeds}) at alpha {ALPHA}");
     assert!(rate <= 0.10, "{rate}");
+}
+
+/// Detection power of coloured noise against the pole of its AR(1) shaping filter
+/// (1/(1 − a z⁻¹)), 100 seeds per point, from the model with the transient term.
+/// Run with `cargo test --release --all-features --test workflow_noise -- --ignored --nocapture`.
+#[test]
+#[ignore]
+fn coloured_noise_power_table() {
+    let seeds = 100;
+    println!("noise filter pole a | P(colored_noise first)");
+    for pole in [0.1, 0.2, 0.3, 0.5, 0.9] {
+        let mut hits = 0;
+        for seed in 0..seeds {
+            let data = record(10_000 + seed, 0.02, pole);
+            let report = Workflow::default()
+                .run(&data, spec(true), Context::non_periodic(ALPHA))
+                .unwrap();
+            if report.effects.first() == Some(&Effect::ColoredNoise) {
+                hits += 1;
+            }
+        }
+        println!("{pole} | {}", hits as f64 / seeds as f64);
+    }
 }

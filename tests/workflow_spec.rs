@@ -315,4 +315,38 @@ fn power_table() {
         }
         println!("{height} | {}", hits as f64 / seeds as f64);
     }
+    println!("extra real pole p (truth G2/(1 − p z⁻¹)) | P(missing_pole first)");
+    for pole in [0.05, 0.1, 0.2, 0.4] {
+        let mut hits = 0;
+        for seed in 0..seeds {
+            let base = lines(5000 + seed, 1e-3, true, 0.0);
+            let y: Vec<Complex<f64>> = base
+                .u()
+                .iter()
+                .zip(base.omega())
+                .zip(base.y())
+                .map(|((u, w), y)| {
+                    let zi = Complex::new(0.0, -w).exp();
+                    let g = g2(*w);
+                    // the noise of `base` plus the change of the response
+                    y + (g / (Complex::new(1.0, 0.0) - zi * pole) - g) * u
+                })
+                .collect();
+            let data = FrequencyData::new(base.omega().to_vec(), y, base.u().to_vec(), Some(1.0))
+                .unwrap()
+                .with_noise(base.noise().unwrap().clone())
+                .unwrap();
+            let report = Workflow::default()
+                .run(
+                    &data,
+                    ModelSpec::discrete(2, 2, 1.0),
+                    Context::periodic(0.05),
+                )
+                .unwrap();
+            if report.effects.first() == Some(&fdid::workflow::Effect::MissingPole) {
+                hits += 1;
+            }
+        }
+        println!("{pole} | {}", hits as f64 / seeds as f64);
+    }
 }

@@ -44,11 +44,14 @@
 //! # Ok(())
 //! # }
 //! ```
+mod bands;
 pub mod detectors;
 mod finding;
 pub mod lrt;
+mod revise;
 mod spec;
 
+pub use bands::{Band, disagreement_bands};
 pub use finding::{Context, Detail, Detector, Effect, Finding, PeriodicRecord, Remedy};
 pub use spec::{ModelSpec, SpecCriterion, SpecDomain, SpecFit, fit_spec};
 
@@ -68,13 +71,24 @@ pub struct Step {
     pub cost_after: f64,
     /// p-value of the test that accepted the step: the likelihood-ratio test (smaller
     /// model vs augmented one) for a structural step, the detector's own test otherwise
-    /// (see `acceptance`).
+    /// ([`Step::acceptance`]).
     pub lr_p: f64,
     /// The detector's named values.
     pub detail: Detail,
-    /// How the step was accepted.
-    #[cfg_attr(feature = "serde", serde(default))]
-    pub acceptance: Acceptance,
+}
+
+impl Step {
+    /// How the step was accepted, from its effect: input noise by a criterion switch,
+    /// nonlinear distortion by a new noise reference, time variation not absorbed, every
+    /// other effect by the likelihood-ratio test (the remedies of the default detectors).
+    pub fn acceptance(&self) -> Acceptance {
+        match self.effect {
+            Effect::InputNoise => Acceptance::Criterion,
+            Effect::NonlinearDistortion => Acceptance::NoiseReference,
+            Effect::TimeVariation => Acceptance::NotAbsorbed,
+            _ => Acceptance::LikelihoodRatio,
+        }
+    }
 }
 
 /// How a [`Step`] was accepted (see [`Remedy`]).
@@ -208,7 +222,7 @@ impl Workflow {
                     absorbed,
                 }) => {
                     acted.push(step.effect);
-                    cost_only |= step.acceptance == Acceptance::NoiseReference;
+                    cost_only |= step.acceptance() == Acceptance::NoiseReference;
                     if !absorbed {
                         unmodelled.push(step.effect);
                     }
@@ -234,6 +248,7 @@ impl Workflow {
             steps.push(step);
             current = next;
         }
+        self.revise(&data, &ctx, &mut steps, &mut current);
         Ok(Report {
             effects: steps.iter().map(|s| s.effect).collect(),
             steps,
@@ -262,14 +277,13 @@ impl Workflow {
             .collect();
         findings.sort_by(|a, b| a.1.p_value.total_cmp(&b.1.p_value));
         for (detector, finding) in findings {
-            let step = |cost_after: f64, acceptance: Acceptance| Step {
+            let step = |cost_after: f64| Step {
                 effect: finding.effect,
                 p_value: finding.p_value,
                 cost_before: current.cost,
                 cost_after,
                 lr_p: finding.p_value,
                 detail: finding.detail.clone(),
-                acceptance,
             };
             match detector.remedy(data, current, ctx, &finding) {
                 Some(Remedy::Criterion) => {
@@ -280,7 +294,7 @@ impl Workflow {
                         continue;
                     }
                     return Some(MeasurementStep {
-                        step: step(next.cost, Acceptance::Criterion),
+                        step: step(next.cost),
                         next: Some(next),
                         data: None,
                         absorbed: true,
@@ -291,7 +305,7 @@ impl Workflow {
                         continue;
                     };
                     return Some(MeasurementStep {
-                        step: step(next.cost, Acceptance::NoiseReference),
+                        step: step(next.cost),
                         next: Some(next),
                         data: Some(new_data),
                         absorbed: false,
@@ -299,7 +313,7 @@ impl Workflow {
                 }
                 Some(Remedy::NotAbsorbed) => {
                     return Some(MeasurementStep {
-                        step: step(current.cost, Acceptance::NotAbsorbed),
+                        step: step(current.cost),
                         next: None,
                         data: None,
                         absorbed: false,
@@ -379,7 +393,6 @@ impl Workflow {
                 cost_after: next.cost,
                 lr_p,
                 detail: finding.detail,
-                acceptance: Acceptance::LikelihoodRatio,
             },
             next,
         ))

@@ -13,17 +13,20 @@ pub enum Added {
 }
 
 /// The score (Lagrange-multiplier) test of one more denominator or numerator coefficient
-/// of a discrete-time model G = B(z⁻¹)/A(z⁻¹): a missing pole or zero.
+/// of G = B(x)/A(x): a missing pole or zero.
 ///
-/// At b_{nb+1} = 0 (resp. a_{na+1} = 0) the output derivative is
-/// ∂Ŷ_k/∂b = z_k^{−(nb+1)} U_k/Â_k (resp. ∂Ŷ_k/∂a = −Ĝ_k z_k^{−(na+1)} U_k/Â_k), Â from the
-/// fitted poles. Normalised and projected off the model's residual Jacobian,
+/// With x_k = z_k⁻¹ (discrete time) or x_k = iω_k/ω_max (continuous time, the highest
+/// power of the scaled Laplace variable), at b_{nb+1} = 0 (resp. a_{na+1} = 0) the output
+/// derivative is ∂Ŷ_k/∂b = e^{−iω_kτ̂} x_k^{nb+1} U_k/Â_k (resp. ∂Ŷ_k/∂a = −Ŷ_k x_k^{na+1}/Â_k
+/// with Ŷ_k = Ĝ_k U_k + T_k, the transient sharing the denominator),
+/// Â = Π(1 − p̂ x) (discrete) or Π(x − p̂/ω_max) (continuous) from the fitted poles (its
+/// constant factor cancels in t). Normalised and projected off the model's residual Jacobian,
 /// d⊥ = (I − P_J)(∂Ŷ/∂θ_new / c_k) real-stacked; the estimate of the new coefficient is
 /// β̂ = d⊥ᵀr/‖d⊥‖² (one Gauss–Newton step of McKelvey eq. 23 on the larger model), its
 /// variance μλ/(2‖d⊥‖²); statistic t = β̂/std β̂, two-sided p = erfc(|t|/√2) (Student's
 /// t with 2N − p degrees of freedom when λ is estimated). A
 /// broadband slope mismatch at high or low frequency shows up here as a significant
-/// added coefficient. Applies to z-domain specs; `None` for s-domain ones.
+/// added coefficient.
 ///
 /// Proposal: na + 1 (pole) or nb + 1 (zero); detail: `coefficient` (β̂), `std`, `t`.
 #[derive(Debug, Clone, Copy)]
@@ -38,20 +41,49 @@ impl Detector for OrderIncrease {
     }
 
     fn detect(&self, data: &FrequencyData<f64>, fit: &SpecFit, _ctx: &Context) -> Option<Finding> {
-        let SpecDomain::Z { ts } = fit.spec.domain else {
-            return None;
-        };
         let one = Complex::new(1.0, 0.0);
+        // x_k: z_k⁻¹ in discrete time; iω_k/ω_max in continuous time (scaled so that the
+        // powers stay O(1); the t statistic does not depend on the scale)
+        let (x, poles): (Vec<Complex<f64>>, Vec<Complex<f64>>) = match fit.spec.domain {
+            SpecDomain::Z { ts } => (
+                fit.omega
+                    .iter()
+                    .map(|w| Complex::new(0.0, -w * ts).exp())
+                    .collect(),
+                fit.poles.clone(),
+            ),
+            SpecDomain::S => {
+                let w_max = fit.omega.iter().fold(0.0_f64, |m, w| m.max(w.abs()));
+                if !(w_max > 0.0) {
+                    return None;
+                }
+                (
+                    fit.omega
+                        .iter()
+                        .map(|w| Complex::new(0.0, w / w_max))
+                        .collect(),
+                    fit.poles.iter().map(|p| p / w_max).collect(),
+                )
+            }
+        };
+        let discrete = matches!(fit.spec.domain, SpecDomain::Z { .. });
         // d_k = ∂Ŷ_k/∂θ_new / c_k
         let direction: Vec<Complex<f64>> = (0..fit.residuals.len())
             .map(|k| {
-                let zinv = Complex::new(0.0, -fit.omega[k] * ts).exp();
-                let a = fit.poles.iter().fold(one, |s, p| s * (one - p * zinv));
+                let a = if discrete {
+                    poles.iter().fold(one, |s, p| s * (one - p * x[k]))
+                } else {
+                    poles.iter().fold(one, |s, p| s * (x[k] - p))
+                };
                 let dyhat = match self.0 {
-                    Added::Zero => zinv.powu((fit.spec.nb + 1) as u32) * data.u()[k] / a,
-                    Added::Pole => {
-                        -fit.response[k] * zinv.powu((fit.spec.na + 1) as u32) * data.u()[k] / a
+                    Added::Zero => {
+                        let delay = fit
+                            .delay
+                            .map_or(one, |(tau, _)| Complex::new(0.0, -fit.omega[k] * tau).exp());
+                        delay * x[k].powu((fit.spec.nb + 1) as u32) * data.u()[k] / a
                     }
+                    // Ŷ = (B U e^{−iωτ} + t)/A: the transient shares the denominator
+                    Added::Pole => -fit.output[k] * x[k].powu((fit.spec.na + 1) as u32) / a,
                 };
                 dyhat / fit.scale[k]
             })

@@ -1,5 +1,5 @@
 use crate::FrequencyData;
-use crate::stats::chi2_sf;
+use crate::workflow::bands::scan_windows;
 use crate::workflow::finding::{Context, Detail, Detector, Effect, Finding, residual_power};
 use crate::workflow::spec::SpecFit;
 
@@ -31,24 +31,13 @@ impl Detector for MissingResonance {
         if n < 3 || !(var > 0.0) {
             return None;
         }
-        let mut prefix = vec![0.0; n + 1];
-        for (k, p) in power.iter().enumerate() {
-            prefix[k + 1] = prefix[k] + p;
-        }
-        let (mut best, mut best_at, mut windows) = (1.0_f64, (0, 3), 0usize);
-        for w in 3..=w_max.min(n) {
-            let g = var / (2.0 * mean);
-            let h = 2.0 * w as f64 * mean * mean / var;
-            for start in 0..=(n - w) {
-                windows += 1;
-                let s = prefix[start + w] - prefix[start];
-                let p = chi2_sf(s / g, h);
-                if p < best {
-                    best = p;
-                    best_at = (start, w);
-                }
+        let (mut best, mut best_at) = (1.0_f64, (0, 3));
+        let windows = scan_windows(&power, mean, var, 3..=w_max.min(n), |start, w, p| {
+            if p < best {
+                best = p;
+                best_at = (start, w);
             }
-        }
+        });
         let (start, w) = best_at;
         let peak = (start..start + w)
             .max_by(|a, b| power[*a].total_cmp(&power[*b]))
