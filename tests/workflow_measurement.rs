@@ -389,6 +389,7 @@ fn false_alarms(seeds: u64, limit: f64) {
     }
     let rate = workflow as f64 / seeds as f64;
     println!("workflow: any effect named on {rate} ({workflow}/{seeds})");
+    assert!(rate <= limit, "workflow: {rate}");
 }
 
 /// 40 seeds: each rate at most 0.15 (α = 0.05 plus 3.2 binomial standard errors).

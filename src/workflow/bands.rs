@@ -65,7 +65,7 @@ pub(crate) fn scan_windows(
 /// The bands where `fit`'s residuals disagree with the noise at family-wise level `alpha`.
 ///
 /// Every window of w = 1 … max(3, N/20) consecutive lines is tested with the scaled χ² of
-/// [`scan_windows`] (the terms |r_k|² of McKelvey's ML cost, eq. 23, each of mean μ and
+/// `scan_windows` (the terms |r_k|² of McKelvey's ML cost, eq. 23, each of mean μ and
 /// variance v under the null: 1 and 1 for exact noise variances, the F(2, 2ν) moments for
 /// sample variances, scaled by λ̂ when the level is estimated). A window is flagged when
 /// its p-value times the number of windows is below α (Bonferroni: on a correct model no

@@ -184,8 +184,9 @@ impl Workflow {
     ///
     /// Each step first runs the measurement-level detectors ([`Detector::measurement`]:
     /// input noise, nonlinear distortion, time variation), whatever the fit's consistency,
-    /// and acts on the most significant finding below α whose effect was not acted on yet,
-    /// by its [`Remedy`]: a criterion switch is kept when the detector's test is
+    /// and acts on the most significant finding below α/(2m) (m the number of them that
+    /// apply: Bonferroni, so that together they raise a false alarm with probability at
+    /// most α/2) whose effect was not acted on yet, by its [`Remedy`]: a criterion switch is kept when the detector's test is
     /// significant and the full negative log-likelihood Σ(ln|c_k|² + |r_k|²) decreases; a
     /// new noise reference is kept on the detector's test and the loop continues on the
     /// new data; an effect the model class cannot absorb is named and ends the refinement.
@@ -268,12 +269,19 @@ impl Workflow {
         ctx: &Context,
         acted: &[Effect],
     ) -> Option<MeasurementStep> {
-        let mut findings: Vec<(&dyn Detector, Finding)> = self
+        let applicable: Vec<(&dyn Detector, Finding)> = self
             .detectors
             .iter()
             .filter(|d| d.measurement() && !acted.contains(&d.effect()))
             .filter_map(|d| Some((d.as_ref(), d.detect(data, current, ctx)?)))
-            .filter(|(_, f)| f.p_value < ctx.alpha)
+            .collect();
+        // these tests run whatever the fit's consistency: each at α/(2m) over the m that
+        // apply (Bonferroni) keeps their family-wise false-alarm rate at most α/2, the
+        // other half going to the structural steps (gated by the consistency tests)
+        let level = ctx.alpha / (2 * applicable.len().max(1)) as f64;
+        let mut findings: Vec<(&dyn Detector, Finding)> = applicable
+            .into_iter()
+            .filter(|(_, f)| f.p_value < level)
             .collect();
         findings.sort_by(|a, b| a.1.p_value.total_cmp(&b.1.p_value));
         for (detector, finding) in findings {
