@@ -233,11 +233,16 @@ pub struct DiagnoseArgs {
 
     /// False-alarm level of every test (detectors, likelihood-ratio tests, the final cost
     /// and whiteness tests), in (0, 1)
-    #[arg(long, value_name = "A", default_value_t = DEFAULT_ALPHA)]
+    #[arg(long, value_name = "A", default_value_t = DEFAULT_ALPHA, allow_negative_numbers = true)]
     pub alpha: f64,
 
     /// Most augmentations accepted
-    #[arg(long, value_name = "K", default_value_t = 4)]
+    #[arg(
+        long,
+        value_name = "K",
+        default_value_t = 4,
+        allow_negative_numbers = true
+    )]
     pub max_steps: usize,
 
     /// Print one JSON object instead of text

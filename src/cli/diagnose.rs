@@ -505,6 +505,12 @@ impl Diagnosis {
             (Some(e), Some(p)) => {
                 format!("V = {} vs expected {} (p = {})", g(v.cost), g(e), short(p))
             }
+            (Some(e), None) => format!(
+                "V = {} vs expected {} (no cost test: the sample variances have too few \
+                 degrees of freedom)",
+                g(v.cost),
+                g(e)
+            ),
             _ => format!("V = {} (lambda estimated: no cost test)", g(v.cost)),
         };
         let _ = writeln!(
@@ -523,6 +529,17 @@ impl Diagnosis {
             .collect();
         if !fired.is_empty() {
             let _ = writeln!(w, "detectors    on the final fit: {}", fired.join(", "));
+        }
+        let firing = self.remaining.iter().any(|f| f.p_value < self.alpha);
+        if self.stop == Stop::Consistent && firing && last.validation.cost_p.is_none() {
+            let _ = writeln!(
+                w,
+                "warning      detectors fire below alpha on the final fit, but without a cost \
+                 test (noise level estimated, or sample variances with 2 or fewer degrees of \
+                 freedom) only the whiteness test decides consistency and the workflow \
+                 stopped; more periods (P >= 4) or given noise variances make the cost test \
+                 available"
+            );
         }
         o
     }

@@ -164,6 +164,7 @@ pub fn bode(
                 .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], NOISE));
         }
         mag.configure_series_labels()
+            .position(SeriesLabelPosition::LowerLeft)
             .background_style(WHITE.mix(0.8))
             .border_style(BLACK)
             .draw()
@@ -296,6 +297,7 @@ pub fn residuals(initial: &SpecFit, last: &SpecFit, alpha: f64) -> Result<String
             .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], NOISE.stroke_width(2)));
         chart
             .configure_series_labels()
+            .position(SeriesLabelPosition::LowerLeft)
             .background_style(WHITE.mix(0.8))
             .border_style(BLACK)
             .draw()
