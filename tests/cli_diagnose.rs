@@ -432,10 +432,12 @@ fn frequency_files_name_their_noise_reference() {
 
 /// Runs diagnose with the correct model (order 2 with the transient) on one non-periodic
 /// record per seed, the noise reference from the local polynomial method; returns the
-/// number of runs that named an effect or ended inconsistent with the noise.
-fn lpm_false_alarms(seeds: std::ops::Range<u64>) -> (usize, usize) {
+/// number of runs that named an effect or ended inconsistent with the noise, and the mean
+/// of V / E V of the final fits.
+fn lpm_false_alarms(seeds: std::ops::Range<u64>) -> (usize, usize, f64) {
     let dir = Scratch::new("lpm");
     let (mut named, mut inconsistent) = (0, 0);
+    let mut ratio = Vec::new();
     for seed in seeds {
         let path = dir.file("r.csv", &non_periodic_record(seed, 512, 0.05));
         let v = json(
@@ -444,6 +446,9 @@ fn lpm_false_alarms(seeds: std::ops::Range<u64>) -> (usize, usize) {
             &["--domain", "z", "--na", "2", "--nb", "2", "--transient"],
         );
         assert_eq!(v["noise_reference"], "lpm");
+        ratio.push(
+            v["final"]["cost"].as_f64().unwrap() / v["final"]["cost_expected"].as_f64().unwrap(),
+        );
         if !effects(&v).is_empty() {
             named += 1;
             println!("seed {seed}: {:?}", effects(&v));
@@ -456,31 +461,24 @@ fn lpm_false_alarms(seeds: std::ops::Range<u64>) -> (usize, usize) {
             );
         }
     }
-    (named, inconsistent)
+    let mean = ratio.iter().sum::<f64>() / ratio.len() as f64;
+    (named, inconsistent, mean)
 }
 
-/// The correct model on a non-periodic record with LPM noise variances: no effect named
-/// on these seeds.
+/// The correct model on non-periodic records with LPM noise variances: the workflow names
+/// an effect, or ends inconsistent with the noise, about as often as its level says
+/// (measured: 0 of 100 named an effect, 1 of 100 inconsistent). About 2 s.
 #[test]
-fn lpm_reference_correct_model_few_seeds() {
-    let (named, inconsistent) = lpm_false_alarms(0..4);
-    assert_eq!(named, 0);
-    assert!(inconsistent <= 1, "{inconsistent} of 4 inconsistent");
-}
-
-/// False-alarm rate of the LPM noise reference over 100 records (about 30 s):
-/// `cargo test --release --all-features --test cli_diagnose -- --ignored --nocapture`.
-#[test]
-#[ignore = "Monte Carlo over 100 records, about 30 s"]
 fn lpm_reference_false_alarm_rate() {
     let runs = 100;
-    let (named, inconsistent) = lpm_false_alarms(100..100 + runs);
+    let (named, inconsistent, ratio) = lpm_false_alarms(100..100 + runs);
     println!(
-        "LPM reference, correct model: {named}/{runs} named an effect, {inconsistent}/{runs} inconsistent"
+        "LPM reference, correct model: {named}/{runs} named an effect, \
+         {inconsistent}/{runs} inconsistent, mean V/E V = {ratio:.3}"
     );
     // each run makes about 6 detector tests at alpha = 0.01 and one consistency test
-    assert!(named <= 15, "{named}/{runs}");
-    assert!(inconsistent <= 10, "{inconsistent}/{runs}");
+    assert!(named <= 10, "{named}/{runs}");
+    assert!(inconsistent <= 5, "{inconsistent}/{runs}");
 }
 
 /// The bundled dryer record (DaISy; known input delay of 3 samples, Ts = 0.08 s).
