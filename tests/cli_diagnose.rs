@@ -500,3 +500,46 @@ fn dryer_data_show_the_delay_and_the_transient() {
     assert_eq!(v["consistent_with_noise"], Value::Bool(true));
     assert_eq!(v["final"]["stable"], Value::Bool(true));
 }
+
+/// The record `alpha_outside_the_unit_interval_is_a_usage_error` runs on.
+static ALPHA_FILE: std::sync::OnceLock<PathBuf> = std::sync::OnceLock::new();
+
+/// Success for α inside (0, 1), a one-line usage error (exit 2) naming --alpha outside.
+fn alpha_behaves(alpha: f64) -> bool {
+    let path = ALPHA_FILE.get().expect("file written first");
+    let a = format!("{alpha}");
+    let o = fdid(&[
+        "diagnose",
+        path.to_str().unwrap(),
+        "--domain",
+        "z",
+        "--na",
+        "1",
+        "--nb",
+        "1",
+        "--alpha",
+        &a,
+    ]);
+    if alpha > 0.0 && alpha < 1.0 {
+        o.status.success()
+    } else {
+        o.status.code() == Some(2)
+            && stderr(&o).contains("--alpha")
+            && stderr(&o).trim().lines().count() == 1
+    }
+}
+
+/// Any --alpha (quickcheck's floats include NaN, infinities and huge values): success
+/// inside (0, 1), a usage error naming --alpha outside; never a panic.
+#[test]
+fn alpha_outside_the_unit_interval_is_a_usage_error() {
+    let dir = Scratch::new("alpha");
+    let path = dir.file("d.csv", &periodic_record(71, 32, 2, 0, 0.02));
+    ALPHA_FILE.set(path).unwrap();
+    for a in [f64::NAN, f64::INFINITY, -0.0, 0.0, 1.0, 1e-300, 0.999, -0.5] {
+        assert!(alpha_behaves(a), "alpha = {a}");
+    }
+    quickcheck::QuickCheck::new()
+        .tests(30)
+        .quickcheck(alpha_behaves as fn(f64) -> bool);
+}
