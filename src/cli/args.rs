@@ -13,7 +13,6 @@ Examples:
   fdid fit data/robot_arm.csv --domain z --na 4 --nb 4 --periods 1
   fdid fit frf.csv --domain z --ts 0.001 --na 2 --nb 2 --json
   fdid fit step.csv --domain z --na 2 --nb 1 --transient --noise-order 1 --delay
-
   fdid diagnose data/dryer.csv --domain z --na 2 --nb 2 --report report
 
 Run `fdid fit --help` for the data file formats and every option, `fdid diagnose --help`
@@ -149,7 +148,8 @@ pub enum Command {
 /// `fdid diagnose` share.
 #[derive(Debug, Args)]
 pub struct CommonArgs {
-    /// CSV data file (see the formats below)
+    /// CSV data file: a frequency response, input/output spectra or a time record (the
+    /// formats are in `fdid fit --help`)
     #[arg(value_name = "DATA")]
     pub data: PathBuf,
 
