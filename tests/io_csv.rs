@@ -494,6 +494,21 @@ fn bundled_eis_battery_parses() {
     assert_eq!(d32.into_frequency_data().len(), 66);
 }
 
+#[test]
+fn bundled_dryer_parses() {
+    let Measurement::Time(d) = read_csv::<f64>(&bundled("dryer.csv")).unwrap() else {
+        panic!("expected a time record")
+    };
+    assert_eq!(d.len(), 1000);
+    assert!(close(d.ts(), 0.08, 1e-12), "Ts = {}", d.ts());
+    // the numbers of DaISy's dryer.dat, unchanged: first and last rows
+    assert_eq!((d.u()[0], d.y()[0]), (6.41, 4.7660989));
+    assert_eq!((d.u()[999], d.y()[999]), (6.41, 4.6830789));
+    // a binary input at exactly 3.41 and 6.41 V
+    assert!(d.u().iter().all(|u| *u == 3.41 || *u == 6.41));
+    assert_eq!(d.dft().len(), 501);
+}
+
 // ---------------------------------------------------------------- robustness
 
 fn no_panic(bytes: &[u8]) {

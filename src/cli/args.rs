@@ -13,8 +13,10 @@ Examples:
   fdid fit data/robot_arm.csv --domain z --na 4 --nb 4 --periods 1
   fdid fit frf.csv --domain z --ts 0.001 --na 2 --nb 2 --json
   fdid fit step.csv --domain z --na 2 --nb 1 --transient --noise-order 1 --delay
+  fdid diagnose data/dryer.csv --domain z --na 2 --nb 2 --report report
 
-Run `fdid fit --help` for the data file formats and every option.";
+Run `fdid fit --help` for the data file formats and every option, `fdid diagnose --help`
+for the discrepancy workflow.";
 
 const FIT_HELP: &str = "\
 Data files (CSV, header names the columns, any order, case-insensitive; `#` lines are comments):
@@ -75,6 +77,49 @@ Examples:
   fdid fit record.csv --domain z --na 2 --nb 1 --periods 4 --criterion eiv --delay
   fdid fit step.csv --domain z --na 2 --nb 1 --transient --noise-order 1";
 
+const DIAGNOSE_HELP: &str = "\
+The discrepancy workflow. The data file, --ts, --band, --periods and the starting model
+(--domain, --na, --nb, --delay, --transient) are as for `fdid fit` (see `fdid fit --help`
+for the file formats). Each step fits the current model by maximum likelihood (McKelvey
+eq. 23), runs every detector on the normalised residuals r_k (time_delay,
+missing_resonance, transient, colored_noise, missing_pole, missing_zero: score tests with
+a p-value), refits the proposals below --alpha and keeps the one a likelihood-ratio test
+accepts at --alpha. It stops when the cost and whiteness tests pass at --alpha (the
+residuals are consistent with the noise), when nothing is accepted, or after --max-steps.
+
+Context: a time record with --periods P is taken as periodic (whole periods, no leakage);
+a time record without --periods as one non-periodic record (a transient can exist);
+frequency files as frequency data (no transient, no noise model).
+
+Noise reference (how r_k is normalised):
+  periods    sample variances over P >= 2 periods
+  given      var / var_y columns of the data file
+  lpm        one non-periodic record: per-line output noise variances from the local
+             polynomial method (R = 2 over 11 lines, 5 degrees of freedom)
+  estimated  nothing known: lambda is estimated from the residuals, the cost test is
+             skipped and the detectors have reduced power
+The DC line is dropped, so the means of u and y do not matter.
+
+Output: a text report (noise reference, starting model, the table of steps, the final model
+with its delay and poles, whether the residuals are consistent with the noise), or with
+--json one JSON object:
+  {\"steps\":[{\"effect\":NAME,\"p_value\":x,\"cost_before\":x,\"cost_after\":x,
+   \"lr_p\":x,\"detail\":{..}},..], \"effects\":[NAME,..], \"consistent_with_noise\":bool,
+   \"noise_reference\":\"periods\"|\"given\"|\"lpm\"|\"estimated\",
+   \"initial\":{..}, \"final\":{..}}
+where initial and final hold the keys of `fdid fit --json` for the starting and the final
+model. --report DIR writes report.txt, report.json and, when built with the `plot` feature
+(on by default), bode.svg (data Y/U, initial and final model, noise level) and
+residuals.svg (|r_k| of the initial and final fits with the 1 and alpha levels).
+
+Errors are reported on one line starting with `error:`; the exit status is 1 for bad
+data or a failed fit and 2 for bad usage.
+
+Examples:
+  fdid diagnose data/dryer.csv --domain z --na 2 --nb 2 --report report
+  fdid diagnose data/robot_arm.csv --domain z --na 4 --nb 4 --periods 1 --json
+  fdid diagnose record.csv --domain z --na 2 --nb 1 --periods 4 --alpha 0.05";
+
 /// Frequency-domain system identification: fit rational transfer functions in s or z to
 /// measured frequency responses, spectra or periodic time records.
 #[derive(Debug, Parser)]
@@ -92,12 +137,19 @@ pub enum Command {
     /// noise level and parameters with standard deviations.
     #[command(after_help = FIT_HELP)]
     Fit(FitArgs),
+    /// Run the discrepancy workflow from a starting model: find where model and data
+    /// disagree, name the missing effect (time delay, resonance, pole, zero, transient,
+    /// coloured noise), add it when a likelihood-ratio test accepts it, and repeat.
+    #[command(after_help = DIAGNOSE_HELP)]
+    Diagnose(DiagnoseArgs),
 }
 
-/// Options of `fdid fit`.
+/// The data file, how it is prepared, and the model structure: the options `fdid fit` and
+/// `fdid diagnose` share.
 #[derive(Debug, Args)]
-pub struct FitArgs {
-    /// CSV data file (see the formats below)
+pub struct CommonArgs {
+    /// CSV data file: a frequency response, input/output spectra or a time record (the
+    /// formats are in `fdid fit --help`)
     #[arg(value_name = "DATA")]
     pub data: PathBuf,
 
@@ -120,14 +172,6 @@ pub struct FitArgs {
     #[arg(long, value_name = "S", allow_negative_numbers = true)]
     pub ts: Option<f64>,
 
-    /// Estimator: ml = Levy, then Sanathanan-Koerner, then maximum likelihood
-    /// (Levenberg-Marquardt); levy = Levy linear least squares only; sk = Levy, then
-    /// Sanathanan-Koerner; tls = total least squares on the equation error; eiv =
-    /// errors-in-variables maximum likelihood (noise on the input too; needs input noise
-    /// variances: a time record with --periods P >= 2 or a spectra file with var_u,var_y)
-    #[arg(long, value_enum, default_value_t = CriterionArg::Ml)]
-    pub criterion: CriterionArg,
-
     /// Keep only lines with FMIN <= f <= FMAX (Hz); either side may be empty (`:100`,
     /// `0.5:`)
     #[arg(long, value_name = "FMIN:FMAX", allow_hyphen_values = true)]
@@ -149,6 +193,22 @@ pub struct FitArgs {
     /// (needs nb <= na). Needs a time record
     #[arg(long)]
     pub transient: bool,
+}
+
+/// Options of `fdid fit`.
+#[derive(Debug, Args)]
+pub struct FitArgs {
+    /// The data and the model structure.
+    #[command(flatten)]
+    pub common: CommonArgs,
+
+    /// Estimator: ml = Levy, then Sanathanan-Koerner, then maximum likelihood
+    /// (Levenberg-Marquardt); levy = Levy linear least squares only; sk = Levy, then
+    /// Sanathanan-Koerner; tls = total least squares on the equation error; eiv =
+    /// errors-in-variables maximum likelihood (noise on the input too; needs input noise
+    /// variances: a time record with --periods P >= 2 or a spectra file with var_u,var_y)
+    #[arg(long, value_enum, default_value_t = CriterionArg::Ml)]
+    pub criterion: CriterionArg,
 
     /// Estimate a noise model H = C/D of orders (N, N) in z^-1 with the system, by maximum
     /// likelihood (McKelvey eq. 26). Needs one time record (no --periods P >= 2) and
@@ -159,6 +219,40 @@ pub struct FitArgs {
     /// Print one JSON object instead of text
     #[arg(long)]
     pub json: bool,
+}
+
+/// Default false-alarm level of `fdid diagnose`.
+pub const DEFAULT_ALPHA: f64 = 0.01;
+
+/// Options of `fdid diagnose`.
+#[derive(Debug, Args)]
+pub struct DiagnoseArgs {
+    /// The data and the starting model structure.
+    #[command(flatten)]
+    pub common: CommonArgs,
+
+    /// False-alarm level of every test (detectors, likelihood-ratio tests, the final cost
+    /// and whiteness tests), in (0, 1)
+    #[arg(long, value_name = "A", default_value_t = DEFAULT_ALPHA, allow_negative_numbers = true)]
+    pub alpha: f64,
+
+    /// Most augmentations accepted
+    #[arg(
+        long,
+        value_name = "K",
+        default_value_t = 4,
+        allow_negative_numbers = true
+    )]
+    pub max_steps: usize,
+
+    /// Print one JSON object instead of text
+    #[arg(long)]
+    pub json: bool,
+
+    /// Also write report.txt, report.json and (with the `plot` feature) bode.svg and
+    /// residuals.svg into this directory, created if missing
+    #[arg(long, value_name = "DIR")]
+    pub report: Option<PathBuf>,
 }
 
 /// Model domain.
@@ -272,7 +366,12 @@ pub fn clap_failure(e: clap::Error) -> ExitCode {
     }
     let msg = parts.join(" ");
     let msg = msg.strip_prefix("error:").unwrap_or(&msg).trim();
-    eprintln!("error: {msg} (see `fdid fit --help`)");
+    let command = if std::env::args().nth(1).as_deref() == Some("diagnose") {
+        "diagnose"
+    } else {
+        "fit"
+    };
+    eprintln!("error: {msg} (see `fdid {command} --help`)");
     ExitCode::from(2)
 }
 

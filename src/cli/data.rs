@@ -1,7 +1,7 @@
 //! Reading the data file and turning it into the frequency lines that are fitted.
 
 use super::Failure;
-use super::args::{DomainArg, FitArgs, parse_band};
+use super::args::{CommonArgs, DomainArg, parse_band};
 use fdid::criterion::interior_lines;
 use fdid::io::{Measurement, read_csv};
 use fdid::prelude::*;
@@ -25,8 +25,9 @@ pub struct Prepared {
     pub notes: Vec<String>,
 }
 
-/// Reads `args.data` and applies --periods, --ts and --band.
-pub fn prepare(args: &FitArgs) -> Result<Prepared, Failure> {
+/// Reads `args.data` and applies --periods, --ts and --band. `noise_model`: a noise model
+/// will be fitted, so the lines without input are kept and the Nyquist line dropped.
+pub fn prepare(args: &CommonArgs, noise_model: bool) -> Result<Prepared, Failure> {
     let measurement = read_csv::<f64>(&args.data).map_err(|e| match e {
         // these already name the file
         FdidError::Parse { .. } | FdidError::Io(_) => Failure::from(e),
@@ -90,8 +91,8 @@ pub fn prepare(args: &FitArgs) -> Result<Prepared, Failure> {
             };
             let total = data.len();
             // a noise model is also identified from the lines without input
-            let data = drop_uninformative(data, args.noise_order.is_some())?;
-            let (data, what) = if args.noise_order.is_some() {
+            let data = drop_uninformative(data, noise_model)?;
+            let (data, what) = if noise_model {
                 (interior_lines(&data)?, "DC or Nyquist")
             } else {
                 (data, "DC or zero input")

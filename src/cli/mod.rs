@@ -2,14 +2,19 @@
 
 pub mod args;
 mod data;
+mod diagnose;
 mod report;
+#[cfg(feature = "plot")]
+mod svg;
 
 use args::{Cli, Command, CriterionArg, DomainArg, FitArgs, MAX_ORDER};
 use data::Prepared;
 use fdid::criterion::EivProblem;
 use fdid::fit::Stage;
 use fdid::prelude::*;
-use report::{Parts, Report};
+use fdid::workflow::{ModelSpec, SpecCriterion, SpecDomain};
+use report::Parts;
+pub use report::Report;
 use std::result::Result;
 
 /// A failure, reported as one `error:` line with exit status `code`.
@@ -43,27 +48,102 @@ impl From<FdidError> for Failure {
 pub fn run(cli: &Cli) -> Result<String, Failure> {
     match &cli.command {
         Command::Fit(args) => fit(args),
+        Command::Diagnose(args) => diagnose::diagnose(args),
     }
 }
 
-/// `fdid fit`.
-fn fit(args: &FitArgs) -> Result<String, Failure> {
-    for (name, v) in [
-        ("--na", args.na),
-        ("--nb", args.nb),
-        ("--noise-order", args.noise_order.unwrap_or(0)),
-    ] {
-        if v > MAX_ORDER {
+/// A model structure and its estimator: what `fdid fit` reads from its flags and what
+/// `fdid diagnose` reads from a workflow [`ModelSpec`]. One dispatch ([`fit_report`])
+/// serves both.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct FitSpec {
+    /// Model domain.
+    pub domain: DomainArg,
+    /// Denominator degree.
+    pub na: usize,
+    /// Numerator degree.
+    pub nb: usize,
+    /// With a delay e^{−iωτ}.
+    pub delay: bool,
+    /// With the transient term of a non-periodic record.
+    pub transient: bool,
+    /// Order (n, n) of a noise model H = C/D.
+    pub noise_order: Option<usize>,
+    /// The estimator.
+    pub criterion: CriterionArg,
+}
+
+impl FitSpec {
+    /// The spec of `fdid fit`'s flags.
+    fn of_fit(args: &FitArgs) -> Self {
+        Self {
+            domain: args.common.domain,
+            na: args.common.na,
+            nb: args.common.nb,
+            delay: args.common.delay,
+            transient: args.common.transient,
+            noise_order: args.noise_order,
+            criterion: args.criterion,
+        }
+    }
+
+    /// The spec of a workflow [`ModelSpec`].
+    pub fn of_model_spec(spec: &ModelSpec) -> Self {
+        Self {
+            domain: match spec.domain {
+                SpecDomain::S => DomainArg::S,
+                SpecDomain::Z { .. } => DomainArg::Z,
+            },
+            na: spec.na,
+            nb: spec.nb,
+            delay: spec.delay,
+            transient: spec.transient,
+            noise_order: spec.noise_order,
+            criterion: match spec.criterion {
+                SpecCriterion::Ml => CriterionArg::Ml,
+                SpecCriterion::Eiv => CriterionArg::Eiv,
+            },
+        }
+    }
+}
+
+/// Rejects model orders above [`MAX_ORDER`], naming the flag.
+fn check_orders(orders: &[(&str, usize)]) -> Result<(), Failure> {
+    for (name, v) in orders {
+        if *v > MAX_ORDER {
             return Err(Failure::usage(format!(
                 "invalid {name} {v}: orders above {MAX_ORDER} are not supported"
             )));
         }
     }
-    check_combinations(args)?;
-    let prepared = data::prepare(args)?;
-    check_data_kind(args, &prepared)?;
+    Ok(())
+}
+
+/// `fdid fit`.
+fn fit(args: &FitArgs) -> Result<String, Failure> {
+    check_orders(&[
+        ("--na", args.common.na),
+        ("--nb", args.common.nb),
+        ("--noise-order", args.noise_order.unwrap_or(0)),
+    ])?;
+    let spec = FitSpec::of_fit(args);
+    check_combinations(&spec, args.common.periods)?;
+    let prepared = data::prepare(&args.common, args.noise_order.is_some())?;
+    let file = args.common.data.display().to_string();
+    check_data_kind(&spec, &file, &prepared)?;
+    let report = fit_report(&spec, &file, &prepared)?;
+    Ok(if args.json {
+        report.json()
+    } else {
+        report.text()
+    })
+}
+
+/// Fits `spec` to the prepared data with the estimator it names and collects the report
+/// (the one dispatch of `fdid fit` and `fdid diagnose`).
+pub fn fit_report(spec: &FitSpec, file: &str, prepared: &Prepared) -> Result<Report, Failure> {
     let data = &prepared.data;
-    let p = args.na + args.nb + 1;
+    let p = spec.na + spec.nb + 1;
     if 2 * data.len() < p {
         return Err(FdidError::TooFewFrequencies {
             lines: data.len(),
@@ -72,57 +152,56 @@ fn fit(args: &FitArgs) -> Result<String, Failure> {
         }
         .into());
     }
-    let model = model(args, &prepared)?;
-    let method = Method::of(args);
-    let report = match (args.delay, args.noise_order) {
+    let model = model(spec, prepared)?;
+    let method = Method::of(spec);
+    match (spec.delay, spec.noise_order) {
         (false, None) => {
-            let fit = estimate_with(args.criterion, &model, data)?;
+            let fit = estimate_with(spec.criterion, &model, data)?;
             Report::new(
-                args,
-                &prepared,
+                spec,
+                file,
+                prepared,
                 &fit,
                 method.parts(fit.model(), false, None),
-            )?
+            )
         }
         (true, None) => {
-            let fit = fit_with_delay(args.criterion, &model, data)?;
+            let fit = fit_with_delay(spec.criterion, &model, data)?;
             Report::new(
-                args,
-                &prepared,
+                spec,
+                file,
+                prepared,
                 &fit,
                 method.parts(fit.model().inner(), true, None),
-            )?
+            )
         }
         (false, Some(n)) => {
             let fit = fit_noise_model(&Pipeline::default(), &model, data, n, n)?;
             let noise = fit.model().noise::<f64>();
             Report::new(
-                args,
-                &prepared,
+                spec,
+                file,
+                prepared,
                 &fit,
                 method.parts(fit.model().system(), false, Some(noise)),
-            )?
+            )
         }
         (true, Some(n)) => {
             let fit = fit_delay_noise_model(&model, data, n)?;
             let noise = fit.model().noise::<f64>();
             Report::new(
-                args,
-                &prepared,
+                spec,
+                file,
+                prepared,
                 &fit,
                 method.parts(fit.model().system().inner(), true, Some(noise)),
-            )?
+            )
         }
-    };
-    Ok(if args.json {
-        report.json()
-    } else {
-        report.text()
-    })
+    }
 }
 
 /// Rejects the combinations of flags the estimators do not compose, naming both flags.
-fn check_combinations(args: &FitArgs) -> Result<(), Failure> {
+fn check_combinations(args: &FitSpec, periods: Option<usize>) -> Result<(), Failure> {
     let c = args.criterion.name();
     if let Some(n) = args.noise_order {
         if n == 0 {
@@ -138,7 +217,7 @@ fn check_combinations(args: &FitArgs) -> Result<(), Failure> {
                  estimated by maximum likelihood (--criterion ml)"
             )));
         }
-        if let Some(p) = args.periods.filter(|p| *p >= 2) {
+        if let Some(p) = periods.filter(|p| *p >= 2) {
             return Err(Failure::usage(format!(
                 "--noise-order cannot be combined with --periods {p}: the noise model is \
                  estimated from one record (drop --periods, or use --periods {p} without \
@@ -162,9 +241,8 @@ fn check_combinations(args: &FitArgs) -> Result<(), Failure> {
     Ok(())
 }
 
-/// Rejects flags that the kind of data at hand cannot serve.
-fn check_data_kind(args: &FitArgs, prepared: &Prepared) -> Result<(), Failure> {
-    let file = args.data.display();
+/// Rejects flags that the kind of data at hand (from `file`) cannot serve.
+fn check_data_kind(args: &FitSpec, file: &str, prepared: &Prepared) -> Result<(), Failure> {
     if !prepared.time_record {
         if args.transient {
             return Err(Failure::usage(format!(
@@ -210,7 +288,7 @@ fn check_data_kind(args: &FitArgs, prepared: &Prepared) -> Result<(), Failure> {
 }
 
 /// The rational model of the flags, with the transient term when asked for.
-fn model(args: &FitArgs, prepared: &Prepared) -> Result<Rational<f64>, Failure> {
+fn model(args: &FitSpec, prepared: &Prepared) -> Result<Rational<f64>, Failure> {
     let model = match (args.domain, prepared.ts) {
         (DomainArg::S, _) => Rational::continuous(args.na, args.nb, prepared.data.omega())?,
         (DomainArg::Z, Some(ts)) => Rational::discrete(args.na, args.nb, ts)?,
@@ -241,7 +319,7 @@ struct Method {
 }
 
 impl Method {
-    fn of(args: &FitArgs) -> Self {
+    fn of(args: &FitSpec) -> Self {
         let mut description = if args.delay {
             "delay from the phase slope, Levy -> Sanathanan-Koerner -> maximum likelihood on \
              the delay-compensated lines, maximum likelihood of the delayed model (eq. 23)"

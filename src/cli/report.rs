@@ -1,8 +1,8 @@
 //! The results of a fit, as text or as one JSON object.
 
-use super::Failure;
-use super::args::{CriterionArg, DomainArg, FitArgs};
+use super::args::{CriterionArg, DomainArg};
 use super::data::Prepared;
+use super::{Failure, FitSpec};
 use fdid::basis::PolyBasis;
 use fdid::model::Output;
 use fdid::prelude::*;
@@ -114,7 +114,8 @@ impl Report {
     /// Collects the results of `fit`, a model whose θ is laid out as `parts` says:
     /// [rational (with its transient coefficients last), τ, c₁ … c_nc, d₁ … d_nd].
     pub fn new<M: ModelStructure<f64> + PolesZeros<f64>>(
-        args: &FitArgs,
+        args: &FitSpec,
+        file: &str,
         prepared: &Prepared,
         fit: &Fit<f64, M>,
         parts: Parts<'_>,
@@ -191,7 +192,7 @@ impl Report {
             nb: args.nb,
             criterion: args.criterion.name(),
             criterion_description: parts.description,
-            file: args.data.display().to_string(),
+            file: file.to_string(),
             source: prepared.source.clone(),
             weighting: parts
                 .weighting
@@ -315,8 +316,116 @@ impl Report {
         format!("{cost}; {white}")
     }
 
+    /// The delay line (nothing without a delay).
+    fn delay_text(&self, w: &mut String) {
+        if let Some((tau, std)) = self.delay {
+            let pm = |s: Option<f64>| s.map_or_else(String::new, |s| format!(" +/- {}", g(s)));
+            let samples = self.record_ts.map_or_else(String::new, |ts| {
+                format!(
+                    " = {}{} samples of Ts = {} s",
+                    g(tau / ts),
+                    pm(std.map(|s| s / ts)),
+                    g(ts)
+                )
+            });
+            let _ = writeln!(
+                w,
+                "delay        tau = {}{} s{samples}  (G = G_0 exp(-i w tau))",
+                g(tau),
+                pm(std)
+            );
+        }
+    }
+
+    /// The tables of poles and zeros, each after an empty line.
+    fn roots_text(&self, w: &mut String) {
+        let plane = match self.domain {
+            DomainArg::S => "rad/s",
+            DomainArg::Z => "z-plane",
+        };
+        for (title, roots) in [("poles", &self.poles), ("zeros", &self.zeros)] {
+            let _ = writeln!(w);
+            if roots.is_empty() {
+                let _ = writeln!(w, "{title} ({plane}): none");
+                continue;
+            }
+            let _ = writeln!(
+                w,
+                "{title} ({plane}){}",
+                match self.domain {
+                    DomainArg::S => "",
+                    DomainArg::Z => "; f_n and damping of s = ln(z)/Ts",
+                }
+            );
+            let _ = writeln!(
+                w,
+                "  {:>14} {:>14}  {:>12} {:>10}",
+                "re", "im", "f_n (Hz)", "damping"
+            );
+            for z in roots.iter() {
+                let (wn, zeta) = natural(self.domain, self.ts, *z);
+                let _ = writeln!(
+                    w,
+                    "  {:>14} {:>14}  {:>12} {:>10}",
+                    g(z.re),
+                    g(z.im),
+                    if wn.is_finite() {
+                        g(wn / std::f64::consts::TAU)
+                    } else {
+                        "-".into()
+                    },
+                    if zeta.is_finite() {
+                        format!("{zeta:.4}")
+                    } else {
+                        "-".into()
+                    }
+                );
+            }
+        }
+    }
+
+    /// Orders, delay, transient and the table of poles and zeros: the model part of the
+    /// text report.
+    pub fn model_text(&self) -> String {
+        let mut o = String::new();
+        let w = &mut o;
+        let _ = writeln!(
+            w,
+            "orders       na = {}, nb = {} ({} parameters)",
+            self.na,
+            self.nb,
+            self.theta.len()
+        );
+        self.delay_text(w);
+        if self.n_transient > 0 {
+            let _ = writeln!(
+                w,
+                "transient    Y = G U + T, {} coefficients",
+                self.n_transient
+            );
+        }
+        if let Some(h) = &self.noise_model {
+            let _ = writeln!(
+                w,
+                "noise model  H = C/D, orders ({}, {})",
+                h.c.len() - 1,
+                h.d.len() - 1
+            );
+        }
+        let _ = writeln!(w, "stable       {}", if self.stable { "yes" } else { "no" });
+        self.roots_text(w);
+        o
+    }
+
     /// The JSON object (one line).
     pub fn json(&self) -> String {
+        let mut s = self.json_value().to_string();
+        s.push('\n');
+        s
+    }
+
+    /// The JSON object as a value.
+    pub fn json_value(&self) -> Value {
         let pairs = |v: &[Complex<f64>]| -> Value {
             Value::Array(v.iter().map(|z| json!([num(z.re), num(z.im)])).collect())
         };
@@ -360,7 +469,7 @@ impl Report {
         let covariance = self.covariance.as_ref().map_or(Value::Null, |c| {
             Value::Array(c.iter().map(|row| nums(row)).collect())
         });
-        let obj = json!({
+        json!({
             "domain": self.domain_name(),
             "poles": pairs(&self.poles),
             "zeros": pairs(&self.zeros),
@@ -399,10 +508,7 @@ impl Report {
             "cost_p": opt(v.cost_p),
             "whiteness_p": opt(v.whiteness_p),
             "whiteness_lags": v.whiteness_lags,
-        });
-        let mut s = obj.to_string();
-        s.push('\n');
-        s
+        })
     }
 
     /// The human-readable report.
@@ -463,23 +569,7 @@ impl Report {
         );
         let _ = writeln!(w, "noise var.   lambda = V/N = {}", g(self.noise_variance));
         let _ = writeln!(w, "validation   {}", self.validation_line());
-        if let Some((tau, std)) = self.delay {
-            let pm = |s: Option<f64>| s.map_or_else(String::new, |s| format!(" +/- {}", g(s)));
-            let samples = self.record_ts.map_or_else(String::new, |ts| {
-                format!(
-                    " = {}{} samples of Ts = {} s",
-                    g(tau / ts),
-                    pm(std.map(|s| s / ts)),
-                    g(ts)
-                )
-            });
-            let _ = writeln!(
-                w,
-                "delay        tau = {}{} s{samples}  (G = G_0 exp(-i w tau))",
-                g(tau),
-                pm(std)
-            );
-        }
+        self.delay_text(w);
         if self.n_transient > 0 {
             let _ = writeln!(
                 w,
@@ -507,49 +597,7 @@ impl Report {
             let _ = writeln!(w, "note         {n}");
         }
 
-        let plane = match self.domain {
-            DomainArg::S => "rad/s",
-            DomainArg::Z => "z-plane",
-        };
-        for (title, roots) in [("poles", &self.poles), ("zeros", &self.zeros)] {
-            let _ = writeln!(w);
-            if roots.is_empty() {
-                let _ = writeln!(w, "{title} ({plane}): none");
-                continue;
-            }
-            let _ = writeln!(
-                w,
-                "{title} ({plane}){}",
-                match self.domain {
-                    DomainArg::S => "",
-                    DomainArg::Z => "; f_n and damping of s = ln(z)/Ts",
-                }
-            );
-            let _ = writeln!(
-                w,
-                "  {:>14} {:>14}  {:>12} {:>10}",
-                "re", "im", "f_n (Hz)", "damping"
-            );
-            for z in roots.iter() {
-                let (wn, zeta) = natural(self.domain, self.ts, *z);
-                let _ = writeln!(
-                    w,
-                    "  {:>14} {:>14}  {:>12} {:>10}",
-                    g(z.re),
-                    g(z.im),
-                    if wn.is_finite() {
-                        g(wn / std::f64::consts::TAU)
-                    } else {
-                        "-".into()
-                    },
-                    if zeta.is_finite() {
-                        format!("{zeta:.4}")
-                    } else {
-                        "-".into()
-                    }
-                );
-            }
-        }
+        self.roots_text(w);
 
         if let Some(h) = &self.noise_model {
             let _ = writeln!(w);
@@ -676,12 +724,12 @@ fn natural(domain: DomainArg, ts: Option<f64>, z: Complex<f64>) -> (f64, f64) {
 }
 
 /// A JSON number, or null when not finite.
-fn num(x: f64) -> Value {
+pub fn num(x: f64) -> Value {
     serde_json::Number::from_f64(x).map_or(Value::Null, Value::Number)
 }
 
 /// About seven significant digits, fixed-point when reasonable.
-fn g(x: f64) -> String {
+pub fn g(x: f64) -> String {
     if !x.is_finite() {
         return format!("{x}");
     }

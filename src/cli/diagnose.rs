@@ -1,0 +1,638 @@
+//! `fdid diagnose`: the discrepancy workflow ([`fdid::workflow`]) on a data file, reported
+//! as text, as one JSON object, and as a report directory (text, JSON and SVG figures).
+//!
+//! The data are read and prepared as for `fdid fit`; the noise reference that normalises
+//! the residuals r_k = (Y_k − Ŷ_k)/σ_k of McKelvey's ML cost (eq. 23) comes from the
+//! periods, the file, the local polynomial method or — with nothing known — from the
+//! residuals themselves. The initial and final models are refitted through the same
+//! estimator dispatch as `fdid fit` ([`super::fit_report`]), so `initial` and `final` in
+//! the JSON carry exactly the keys of `fdid fit --json`.
+
+use super::args::{DiagnoseArgs, DomainArg};
+use super::data::{self, Prepared};
+use super::report::{g, num};
+use super::{
+    Failure, FitSpec, Report, check_combinations, check_data_kind, check_orders, fit_report,
+};
+use crate::cli::args::CriterionArg;
+use fdid::data::Lpm;
+use fdid::prelude::*;
+use fdid::workflow::{
+    Context, Finding, ModelSpec, SpecCriterion, SpecDomain, SpecFit, Step, Workflow,
+};
+use serde_json::{Map, Value, json};
+use std::fmt::Write as _;
+use std::path::Path;
+use std::result::Result;
+
+/// Where the noise level σ_k² that normalises the residuals comes from.
+#[derive(Debug, Clone, PartialEq)]
+pub enum NoiseReference {
+    /// Sample variances over P ≥ 2 periods of a periodic record.
+    Periods(usize),
+    /// Variances given in the data file.
+    Given,
+    /// The local polynomial method on one non-periodic record, with `dof` complex degrees
+    /// of freedom per line.
+    Lpm {
+        /// Residual degrees of freedom q of each line's variance.
+        dof: usize,
+    },
+    /// Nothing known: λ is estimated from the residuals; `why` says why no better
+    /// reference exists.
+    Estimated {
+        /// The reason.
+        why: String,
+    },
+}
+
+impl NoiseReference {
+    /// The JSON name: `periods`, `given`, `lpm` or `estimated`.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Self::Periods(_) => "periods",
+            Self::Given => "given",
+            Self::Lpm { .. } => "lpm",
+            Self::Estimated { .. } => "estimated",
+        }
+    }
+
+    /// One line for the text report.
+    fn describe(&self) -> String {
+        match self {
+            Self::Periods(p) => format!(
+                "periods: sample variances over {p} periods ({} degrees of freedom per line)",
+                p - 1
+            ),
+            Self::Given => "given: the noise variances of the data file".into(),
+            Self::Lpm { dof } => format!(
+                "local polynomial method (dof {dof}): per-line output noise variances from \
+                 local polynomial fits of G and the transient over neighbouring lines"
+            ),
+            Self::Estimated { why } => format!(
+                "estimated: lambda from the residuals ({why}); the cost test is skipped and \
+                 the detectors have reduced power"
+            ),
+        }
+    }
+}
+
+/// Why the workflow stopped.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Stop {
+    /// The residuals are consistent with the noise.
+    Consistent,
+    /// No detector fired, or no proposal passed the likelihood-ratio test.
+    NothingAccepted,
+    /// `--max-steps` augmentations were accepted.
+    StepLimit,
+}
+
+/// Everything `fdid diagnose` reports.
+struct Diagnosis {
+    file: String,
+    alpha: f64,
+    max_steps: usize,
+    context: &'static str,
+    noise: NoiseReference,
+    source: String,
+    notes: Vec<String>,
+    steps: Vec<Step>,
+    /// `fits[0]` is the starting model's, `fits[i]` the fit after step `i`.
+    fits: Vec<SpecFit>,
+    stop: Stop,
+    /// The detectors' findings on the final fit.
+    remaining: Vec<Finding>,
+    initial: Report,
+    last: Report,
+    /// The data the workflow ran on (for the figures).
+    #[cfg_attr(not(feature = "plot"), allow(dead_code))]
+    prepared: Prepared,
+}
+
+/// `fdid diagnose`.
+pub fn diagnose(args: &DiagnoseArgs) -> Result<String, Failure> {
+    let c = &args.common;
+    check_orders(&[("--na", c.na), ("--nb", c.nb)])?;
+    if !(args.alpha > 0.0 && args.alpha < 1.0) {
+        return Err(Failure::usage(format!(
+            "invalid --alpha {}: the false-alarm level lies strictly between 0 and 1",
+            args.alpha
+        )));
+    }
+    let start_spec = FitSpec {
+        domain: c.domain,
+        na: c.na,
+        nb: c.nb,
+        delay: c.delay,
+        transient: c.transient,
+        noise_order: None,
+        criterion: CriterionArg::Ml,
+    };
+    check_combinations(&start_spec, c.periods)?;
+    let mut prepared = data::prepare(c, false)?;
+    let file = c.data.display().to_string();
+    check_data_kind(&start_spec, &file, &prepared)?;
+    // a report directory that cannot be made is a usage problem found before the work
+    if let Some(dir) = &args.report {
+        std::fs::create_dir_all(dir).map_err(|e| {
+            Failure::runtime(format!(
+                "cannot create the report directory {}: {e}",
+                dir.display()
+            ))
+        })?;
+    }
+
+    let noise = noise_reference(c.periods, &mut prepared);
+    let (ctx, context) = match (prepared.time_record, c.periods) {
+        (true, Some(_)) => (
+            Context::periodic(args.alpha),
+            "periodic record (whole periods: no leakage, no transient)",
+        ),
+        (true, None) => (
+            Context::non_periodic(args.alpha),
+            "one non-periodic record (DFT of the whole record: a transient can exist)",
+        ),
+        (false, _) => (
+            Context::frequency_data(args.alpha),
+            "frequency data (no time record: no transient, no noise model)",
+        ),
+    };
+    let domain = match (c.domain, prepared.ts) {
+        (DomainArg::S, _) => SpecDomain::S,
+        (DomainArg::Z, Some(ts)) => SpecDomain::Z { ts },
+        (DomainArg::Z, None) => {
+            return Err(Failure::usage(
+                "--domain z needs a sample time: pass --ts SECONDS".into(),
+            ));
+        }
+    };
+    let start = ModelSpec {
+        domain,
+        na: c.na,
+        nb: c.nb,
+        delay: c.delay,
+        transient: c.transient,
+        noise_order: None,
+        criterion: SpecCriterion::Ml,
+    };
+
+    let (steps, fits) = run_steps(&prepared.data, start, ctx, args.max_steps)?;
+    let last_fit = fits.last().expect("the starting fit is always there");
+    let stop = if last_fit.consistent_with_noise(args.alpha) {
+        Stop::Consistent
+    } else if steps.len() >= args.max_steps {
+        Stop::StepLimit
+    } else {
+        Stop::NothingAccepted
+    };
+    let remaining = Workflow::default()
+        .detectors
+        .iter()
+        .filter_map(|d| d.detect(&prepared.data, last_fit, &ctx))
+        .collect();
+    let initial = fit_report(&FitSpec::of_model_spec(&fits[0].spec), &file, &prepared)?;
+    let last = fit_report(&FitSpec::of_model_spec(&last_fit.spec), &file, &prepared)?;
+    let diagnosis = Diagnosis {
+        file,
+        alpha: args.alpha,
+        max_steps: args.max_steps,
+        context,
+        noise,
+        source: prepared.source.clone(),
+        notes: prepared.notes.clone(),
+        steps,
+        fits,
+        stop,
+        remaining,
+        initial,
+        last,
+        prepared,
+    };
+
+    let text = diagnosis.text();
+    let json = diagnosis.json();
+    let mut out = if args.json {
+        json.clone()
+    } else {
+        text.clone()
+    };
+    if let Some(dir) = &args.report {
+        let written = write_report(dir, &diagnosis, &text, &json)?;
+        if !args.json {
+            let _ = writeln!(out, "\nreport       {}", written.join(", "));
+        }
+    }
+    Ok(out)
+}
+
+/// Attaches the best available noise reference to the data and says which it is: the
+/// data's own variances (periods or file), else for a time record the local polynomial
+/// method, else none (λ estimated).
+fn noise_reference(periods: Option<usize>, prepared: &mut Prepared) -> NoiseReference {
+    if prepared.data.noise().is_some() {
+        return match periods {
+            Some(p) if prepared.time_record && p >= 2 => NoiseReference::Periods(p),
+            _ => NoiseReference::Given,
+        };
+    }
+    if !prepared.time_record {
+        return NoiseReference::Estimated {
+            why: "frequency data without variances".into(),
+        };
+    }
+    if periods.is_some_and(|p| p >= 2) {
+        // the sample variances were zero somewhere and dropped by the preparation
+        return NoiseReference::Estimated {
+            why: "the sample variances are zero on some lines".into(),
+        };
+    }
+    let lpm = Lpm::new();
+    match lpm
+        .estimate(&prepared.data)
+        .and_then(|estimate| estimate.spectra_data())
+    {
+        Ok(data)
+            if data
+                .noise()
+                .is_some_and(|n| n.var_y.iter().all(|v| *v > 0.0)) =>
+        {
+            prepared.data = data;
+            prepared.weighting = format!(
+                "1/sigma_k from the output noise variances of the local polynomial method \
+                 (R = {}, {} lines, dof {})",
+                lpm.degree(),
+                lpm.window(),
+                lpm.dof()
+            );
+            NoiseReference::Lpm { dof: lpm.dof() }
+        }
+        Ok(_) => NoiseReference::Estimated {
+            why: "the local polynomial method gives a zero noise variance on some line".into(),
+        },
+        Err(e) => NoiseReference::Estimated {
+            why: format!("the local polynomial method does not apply: {e}"),
+        },
+    }
+}
+
+/// Runs the workflow one step at a time, from `start`, so that the fit after every step is
+/// kept: each run of at most one step starts from the spec the previous one accepted
+/// (the same fits and tests as one run of `max_steps` steps).
+fn run_steps(
+    data: &FrequencyData<f64>,
+    start: ModelSpec,
+    ctx: Context,
+    max_steps: usize,
+) -> Result<(Vec<Step>, Vec<SpecFit>), Failure> {
+    let workflow = Workflow {
+        max_steps: max_steps.min(1),
+        ..Workflow::default()
+    };
+    let mut report = workflow.run(data, start, ctx)?;
+    let mut fits = vec![report.initial_fit.clone()];
+    let mut steps = Vec::new();
+    while let Some(step) = report.steps.first() {
+        steps.push(step.clone());
+        fits.push(report.final_fit.clone());
+        if steps.len() >= max_steps {
+            break;
+        }
+        let spec = report.final_fit.spec.clone();
+        report = workflow.run(data, spec, ctx)?;
+    }
+    Ok((steps, fits))
+}
+
+/// The residual scale: 1 for a known noise level, else λ̂ = V/(N − p/2).
+fn residual_scale(fit: &SpecFit) -> f64 {
+    if fit.noise_known {
+        return 1.0;
+    }
+    let dof = fit.residuals.len() as f64 - fit.n_params as f64 / 2.0;
+    if dof > 0.0 {
+        fit.cost / dof
+    } else {
+        fit.noise_variance
+    }
+}
+
+/// max_k |r_k| in noise standard deviations.
+fn max_residual(fit: &SpecFit) -> f64 {
+    fit.validation.max_residual / residual_scale(fit).sqrt()
+}
+
+/// The model structure in words: domain, orders and factors.
+fn describe(spec: &ModelSpec) -> String {
+    let mut s = match spec.domain {
+        SpecDomain::S => "s".to_string(),
+        SpecDomain::Z { ts } => format!("z (Ts = {} s)", g(ts)),
+    };
+    let _ = write!(s, ", na = {}, nb = {}", spec.na, spec.nb);
+    if spec.delay {
+        s.push_str(", delay");
+    }
+    if spec.transient {
+        s.push_str(", transient");
+    }
+    if let Some(n) = spec.noise_order {
+        let _ = write!(s, ", noise model ({n}, {n})");
+    }
+    if spec.criterion == SpecCriterion::Eiv {
+        s.push_str(", errors-in-variables");
+    }
+    s
+}
+
+/// A p-value or `-`.
+fn p_text(p: Option<f64>) -> String {
+    p.map_or_else(|| "-".into(), short)
+}
+
+/// Three significant digits.
+fn short(x: f64) -> String {
+    if !x.is_finite() {
+        return format!("{x}");
+    }
+    if x == 0.0 {
+        return "0".into();
+    }
+    if (1e-3..1e5).contains(&x.abs()) {
+        let digits = (2 - x.abs().log10().floor() as i32).max(0) as usize;
+        format!("{x:.digits$}")
+    } else {
+        format!("{x:.2e}")
+    }
+}
+
+impl Diagnosis {
+    fn last_fit(&self) -> &SpecFit {
+        self.fits.last().expect("the starting fit is always there")
+    }
+
+    /// The JSON object (one line): steps, effects, the verdict, the noise reference and
+    /// the `fdid fit --json` objects of the initial and final models.
+    fn json(&self) -> String {
+        let steps: Vec<Value> = self
+            .steps
+            .iter()
+            .map(|s| {
+                let detail: Map<String, Value> = s
+                    .detail
+                    .0
+                    .iter()
+                    .map(|(k, v)| (k.clone(), num(*v)))
+                    .collect();
+                json!({
+                    "effect": s.effect.as_str(),
+                    "p_value": num(s.p_value),
+                    "cost_before": num(s.cost_before),
+                    "cost_after": num(s.cost_after),
+                    "lr_p": num(s.lr_p),
+                    "detail": detail,
+                })
+            })
+            .collect();
+        let effects: Vec<&str> = self.steps.iter().map(|s| s.effect.as_str()).collect();
+        let obj = json!({
+            "steps": steps,
+            "effects": effects,
+            "consistent_with_noise": self.stop == Stop::Consistent,
+            "noise_reference": self.noise.name(),
+            "initial": self.initial.json_value(),
+            "final": self.last.json_value(),
+        });
+        let mut s = obj.to_string();
+        s.push('\n');
+        s
+    }
+
+    /// The text report.
+    fn text(&self) -> String {
+        let mut o = String::new();
+        let w = &mut o;
+        let _ = writeln!(
+            w,
+            "fdid diagnose: discrepancy workflow, alpha = {}, at most {} step{}",
+            self.alpha,
+            self.max_steps,
+            if self.max_steps == 1 { "" } else { "s" }
+        );
+        let _ = writeln!(w, "data         {}: {}", self.file, self.source);
+        let _ = writeln!(w, "context      {}", self.context);
+        let _ = writeln!(w, "noise ref.   {}", self.noise.describe());
+        let _ = writeln!(
+            w,
+            "start        {} ({} parameters)",
+            describe(&self.fits[0].spec),
+            self.fits[0].n_params
+        );
+        for n in &self.notes {
+            let _ = writeln!(w, "note         {n}");
+        }
+
+        let _ = writeln!(w);
+        let _ = writeln!(
+            w,
+            "steps (p: detector; LR p: likelihood-ratio test; V: cost; E V: expected cost; \
+             max |r| in noise std; white p: Ljung-Box)"
+        );
+        let _ = writeln!(
+            w,
+            "  {:<2} {:<18} {:>9} {:>9} {:>23} {:>10} {:>8} {:>9}",
+            "#", "effect", "p", "LR p", "V before -> after", "E V", "max |r|", "white p"
+        );
+        let row = |w: &mut String,
+                   n: &str,
+                   effect: &str,
+                   p: &str,
+                   lr: &str,
+                   fit: &SpecFit,
+                   before: Option<f64>| {
+            let v = match before {
+                Some(b) => format!("{} -> {}", short(b), short(fit.cost)),
+                None => short(fit.cost),
+            };
+            let _ = writeln!(
+                w,
+                "  {:<2} {:<18} {:>9} {:>9} {:>23} {:>10} {:>8} {:>9}",
+                n,
+                effect,
+                p,
+                lr,
+                v,
+                p_text(fit.validation.cost_expected),
+                short(max_residual(fit)),
+                p_text(fit.validation.whiteness_p)
+            );
+        };
+        row(w, "0", "(start)", "", "", &self.fits[0], None);
+        for (i, (s, fit)) in self.steps.iter().zip(&self.fits[1..]).enumerate() {
+            row(
+                w,
+                &(i + 1).to_string(),
+                s.effect.as_str(),
+                &short(s.p_value),
+                &short(s.lr_p),
+                fit,
+                Some(s.cost_before),
+            );
+        }
+        for s in &self.steps {
+            if !s.detail.0.is_empty() {
+                let parts: Vec<String> = s
+                    .detail
+                    .0
+                    .iter()
+                    .map(|(k, v)| format!("{k} = {}", g(*v)))
+                    .collect();
+                let _ = writeln!(w, "  {}: {}", s.effect, parts.join(", "));
+            }
+        }
+
+        let last = self.last_fit();
+        let _ = writeln!(w);
+        let _ = writeln!(
+            w,
+            "final model  {} ({} parameters), {} step{}",
+            describe(&last.spec),
+            last.n_params,
+            self.steps.len(),
+            if self.steps.len() == 1 { "" } else { "s" }
+        );
+        let v = &last.validation;
+        let cost = match (v.cost_expected, v.cost_p) {
+            (Some(e), Some(p)) => {
+                format!("V = {} vs expected {} (p = {})", g(v.cost), g(e), short(p))
+            }
+            (Some(e), None) => format!(
+                "V = {} vs expected {} (no cost test: the sample variances have too few \
+                 degrees of freedom)",
+                g(v.cost),
+                g(e)
+            ),
+            _ => format!("V = {} (lambda estimated: no cost test)", g(v.cost)),
+        };
+        let _ = writeln!(
+            w,
+            "validation   {cost}; whiteness p = {}",
+            p_text(v.whiteness_p)
+        );
+        let _ = write!(w, "{}", self.last.model_text());
+
+        let _ = writeln!(w);
+        let _ = writeln!(w, "verdict      {}", self.verdict());
+        let fired: Vec<String> = self
+            .remaining
+            .iter()
+            .map(|f| format!("{} p = {}", f.effect, short(f.p_value)))
+            .collect();
+        if !fired.is_empty() {
+            let _ = writeln!(w, "detectors    on the final fit: {}", fired.join(", "));
+        }
+        let firing = self.remaining.iter().any(|f| f.p_value < self.alpha);
+        if self.stop == Stop::Consistent && firing && last.validation.cost_p.is_none() {
+            let _ = writeln!(
+                w,
+                "warning      detectors fire below alpha on the final fit, but without a cost \
+                 test (noise level estimated, or sample variances with 2 or fewer degrees of \
+                 freedom) only the whiteness test decides consistency and the workflow \
+                 stopped; more periods (P >= 4) or given noise variances make the cost test \
+                 available"
+            );
+        }
+        o
+    }
+
+    /// Whether the final residuals are consistent with the noise, and if not what is
+    /// left.
+    fn verdict(&self) -> String {
+        let last = self.last_fit();
+        let level = self.alpha / 2.0;
+        if self.stop == Stop::Consistent {
+            return format!(
+                "the residuals are consistent with the noise at alpha = {} (cost and whiteness \
+                 tests at alpha/2 each)",
+                self.alpha
+            );
+        }
+        let v = &last.validation;
+        let mut failing = Vec::new();
+        if let Some(p) = v.cost_p.filter(|p| *p < level) {
+            failing.push(format!(
+                "the cost exceeds what the noise explains (p = {})",
+                short(p)
+            ));
+        }
+        if let Some(p) = v.whiteness_p.filter(|p| *p < level) {
+            failing.push(format!("the residual is not white (p = {})", short(p)));
+        }
+        let why = match self.stop {
+            Stop::StepLimit => format!("the step limit --max-steps {} was reached", self.max_steps),
+            _ => {
+                let fired: Vec<&str> = self
+                    .remaining
+                    .iter()
+                    .filter(|f| f.p_value < self.alpha)
+                    .map(|f| f.effect.as_str())
+                    .collect();
+                if fired.is_empty() {
+                    "no detector fires".into()
+                } else {
+                    format!(
+                        "{} fire{} but no refit passes the likelihood-ratio test",
+                        fired.join(", "),
+                        if fired.len() == 1 { "s" } else { "" }
+                    )
+                }
+            }
+        };
+        format!(
+            "not consistent with the noise: {why}; {}",
+            if failing.is_empty() {
+                "the tests fail at alpha/2".to_string()
+            } else {
+                failing.join("; ")
+            }
+        )
+    }
+}
+
+/// Writes report.txt, report.json and (with the `plot` feature) the SVG figures into
+/// `dir`; returns the paths written.
+fn write_report(
+    dir: &Path,
+    diagnosis: &Diagnosis,
+    text: &str,
+    json: &str,
+) -> Result<Vec<String>, Failure> {
+    let mut written = Vec::new();
+    let mut put = |name: &str, contents: &str| -> Result<(), Failure> {
+        let path = dir.join(name);
+        std::fs::write(&path, contents)
+            .map_err(|e| Failure::runtime(format!("cannot write {}: {e}", path.display())))?;
+        written.push(path.display().to_string());
+        Ok(())
+    };
+    put("report.txt", text)?;
+    put("report.json", json)?;
+    #[cfg(feature = "plot")]
+    {
+        let first = &diagnosis.fits[0];
+        let last = diagnosis.last_fit();
+        let bode = super::svg::bode(&diagnosis.prepared.data, first, last)
+            .map_err(|e| Failure::runtime(format!("cannot draw bode.svg: {e}")))?;
+        put("bode.svg", &bode)?;
+        let residuals = super::svg::residuals(first, last, diagnosis.alpha)
+            .map_err(|e| Failure::runtime(format!("cannot draw residuals.svg: {e}")))?;
+        put("residuals.svg", &residuals)?;
+    }
+    #[cfg(not(feature = "plot"))]
+    {
+        let _ = diagnosis;
+        written.push(
+            "(no SVG figures: they need the `plot` feature, cargo build --features plot)".into(),
+        );
+    }
+    Ok(written)
+}
