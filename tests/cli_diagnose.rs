@@ -507,7 +507,8 @@ static ALPHA_FILE: std::sync::OnceLock<PathBuf> = std::sync::OnceLock::new();
 /// Success for α inside (0, 1), a one-line usage error (exit 2) naming --alpha outside.
 fn alpha_behaves(alpha: f64) -> bool {
     let path = ALPHA_FILE.get().expect("file written first");
-    let a = format!("{alpha}");
+    // `--alpha=-inf`: a separate `-inf` would parse as flags
+    let a = format!("--alpha={alpha}");
     let o = fdid(&[
         "diagnose",
         path.to_str().unwrap(),
@@ -517,7 +518,6 @@ fn alpha_behaves(alpha: f64) -> bool {
         "1",
         "--nb",
         "1",
-        "--alpha",
         &a,
     ]);
     if alpha > 0.0 && alpha < 1.0 {

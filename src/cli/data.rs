@@ -23,6 +23,8 @@ pub struct Prepared {
     pub weighting: String,
     /// Remarks for the text output.
     pub notes: Vec<String>,
+    /// The time record, for time-record files.
+    pub record: Option<TimeData<f64>>,
 }
 
 /// Reads `args.data` and applies --periods, --ts and --band. `noise_model`: a noise model
@@ -35,6 +37,10 @@ pub fn prepare(args: &CommonArgs, noise_model: bool) -> Result<Prepared, Failure
     })?;
     let mut notes = Vec::new();
     let time_record = matches!(measurement, Measurement::Time(_));
+    let record = match &measurement {
+        Measurement::Time(r) => Some(r.clone()),
+        Measurement::Frequency(_) => None,
+    };
     let (data, ts, mut source) = match measurement {
         Measurement::Frequency(data) => {
             if let Some(p) = args.periods {
@@ -153,6 +159,7 @@ pub fn prepare(args: &CommonArgs, noise_model: bool) -> Result<Prepared, Failure
         source,
         weighting,
         notes,
+        record,
     })
 }
 

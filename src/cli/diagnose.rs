@@ -145,10 +145,19 @@ pub fn diagnose(args: &DiagnoseArgs) -> Result<String, Failure> {
 
     let noise = noise_reference(c.periods, &mut prepared);
     let (ctx, context) = match (prepared.time_record, c.periods) {
-        (true, Some(_)) => (
-            Context::periodic(args.alpha),
-            "periodic record (whole periods: no leakage, no transient)",
-        ),
+        (true, Some(p)) => {
+            // with two or more periods the measurement-level detectors (input noise,
+            // time variation) see the record; a record they cannot use leaves them out
+            let plain = Context::periodic(args.alpha);
+            let ctx = match prepared.record.clone() {
+                Some(record) if p >= 2 => plain.clone().with_record(record, p).unwrap_or(plain),
+                _ => plain,
+            };
+            (
+                ctx,
+                "periodic record (whole periods: no leakage, no transient)",
+            )
+        }
         (true, None) => (
             Context::non_periodic(args.alpha),
             "one non-periodic record (DFT of the whole record: a transient can exist)",
@@ -177,7 +186,11 @@ pub fn diagnose(args: &DiagnoseArgs) -> Result<String, Failure> {
         criterion: SpecCriterion::Ml,
     };
 
-    let (steps, fits) = run_steps(&prepared.data, start, ctx, args.max_steps)?;
+    let Run {
+        steps,
+        fits,
+        final_data,
+    } = run_steps(&prepared.data, start, ctx.clone(), args.max_steps)?;
     let last_fit = fits.last().expect("the starting fit is always there");
     let stop = if last_fit.consistent_with_noise(args.alpha) {
         Stop::Consistent
@@ -189,7 +202,7 @@ pub fn diagnose(args: &DiagnoseArgs) -> Result<String, Failure> {
     let remaining = Workflow::default()
         .detectors
         .iter()
-        .filter_map(|d| d.detect(&prepared.data, last_fit, &ctx))
+        .filter_map(|d| d.detect(&final_data, last_fit, &ctx))
         .collect();
     let initial = fit_report(&FitSpec::of_model_spec(&fits[0].spec), &file, &prepared)?;
     let last = fit_report(&FitSpec::of_model_spec(&last_fit.spec), &file, &prepared)?;
@@ -276,32 +289,38 @@ fn noise_reference(periods: Option<usize>, prepared: &mut Prepared) -> NoiseRefe
     }
 }
 
-/// Runs the workflow one step at a time, from `start`, so that the fit after every step is
-/// kept: each run of at most one step starts from the spec the previous one accepted
-/// (the same fits and tests as one run of `max_steps` steps).
+/// A workflow run: its steps, the fit before the first and after every step, and the
+/// data with the final noise reference.
+struct Run {
+    steps: Vec<Step>,
+    fits: Vec<SpecFit>,
+    final_data: FrequencyData<f64>,
+}
+
+/// Runs the workflow from `start`.
 fn run_steps(
     data: &FrequencyData<f64>,
     start: ModelSpec,
     ctx: Context,
     max_steps: usize,
-) -> Result<(Vec<Step>, Vec<SpecFit>), Failure> {
+) -> Result<Run, Failure> {
     let workflow = Workflow {
-        max_steps: max_steps.min(1),
+        max_steps,
         ..Workflow::default()
     };
-    let mut report = workflow.run(data, start, ctx)?;
-    let mut fits = vec![report.initial_fit.clone()];
-    let mut steps = Vec::new();
-    while let Some(step) = report.steps.first() {
-        steps.push(step.clone());
-        fits.push(report.final_fit.clone());
-        if steps.len() >= max_steps {
-            break;
-        }
-        let spec = report.final_fit.spec.clone();
-        report = workflow.run(data, spec, ctx)?;
+    let report = workflow.run(data, start, ctx)?;
+    let mut fits = vec![report.initial_fit];
+    fits.extend(report.step_fits);
+    // the revision pass may change the final model after the last step fit was recorded
+    if let Some(last) = fits.last_mut() {
+        *last = report.final_fit;
     }
-    Ok((steps, fits))
+    let final_data = report.final_data.unwrap_or_else(|| data.clone());
+    Ok(Run {
+        steps: report.steps,
+        fits,
+        final_data,
+    })
 }
 
 /// The residual scale: 1 for a known noise level, else λ̂ = V/(N − p/2).

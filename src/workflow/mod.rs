@@ -130,6 +130,14 @@ pub struct Report {
     pub unmodelled: Vec<Effect>,
     /// The fit of the starting model (before any step).
     pub initial_fit: SpecFit,
+    /// The fit after each step, in order (a step swapped by the revision pass holds the
+    /// revised model's fit). Not serialised.
+    #[cfg_attr(feature = "serde", serde(skip))]
+    pub step_fits: Vec<SpecFit>,
+    /// The data with the final noise reference, when a step changed it (noise +
+    /// nonlinear distortion). Not serialised.
+    #[cfg_attr(feature = "serde", serde(skip))]
+    pub final_data: Option<FrequencyData<f64>>,
     /// The final fit.
     #[cfg_attr(feature = "serde", serde(rename = "final"))]
     pub final_fit: SpecFit,
@@ -207,7 +215,9 @@ impl Workflow {
             });
         }
         let initial_fit = fit_spec(&start, data)?;
+        let original = data;
         let mut data = data.clone();
+        let mut step_fits = Vec::new();
         let mut current = initial_fit.clone();
         let mut steps = Vec::new();
         let mut acted: Vec<Effect> = Vec::new();
@@ -215,47 +225,60 @@ impl Workflow {
         // after a noise + distortion reference only the cost test applies (see `consistent`)
         let mut cost_only = false;
         while steps.len() < self.max_steps {
-            match self.measurement_step(&data, &current, &ctx, &acted) {
-                Some(MeasurementStep {
-                    step,
-                    next,
-                    data: new_data,
-                    absorbed,
-                }) => {
-                    acted.push(step.effect);
-                    cost_only |= step.acceptance() == Acceptance::NoiseReference;
-                    if !absorbed {
-                        unmodelled.push(step.effect);
-                    }
-                    let stop = next.is_none();
-                    steps.push(step);
-                    if let Some(d) = new_data {
-                        data = d;
-                    }
-                    if let Some(next) = next {
-                        current = next;
-                    }
-                    if stop {
-                        break;
-                    }
-                    continue;
+            if let Some(MeasurementStep {
+                step,
+                next,
+                data: new_data,
+                absorbed,
+            }) = self.measurement_step(&data, &current, &ctx, &acted)
+            {
+                acted.push(step.effect);
+                cost_only |= step.acceptance() == Acceptance::NoiseReference;
+                if !absorbed {
+                    unmodelled.push(step.effect);
                 }
-                None if consistent(&current, alpha, cost_only) => break,
-                None => {}
+                let stop = next.is_none();
+                steps.push(step);
+                if let Some(d) = new_data {
+                    data = d;
+                }
+                if let Some(next) = next {
+                    current = next;
+                }
+                step_fits.push(current.clone());
+                if stop {
+                    break;
+                }
+                continue;
             }
-            let Some((step, next)) = self.structural_step(&data, &current, &ctx) else {
+            // without a cost test (the noise level estimated, or sample variances of too
+            // few periods) a passing whiteness test is weak evidence (a missing delay
+            // leaves white residuals): the structural proposals are still tried, each
+            // likelihood-ratio test at α/m (Bonferroni over the m proposals)
+            let strict = if consistent(&current, alpha, cost_only) {
+                if current.validation.cost_p.is_some() || cost_only {
+                    break;
+                }
+                true
+            } else {
+                false
+            };
+            let Some((step, next)) = self.structural_step(&data, &current, &ctx, strict) else {
                 break;
             };
             steps.push(step);
             current = next;
+            step_fits.push(current.clone());
         }
-        self.revise(&data, &ctx, &mut steps, &mut current);
+        self.revise(&data, &ctx, &mut steps, &mut step_fits, &mut current);
         Ok(Report {
             effects: steps.iter().map(|s| s.effect).collect(),
             steps,
             consistent_with_noise: consistent(&current, alpha, cost_only),
             unmodelled,
             initial_fit,
+            step_fits,
+            final_data: (data.noise() != original.noise()).then_some(data),
             final_fit: current,
         })
     }
@@ -333,7 +356,8 @@ impl Workflow {
         None
     }
 
-    /// Refits every structural proposal; keeps those the likelihood-ratio test accepts and
+    /// Refits every structural proposal; keeps those the likelihood-ratio test accepts (at
+    /// α, or α/m over the m detectors when `strict`) and
     /// takes the one that explains most: smallest LR p-value, then (when p-values
     /// underflow) the largest cost drop per added parameter.
     fn structural_step(
@@ -341,21 +365,31 @@ impl Workflow {
         data: &FrequencyData<f64>,
         current: &SpecFit,
         ctx: &Context,
+        strict: bool,
     ) -> Option<(Step, SpecFit)> {
-        let alpha = ctx.alpha;
-        let findings: Vec<Finding> = self
+        let all: Vec<Finding> = self
             .detectors
             .iter()
             .filter(|d| !d.measurement())
             .filter_map(|d| d.detect(data, current, ctx))
-            .filter(|f| f.p_value < alpha && f.proposal != current.spec)
+            .collect();
+        let alpha = if strict {
+            ctx.alpha / all.len().max(1) as f64
+        } else {
+            ctx.alpha
+        };
+        let findings: Vec<Finding> = all
+            .into_iter()
+            .filter(|f| f.p_value < ctx.alpha && f.proposal != current.spec)
             .collect();
         let mut accepted: Option<(Finding, SpecFit, f64, f64)> = None;
         for finding in findings {
             let Ok(next) = fit_spec(&finding.proposal, data) else {
                 continue;
             };
-            if next.n_params <= current.n_params {
+            // a larger model that turns a stable fit unstable explains the data with a
+            // spurious pole (e.g. a peak at the band edge): not an acceptable step
+            if next.n_params <= current.n_params || (current.is_stable() && !next.is_stable()) {
                 continue;
             }
             let test = if next.spec.noise_order != current.spec.noise_order {

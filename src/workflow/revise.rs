@@ -46,11 +46,12 @@ impl Workflow {
         data: &FrequencyData<f64>,
         ctx: &Context,
         steps: &mut [Step],
+        step_fits: &mut [SpecFit],
         current: &mut SpecFit,
     ) {
         for _ in 0..steps.len() {
             let mut improved = false;
-            for slot in steps.iter_mut() {
+            for (slot, slot_fit) in steps.iter_mut().zip(step_fits.iter_mut()) {
                 let effect = slot.effect;
                 if !swappable(effect) {
                     continue;
@@ -75,7 +76,10 @@ impl Workflow {
                     };
 
                     let bar = best.as_ref().map_or(current.cost, |(_, f)| f.cost);
-                    if next.n_params != current.n_params || !(next.cost < bar * (1.0 - 1e-9)) {
+                    if next.n_params != current.n_params
+                        || !(next.cost < bar * (1.0 - 1e-9))
+                        || (current.is_stable() && !next.is_stable())
+                    {
                         continue;
                     }
                     let Ok(test) = lrt::lr_test(
@@ -103,6 +107,7 @@ impl Workflow {
                 }
                 if let Some((step, next)) = best {
                     *slot = step;
+                    *slot_fit = next.clone();
                     *current = next;
                     improved = true;
                 }

@@ -129,6 +129,15 @@ pub struct SpecFit {
 use crate::validation::Validation;
 
 impl SpecFit {
+    /// Whether every pole of the system part is stable: |p| < 1 in discrete time,
+    /// Re p < 0 in continuous time.
+    pub fn is_stable(&self) -> bool {
+        match self.spec.domain {
+            SpecDomain::Z { .. } => self.poles.iter().all(|p| p.norm() < 1.0),
+            SpecDomain::S => self.poles.iter().all(|p| p.re < 0.0),
+        }
+    }
+
     /// Whether the residuals are consistent with the noise at level `alpha`: the cost test
     /// (when the noise level is known) and the whiteness test both pass at α/2 each
     /// (Bonferroni, so that a correct model fails with probability at most α).
@@ -140,7 +149,7 @@ impl SpecFit {
 }
 
 /// Fits `spec` to `data` with the composed estimators: Levy → SK → ML ([`Pipeline`]);
-/// [`fit_delayed`] for a delay; [`fit_noise_model`] for a noise model; [`fit_eiv`] for EIV.
+/// [`Delayed::fit`] for a delay (bounded to causal delays, 0 ≤ τ < 2π/Δω); [`fit_noise_model`] for a noise model; [`fit_eiv`] for EIV.
 ///
 /// # Errors
 /// [`FdidError::InvalidArgument`] for combinations that do not exist (a noise model with
@@ -175,13 +184,15 @@ pub fn fit_spec(spec: &ModelSpec, data: &FrequencyData<f64>) -> Result<SpecFit> 
         (false, None, SpecCriterion::Eiv) => {
             summarise(spec, data, &fit_eiv(&pipeline, &model, data)?)
         }
-        (true, None, SpecCriterion::Ml) => {
-            summarise(spec, data, &fit_delayed(&pipeline, &model, data)?)
-        }
+        (true, None, SpecCriterion::Ml) => summarise(
+            spec,
+            data,
+            &causal_delay(&model, data)?.fit(&pipeline, data)?,
+        ),
         (true, None, SpecCriterion::Eiv) => {
             let eiv = ErrorsInVariables::default();
             drop(eiv.problem(&model, data)?);
-            let start = fit_delayed(&pipeline, &model, data)?;
+            let start = causal_delay(&model, data)?.fit(&pipeline, data)?;
             let delayed = start.model().clone();
             let mut stages = start.stages().to_vec();
             let theta0 = start.theta().to_vec();
@@ -220,7 +231,8 @@ pub fn fit_spec(spec: &ModelSpec, data: &FrequencyData<f64>) -> Result<SpecFit> 
                 weighting: NoiseWeighting::Flat,
                 ..Pipeline::default()
             };
-            let start = fit_delayed(&flat, &model, &data.select_lines(&excited)?.without_noise())?;
+            let excited = data.select_lines(&excited)?.without_noise();
+            let start = causal_delay(&model, &excited)?.fit(&flat, &excited)?;
             let ts = data.ts().ok_or_else(|| FdidError::InvalidArgument {
                 name: "ts",
                 value: "none".into(),
@@ -231,6 +243,29 @@ pub fn fit_spec(spec: &ModelSpec, data: &FrequencyData<f64>) -> Result<SpecFit> 
             summarise(spec, data, &fit)
         }
     }
+}
+
+/// `model` followed by a delay bounded to the causal, identifiable range
+/// 0 ≤ τ < 2π/Δω (Δω the smallest line spacing: beyond it the phase e^{−iωτ} repeats on
+/// a uniform grid; 1000 periods of the highest frequency without spacing). A fit whose
+/// τ̂ leaves the range is an error, so the workflow never proposes an advance.
+fn causal_delay(
+    model: &Rational<f64>,
+    data: &FrequencyData<f64>,
+) -> Result<Delayed<Rational<f64>>> {
+    let omega = data.omega();
+    let spacing = omega
+        .windows(2)
+        .map(|w| w[1] - w[0])
+        .filter(|d| *d > 0.0)
+        .fold(f64::INFINITY, f64::min);
+    let w_max = omega.iter().copied().fold(0.0, f64::max);
+    let hi = if spacing.is_finite() {
+        2.0 * std::f64::consts::PI / spacing
+    } else {
+        2000.0 * std::f64::consts::PI / w_max
+    };
+    Delayed::new(model.clone()).with_bounds(0.0, hi)
 }
 
 /// Reduces a fit to a [`SpecFit`].
