@@ -551,17 +551,17 @@ impl<M: PhysicalParameters> PhysicalParameters for Delayed<M> {
 /// ```
 ///
 /// Use it where the physics leaves a direction unidentifiable (a DC motor's five
-/// parameters give four transfer-function coefficients: fix the measured winding
-/// resistance) or where a value is known from another experiment. The criteria see only
+/// parameters give three transfer-function combinations: fix the measured winding
+/// resistance and inductance) or where a value is known from another experiment. The criteria see only
 /// the free parameters; [`physical_values`] reports the fixed ones with zero std.
 ///
 /// ```
 /// use fdid::prelude::*;
 /// use fdid::greybox::{AutoDiff, Fixed, physical::DcMotor};
 /// let motor = AutoDiff::new(DcMotor::new());
-/// // hold R = 2 Ω; θ = [ln K, ln L, ln J, ln b]
-/// let model = Fixed::physical(motor, &[("R", 2.0)]).unwrap();
-/// assert_eq!(ModelStructure::<f64>::n_params(&model), 4);
+/// // hold R = 2 Ω and L = 5 mH; θ = [ln K, ln J, ln b]
+/// let model = Fixed::physical(motor, &[("R", 2.0), ("L", 5e-3)]).unwrap();
+/// assert_eq!(ModelStructure::<f64>::n_params(&model), 3);
 /// ```
 #[derive(Debug, Clone, PartialEq)]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]

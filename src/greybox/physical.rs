@@ -136,8 +136,13 @@ pub enum DriveOutput {
 /// ω_a = √(k/J₂) below the resonance ω_r = √(k(J₁ + J₂)/(J₁J₂)).
 ///
 /// θ = [ln J₁, ln J₂, ln k, ln c (, ln b₁, ln b₂) (, ln g)] (J in kg·m², k in N·m/rad, c
-/// and b in N·m·s/rad). Without the gain all are identifiable from G; with it, fix one
-/// (e.g. J₁ from the motor's data sheet).
+/// and b in N·m·s/rad).
+///
+/// **Identifiability.** The motor-side outputs determine every parameter. The load-side
+/// outputs determine one fewer: without friction ω₂/τ = (cs + k)/(s·D₀) depends on
+/// J₁ + J₂, c/k and J₁J₂/((J₁ + J₂)k) only, so hold one parameter (e.g. J₁ from the motor's
+/// data sheet) with [`super::Fixed`]; with friction hold one friction (e.g. b₂). The gain g
+/// costs one more fixed parameter.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct TwoMassDrive {
@@ -323,10 +328,10 @@ impl GreyBox for Rlc {
 /// ```
 ///
 /// (K in N·m/A, R in Ω, L in H, J in kg·m², b in N·m·s/rad). **Not identifiable as a
-/// whole:** the five parameters give four coefficients K, LJ, Lb + RJ, Rb + K² (scaling
-/// (R, L) by α and (J, b) by 1/α with K fixed leaves G unchanged), so hold one at a
-/// measured value — usually R (an ohmmeter) — with [`super::Fixed`]; with the gain g fix
-/// two.
+/// whole:** G = 1/((LJ/K) s² + ((Lb + RJ)/K) s + (Rb + K²)/K) determines three
+/// combinations of the five parameters, so hold two at measured values with
+/// [`super::Fixed`] — R and L (an ohmmeter and an LCR meter) leave J = LJ/L, b and K
+/// unique; with the gain g hold three.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct DcMotor {
