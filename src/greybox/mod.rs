@@ -20,7 +20,7 @@
 //! 4. **Wrap it in [`AutoDiff`]**, which implements [`ModelStructure`] for `f32` and
 //!    `f64`: `response_into` evaluates the formula in `T`, `jacobian_into` evaluates it
 //!    once per line in `Complex<Dual<T, N>>`, each dual carrying all p derivatives (up to
-//!    16 per pass; more parameters take several passes). The result works with every
+//!    32 per pass; more parameters take several passes). The result works with every
 //!    output-error criterion — [`crate::MaximumLikelihood`] (eq. 23),
 //!    [`crate::criterion::NoiseModelMl`] (eqs. 23–26), [`crate::ErrorsInVariables`]
 //!    (eq. 42) — and composes with [`crate::Delayed`] (a delay factor) and [`Fixed`]
@@ -285,8 +285,8 @@ pub trait PhysicalParameters {
 /// ```
 ///
 /// with x_k = iω_k, or e^{−iω_kTs} for a discrete-time model. The Jacobian is exact to
-/// rounding (no step size). Up to 16 parameters take one pass per line with a dual of
-/// exactly as many (or a few more) components; more take ⌈p/16⌉ passes.
+/// rounding (no step size). Up to 32 parameters take one pass per line with a dual of
+/// exactly as many (or a few more) components; more take ⌈p/32⌉ passes.
 ///
 /// A θ of the wrong length makes `response_into`/`jacobian_into` write NaN (which every
 /// criterion reports as a numerical failure) instead of panicking; [`AutoDiff::evaluate`]
@@ -416,8 +416,8 @@ macro_rules! dispatch {
             p => {
                 let mut first = 0;
                 while first < p {
-                    $self.jacobian_pass::<T, 16>($theta, first, $omega, $g, $jac);
-                    first += 16;
+                    $self.jacobian_pass::<T, 32>($theta, first, $omega, $g, $jac);
+                    first += 32;
                 }
             }
         }
@@ -457,7 +457,7 @@ impl<T: Real, G: GreyBox> ModelStructure<T> for AutoDiff<G> {
         dispatch!(self, theta, omega, g, jac;
             1 ..= 1 => 1, 2 ..= 2 => 2, 3 ..= 3 => 3, 4 ..= 4 => 4, 5 ..= 5 => 5,
             6 ..= 6 => 6, 7 ..= 7 => 7, 8 ..= 8 => 8, 9 ..= 10 => 10, 11 ..= 12 => 12,
-            13 ..= 16 => 16);
+            13 ..= 16 => 16, 17 ..= 20 => 20, 21 ..= 24 => 24, 25 ..= 32 => 32);
     }
 
     /// At least p/2 lines; for a discrete-time model, the data's sample time (if any) must
