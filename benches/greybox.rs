@@ -35,6 +35,7 @@ impl GreyBox for RationalZ {
     fn n_params(&self) -> usize {
         self.na + self.nb + 1
     }
+    #[inline]
     fn response<S: DualScalar>(&self, theta: &[S], zinv: Complex<S>) -> Complex<S> {
         let one = Complex::new(S::one(), S::zero());
         let (mut a, mut b, mut pw) = (one, Complex::new(S::zero(), S::zero()), one);

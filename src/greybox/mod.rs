@@ -356,7 +356,9 @@ impl<G: GreyBox> AutoDiff<G> {
     }
 
     /// G and the Jacobian columns `first .. first + min(N, p − first)` with N-component
-    /// duals.
+    /// duals. Kept out of line: each instance gets its own inlining budget, so the
+    /// response and the dual arithmetic inline into the loop over the lines.
+    #[inline(never)]
     fn jacobian_pass<T: Real, const N: usize>(
         &self,
         theta: &[T],
