@@ -67,6 +67,7 @@ pub mod criterion;
 pub mod data;
 pub mod error;
 pub mod fit;
+pub mod greybox;
 #[cfg(feature = "csv")]
 pub mod io;
 pub mod ltv;
@@ -103,6 +104,7 @@ pub mod prelude {
     pub use crate::data::{Lpm, LpmEstimate, lpm};
     pub use crate::error::{FdidError, Result};
     pub use crate::fit::{Fit, NoiseLevel};
+    pub use crate::greybox::{AutoDiff, Fixed, GreyBox, PhysicalParameters};
     pub use crate::ltv::{LtvFit, LtvOde};
     pub use crate::model::{Delayed, fit_delayed};
     pub use crate::model::{Domain, EquationError, ModelStructure, PolesZeros, Rational};
