@@ -161,6 +161,7 @@ fn json_contract_keys() {
         "steps",
         "effects",
         "consistent_with_noise",
+        "unmodelled",
         "noise_reference",
         "initial",
         "final",
@@ -176,6 +177,7 @@ fn json_contract_keys() {
         "cost_after",
         "lr_p",
         "detail",
+        "revised",
     ]
     .iter()
     .map(|s| s.to_string())

@@ -18,7 +18,7 @@ use crate::cli::args::CriterionArg;
 use fdid::data::Lpm;
 use fdid::prelude::*;
 use fdid::workflow::{
-    Context, Finding, ModelSpec, SpecCriterion, SpecDomain, SpecFit, Step, Workflow,
+    Context, Effect, Finding, ModelSpec, SpecCriterion, SpecDomain, SpecFit, Step, Workflow,
 };
 use serde_json::{Map, Value, json};
 use std::fmt::Write as _;
@@ -98,6 +98,8 @@ struct Diagnosis {
     source: String,
     notes: Vec<String>,
     steps: Vec<Step>,
+    /// Named effects the final model does not absorb.
+    unmodelled: Vec<Effect>,
     /// `fits[0]` is the starting model's, `fits[i]` the fit after step `i`.
     fits: Vec<SpecFit>,
     stop: Stop,
@@ -190,9 +192,11 @@ pub fn diagnose(args: &DiagnoseArgs) -> Result<String, Failure> {
         steps,
         fits,
         final_data,
+        consistent,
+        unmodelled,
     } = run_steps(&prepared.data, start, ctx.clone(), args.max_steps)?;
     let last_fit = fits.last().expect("the starting fit is always there");
-    let stop = if last_fit.consistent_with_noise(args.alpha) {
+    let stop = if consistent {
         Stop::Consistent
     } else if steps.len() >= args.max_steps {
         Stop::StepLimit
@@ -215,6 +219,7 @@ pub fn diagnose(args: &DiagnoseArgs) -> Result<String, Failure> {
         source: prepared.source.clone(),
         notes: prepared.notes.clone(),
         steps,
+        unmodelled,
         fits,
         stop,
         remaining,
@@ -295,6 +300,8 @@ struct Run {
     steps: Vec<Step>,
     fits: Vec<SpecFit>,
     final_data: FrequencyData<f64>,
+    consistent: bool,
+    unmodelled: Vec<Effect>,
 }
 
 /// Runs the workflow from `start`.
@@ -320,6 +327,8 @@ fn run_steps(
         steps: report.steps,
         fits,
         final_data,
+        consistent: report.consistent_with_noise,
+        unmodelled: report.unmodelled,
     })
 }
 
@@ -409,6 +418,7 @@ impl Diagnosis {
                     "cost_after": num(s.cost_after),
                     "lr_p": num(s.lr_p),
                     "detail": detail,
+                    "revised": s.revised,
                 })
             })
             .collect();
@@ -417,6 +427,7 @@ impl Diagnosis {
             "steps": steps,
             "effects": effects,
             "consistent_with_noise": self.stop == Stop::Consistent,
+            "unmodelled": self.unmodelled.iter().map(|e| e.as_str()).collect::<Vec<_>>(),
             "noise_reference": self.noise.name(),
             "initial": self.initial.json_value(),
             "final": self.last.json_value(),
@@ -487,14 +498,33 @@ impl Diagnosis {
         };
         row(w, "0", "(start)", "", "", &self.fits[0], None);
         for (i, (s, fit)) in self.steps.iter().zip(&self.fits[1..]).enumerate() {
+            let name = if s.revised {
+                format!("{}*", s.effect)
+            } else {
+                s.effect.to_string()
+            };
             row(
                 w,
                 &(i + 1).to_string(),
-                s.effect.as_str(),
+                &name,
                 &short(s.p_value),
                 &short(s.lr_p),
                 fit,
                 Some(s.cost_before),
+            );
+        }
+        if self.steps.iter().any(|s| s.revised) {
+            let _ = writeln!(
+                w,
+                "  * revised: swapped for this one-parameter effect once the other effects \
+                 were in the model; V before is the final model's without it"
+            );
+        }
+        for e in &self.unmodelled {
+            let _ = writeln!(
+                w,
+                "  {e}: named, but the model class cannot absorb it (the residual holds it, \
+                 not a model error)"
             );
         }
         for s in &self.steps {

@@ -75,6 +75,10 @@ pub struct Step {
     pub lr_p: f64,
     /// The detector's named values.
     pub detail: Detail,
+    /// Whether the revision pass replaced the step first accepted here (then
+    /// `cost_before` is the cost of the final model without this step's augmentation).
+    #[cfg_attr(feature = "serde", serde(default))]
+    pub revised: bool,
 }
 
 impl Step {
@@ -315,6 +319,7 @@ impl Workflow {
                 cost_after,
                 lr_p: finding.p_value,
                 detail: finding.detail.clone(),
+                revised: false,
             };
             match detector.remedy(data, current, ctx, &finding) {
                 Some(Remedy::Criterion) => {
@@ -435,6 +440,7 @@ impl Workflow {
                 cost_after: next.cost,
                 lr_p,
                 detail: finding.detail,
+                revised: false,
             },
             next,
         ))

@@ -102,6 +102,7 @@ impl Workflow {
                         cost_after: next.cost,
                         lr_p: test.p_value,
                         detail: finding.detail,
+                        revised: true,
                     };
                     best = Some((step, next));
                 }
