@@ -1,31 +1,5 @@
-//! The discrepancy workflow started from a user's model structure (e.g. a grey-box
-//! physical model with some parameters held by [`crate::greybox::Fixed`]).
-//!
-//! The user's model G_M(θ_M) is fitted by output-error maximum likelihood (McKelvey
-//! eq. 23) from the user's θ₀, reduced to a [`SpecFit`] ([`SpecFit::from_fit`]) and
-//! handed to the same detectors as [`Workflow::run`]. Two effects can be added to *any*
-//! model structure by composition, and are, judged by the same likelihood-ratio test:
-//!
-//! - `time_delay`: G_M · e^{−iωτ} ([`crate::Delayed`]), τ started at the detector's slope
-//!   (clamped to the causal range 0 ≤ τ < 2π/Δω) and at half and twice it;
-//! - `missing_resonance`: G_M · F with F a flexible mode of unit DC gain
-//!   ([`FlexibleModes`]: (1 + 2ζ_z s/ω_z + (s/ω_z)²)/(1 + 2ζ_p s/ω_p + (s/ω_p)²)), the
-//!   shape a second mass on a compliant shaft adds, started at ω_p = the detector's
-//!   `peak_omega`, ζ_p = its `damping` (clamped to [0.005, 0.5]), ζ_z = ζ_p and
-//!   ω_z ∈ {0.5, 0.7, 0.85, 1.25}·ω_p, keeping the start of least cost.
-//!
-//! Every other structural effect (a missing pole or zero, a transient term, a noise model)
-//! needs the rational parameterisation of [`ModelSpec`]: a user model has no coefficient
-//! to add. Such findings are named with their detector p-values in
-//! [`ModelReport::not_added`] (those significant on the final fit) but never added. The
-//! order-increase detectors see a user model without its poles (Â = 1 in their score
-//! direction), so their finding says that the residual holds a broadband term the model
-//! cannot produce, not where the missing pole or zero lies. Of the measurement-level
-//! effects, nonlinear distortion (a new noise reference: the augmented model is refitted on
-//! it) and time variation (named, unmodelled, the refinement stops) act as in
-//! [`Workflow::run`]; input noise would switch the criterion to errors-in-variables, which
-//! this route does not do: it is listed in `not_added`. The revision pass of
-//! [`Workflow::run`] (swapping a delay for a pole or zero) has nothing to swap with here.
+//! The discrepancy workflow started from a user's model structure
+//! ([`Workflow::run_model`]).
 //!
 //! **Why one concrete augmented type.** The structure grows at run time (a delay, one
 //! mode, another mode), so the fitted model is an [`Augmented<M>`]: the user's model times
@@ -280,12 +254,45 @@ struct State<M> {
 /// The ω_z/ω_p ratios of the starts of a new flexible mode.
 const ZERO_RATIOS: [f64; 4] = [0.5, 0.7, 0.85, 1.25];
 
+/// The second damping start of a new flexible mode (beside the detector's width).
+const LIGHT_DAMPING: f64 = 0.02;
+
 impl Workflow {
-    /// Runs the discrepancy workflow from the user's model structure `model` and start
-    /// `theta0` (see the [module docs](self)): fits it by output-error ML (McKelvey
-    /// eq. 23, Levenberg–Marquardt), runs the detectors on its residuals, adds a delay or
-    /// flexible modes when the likelihood-ratio test accepts them, and names the effects it
-    /// cannot add.
+    /// Runs the discrepancy workflow from the user's model structure `model` (e.g. a
+    /// grey-box physical model with some parameters held by [`crate::greybox::Fixed`]) and
+    /// start `theta0`.
+    ///
+    /// The user's model G_M(θ_M) is fitted by output-error maximum likelihood (McKelvey
+    /// eq. 23) from the user's θ₀, reduced to a [`SpecFit`] ([`SpecFit::from_fit`]) and
+    /// handed to the same detectors as [`Workflow::run`]. Two effects can be added to *any*
+    /// model structure by composition, and are, judged by the same likelihood-ratio test:
+    ///
+    /// - `time_delay`: G_M · e^{−iωτ} ([`crate::Delayed`]), τ started at the detector's slope
+    ///   (clamped to the causal range 0 ≤ τ < 2π/Δω) and at half and twice it;
+    /// - `missing_resonance`: G_M · F with F a flexible mode of unit DC gain
+    ///   ([`FlexibleModes`]: (1 + 2ζ_z s/ω_z + (s/ω_z)²)/(1 + 2ζ_p s/ω_p + (s/ω_p)²)), the
+    ///   shape a second mass on a compliant shaft adds, started at ω_p = the detector's
+    ///   `peak_omega` and at the peak of the measured-to-modelled ratio |Y_k|/|Ŷ_k| over the
+    ///   lines of significant residual, ζ_p = the detector's `damping` (clamped to
+    ///   [0.005, 0.5]) and 0.02, ζ_z = ζ_p and ω_z ∈ {0.5, 0.7, 0.85, 1.25}·ω_p, keeping the
+    ///   start of least cost.
+    ///
+    /// Every other structural effect (a missing pole or zero, a transient term, a noise model)
+    /// needs the rational parameterisation of [`ModelSpec`]: a user model has no coefficient
+    /// to add. Such findings are named with their detector p-values in
+    /// [`ModelReport::not_added`] (those significant on the final fit) but never added. The
+    /// order-increase detectors see a user model without its poles (Â = 1 in their score
+    /// direction), so their finding says that the residual holds a broadband term the model
+    /// cannot produce, not where the missing pole or zero lies. Of the measurement-level
+    /// effects, nonlinear distortion (a new noise reference: the augmented model is refitted on
+    /// it) and time variation (named, unmodelled, the refinement stops) act as in
+    /// [`Workflow::run`]; input noise would switch the criterion to errors-in-variables, which
+    /// this route does not do: it is listed in `not_added`. The revision pass of
+    /// [`Workflow::run`] (swapping a delay for a pole or zero) has nothing to swap with here.
+    ///
+    /// The loop is that of [`Workflow::run`] (measurement step, then while the fit is not
+    /// consistent with the noise a structural step, at most `max_steps` steps); the
+    /// result is a [`ModelReport`].
     ///
     /// ```
     /// use fdid::prelude::*;
@@ -361,7 +368,7 @@ impl Workflow {
                     cost_only = true;
                     steps.push(step);
                     data = new_data;
-                    current = next;
+                    current = *next;
                     step_fits.push(current.summary.clone());
                     continue;
                 }
@@ -470,7 +477,11 @@ impl Workflow {
                     else {
                         continue;
                     };
-                    return Some(Measured::Refitted(step(next.summary.cost), next, new_data));
+                    return Some(Measured::Refitted(
+                        step(next.summary.cost),
+                        Box::new(next),
+                        new_data,
+                    ));
                 }
                 Some(Remedy::NotAbsorbed) => {
                     return Some(Measured::NotAbsorbed(step(current.summary.cost)));
@@ -557,7 +568,7 @@ impl Workflow {
 /// What a measurement-level finding does to a user model's workflow.
 enum Measured<M> {
     /// A new noise reference: the step, the refit on the new data, the data.
-    Refitted(Step, State<M>, FrequencyData<f64>),
+    Refitted(Step, Box<State<M>>, FrequencyData<f64>),
     /// Outside the model class: named, the refinement stops.
     NotAbsorbed(Step),
     /// A criterion switch the user-model route does not make.
@@ -599,12 +610,21 @@ fn proposal<M: ModelStructure<f64> + Clone>(
             Some((current.model.with_delay(hi).ok()?, starts))
         }
         Effect::MissingResonance => {
-            let wp = finding.detail.get("peak_omega")?;
+            let peak = finding.detail.get("peak_omega")?;
             let zeta = finding.detail.get("damping")?.clamp(0.005, 0.5);
+            let mut modes = vec![(peak, zeta), (peak, LIGHT_DAMPING)];
+            if let Some(w) = ratio_peak(data, &current.summary) {
+                modes.extend([(w, zeta), (w, LIGHT_DAMPING)]);
+            }
+            modes.dedup();
             let at = current.model.base_params() + 4 * current.model.modes();
-            let starts = ZERO_RATIOS
+            let starts = modes
                 .iter()
-                .filter_map(|r| FlexibleModes::mode_theta(r * wp, zeta, wp, zeta).ok())
+                .flat_map(|&(wp, zeta)| {
+                    ZERO_RATIOS
+                        .iter()
+                        .filter_map(move |r| FlexibleModes::mode_theta(r * wp, zeta, wp, zeta).ok())
+                })
                 .map(|mode| {
                     let mut s = theta[..at].to_vec();
                     s.extend_from_slice(&mode);
@@ -619,6 +639,21 @@ fn proposal<M: ModelStructure<f64> + Clone>(
         }
         _ => None,
     }
+}
+
+/// The frequency of the largest measured-to-modelled magnitude ratio |Y_k|/|Ŷ_k| among
+/// the lines whose residual is significant (|r_k|² > 9 times its null mean): a missing
+/// resonance multiplies the response by a factor peaking at ω_p whatever the absolute
+/// level, while the residual power peaks where |G| is largest (the detector's
+/// `peak_omega`, which at high SNR can sit at the low-frequency end).
+fn ratio_peak(data: &FrequencyData<f64>, fit: &SpecFit) -> Option<f64> {
+    let (power, mean, _) = super::finding::residual_power(fit);
+    (0..fit.residuals.len())
+        .filter(|k| power[*k] > 9.0 * mean && fit.output[*k].norm() > 0.0)
+        .map(|k| (data.y()[k].norm() / fit.output[k].norm(), fit.omega[k]))
+        .filter(|(r, _)| r.is_finite())
+        .max_by(|a, b| a.0.total_cmp(&b.0))
+        .map(|(_, w)| w)
 }
 
 /// Output-error ML (McKelvey eq. 23, the data's noise weighting) of `model` from each
