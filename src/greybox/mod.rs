@@ -89,9 +89,11 @@
 //! implemented (all of [`num_traits::Float`]).
 
 mod dual;
+mod mode;
 pub mod physical;
 
 pub use dual::{Dual, DualScalar};
+pub use mode::{FlexibleModes, Product};
 
 use crate::criterion::{ErrorsInVariables, MaximumLikelihood};
 use crate::data::FrequencyData;

@@ -45,6 +45,7 @@
 //! # }
 //! ```
 mod bands;
+mod custom;
 pub mod detectors;
 mod finding;
 pub mod lrt;
@@ -52,6 +53,7 @@ mod revise;
 mod spec;
 
 pub use bands::{Band, disagreement_bands};
+pub use custom::{Augmented, ModelReport};
 pub use finding::{Context, Detail, Detector, Effect, Finding, PeriodicRecord, Remedy};
 pub use spec::{ModelSpec, SpecCriterion, SpecDomain, SpecFit, fit_spec};
 

@@ -124,11 +124,50 @@ pub struct SpecFit {
     pub poles: Vec<Complex<f64>>,
     /// The estimated delay τ (s) with its standard deviation, for `delay` specs.
     pub delay: Option<(f64, Option<f64>)>,
+    /// The label of a user's model structure ([`crate::workflow::Workflow::run_model`]),
+    /// `None` for a fit of `spec`. For a user model `spec` only carries the delay flag
+    /// (`na = nb = 0`, continuous domain) and `poles` is empty.
+    #[cfg_attr(feature = "serde", serde(default))]
+    pub custom: Option<String>,
 }
 
 use crate::validation::Validation;
 
 impl SpecFit {
+    /// Reduces any fit to what the detectors and the likelihood-ratio test use: the
+    /// normalised residuals r_k of the fit's criterion (McKelvey eq. 23 for ML), each line's
+    /// normaliser c_k = (Y_k − Ŷ_k)/r_k, the residual Jacobian ∂r/∂θ = −(∂Ŷ/∂θ)/c_k
+    /// real-stacked, the response Ĝ and output Ŷ = ĜU + T ([`Output`]), the cost and
+    /// validation of the fit. When `spec.delay`, τ is the last system parameter (before
+    /// 2·`noise_order` noise-model parameters), as in [`Delayed`]. `poles` is left empty
+    /// (see [`SpecFit::with_poles`]); `custom` is `None` (see [`SpecFit::with_custom`]).
+    ///
+    /// # Errors
+    /// A θ whose delay index does not exist ([`FdidError::LengthMismatch`], what
+    /// `"theta"`).
+    pub fn from_fit<M: ModelStructure<f64>>(
+        spec: &ModelSpec,
+        fit: &Fit<f64, M>,
+        data: &FrequencyData<f64>,
+    ) -> Result<Self> {
+        reduce(spec, data, fit)
+    }
+
+    /// The fit with the poles of its system part (used by [`SpecFit::is_stable`] and the
+    /// order-increase and transient detectors).
+    #[must_use]
+    pub fn with_poles(mut self, poles: Vec<Complex<f64>>) -> Self {
+        self.poles = poles;
+        self
+    }
+
+    /// The fit marked as one of the user's model structure `label`.
+    #[must_use]
+    pub fn with_custom(mut self, label: &str) -> Self {
+        self.custom = Some(label.to_string());
+        self
+    }
+
     /// Whether every pole of the system part is stable: |p| < 1 in discrete time,
     /// Re p < 0 in continuous time.
     pub fn is_stable(&self) -> bool {
@@ -253,6 +292,11 @@ fn causal_delay(
     model: &Rational<f64>,
     data: &FrequencyData<f64>,
 ) -> Result<Delayed<Rational<f64>>> {
+    Delayed::new(model.clone()).with_bounds(0.0, causal_delay_limit(data))
+}
+
+/// The upper end 2π/Δω of the causal, identifiable delay range of [`causal_delay`].
+pub(crate) fn causal_delay_limit(data: &FrequencyData<f64>) -> f64 {
     let omega = data.omega();
     let spacing = omega
         .windows(2)
@@ -260,16 +304,24 @@ fn causal_delay(
         .filter(|d| *d > 0.0)
         .fold(f64::INFINITY, f64::min);
     let w_max = omega.iter().copied().fold(0.0, f64::max);
-    let hi = if spacing.is_finite() {
+    if spacing.is_finite() {
         2.0 * std::f64::consts::PI / spacing
     } else {
         2000.0 * std::f64::consts::PI / w_max
-    };
-    Delayed::new(model.clone()).with_bounds(0.0, hi)
+    }
 }
 
-/// Reduces a fit to a [`SpecFit`].
+/// Reduces a fit with poles to a [`SpecFit`].
 fn summarise<M: ModelStructure<f64> + PolesZeros<f64>>(
+    spec: &ModelSpec,
+    data: &FrequencyData<f64>,
+    fit: &Fit<f64, M>,
+) -> Result<SpecFit> {
+    Ok(reduce(spec, data, fit)?.with_poles(fit.poles()?))
+}
+
+/// Reduces any fit to a [`SpecFit`] without poles.
+fn reduce<M: ModelStructure<f64>>(
     spec: &ModelSpec,
     data: &FrequencyData<f64>,
     fit: &Fit<f64, M>,
@@ -302,7 +354,14 @@ fn summarise<M: ModelStructure<f64> + PolesZeros<f64>>(
     }
     let delay = if spec.delay {
         // the delay is the last parameter of the delayed system (before a noise model)
-        let tau_index = theta.len() - 1 - 2 * spec.noise_order.unwrap_or(0);
+        let tau_index = theta
+            .len()
+            .checked_sub(1 + 2 * spec.noise_order.unwrap_or(0))
+            .ok_or(FdidError::LengthMismatch {
+                what: "theta",
+                expected: 1 + 2 * spec.noise_order.unwrap_or(0),
+                got: theta.len(),
+            })?;
         let std_tau = fit.theta_std().map(|s| s[tau_index]);
         Some((theta[tau_index], std_tau))
     } else {
@@ -323,7 +382,8 @@ fn summarise<M: ModelStructure<f64> + PolesZeros<f64>>(
         response: out.g.clone(),
         output: out.yhat.clone(),
         response_std: fit.response_std().map(<[f64]>::to_vec),
-        poles: fit.poles()?,
+        poles: Vec::new(),
         delay,
+        custom: None,
     })
 }
