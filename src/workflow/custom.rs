@@ -469,6 +469,7 @@ impl Workflow {
                 cost_after,
                 lr_p: finding.p_value,
                 detail: finding.detail.clone(),
+                revised: false,
             };
             match detector.remedy(data, &current.summary, ctx, &finding) {
                 Some(Remedy::NoiseReference(new_data)) => {
@@ -559,6 +560,7 @@ impl Workflow {
                 cost_after: next.summary.cost,
                 lr_p,
                 detail: finding.detail,
+                revised: false,
             },
             next,
         ))
