@@ -332,22 +332,9 @@ fn run_steps(
     })
 }
 
-/// The residual scale: 1 for a known noise level, else λ̂ = V/(N − p/2).
-fn residual_scale(fit: &SpecFit) -> f64 {
-    if fit.noise_known {
-        return 1.0;
-    }
-    let dof = fit.residuals.len() as f64 - fit.n_params as f64 / 2.0;
-    if dof > 0.0 {
-        fit.cost / dof
-    } else {
-        fit.noise_variance
-    }
-}
-
 /// max_k |r_k| in noise standard deviations.
 fn max_residual(fit: &SpecFit) -> f64 {
-    fit.validation.max_residual / residual_scale(fit).sqrt()
+    fit.validation.max_residual / fit.residual_scale().sqrt()
 }
 
 /// The model structure in words: domain, orders and factors.

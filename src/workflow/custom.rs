@@ -8,7 +8,7 @@
 //! for described models) independent of the steps taken.
 use super::finding::{Context, Effect, Finding, Remedy};
 use super::spec::{ModelSpec, SpecFit, causal_delay_limit};
-use super::{Report, Step, Workflow, consistent, lrt};
+use super::{Report, Step, Workflow, better, consistent, lr_accept};
 use crate::criterion::MaximumLikelihood;
 use crate::fit::{Fit, Stage};
 use crate::greybox::{
@@ -462,14 +462,14 @@ impl Workflow {
             .collect();
         findings.sort_by(|a, b| a.1.p_value.total_cmp(&b.1.p_value));
         for (detector, finding) in findings {
-            let step = |cost_after: f64| Step {
-                effect: finding.effect,
-                p_value: finding.p_value,
-                cost_before: current.summary.cost,
-                cost_after,
-                lr_p: finding.p_value,
-                detail: finding.detail.clone(),
-                revised: false,
+            // the detector's own test accepts a measurement-level step
+            let step = |cost_after: f64| {
+                Step::new(
+                    finding.clone(),
+                    current.summary.cost,
+                    cost_after,
+                    finding.p_value,
+                )
             };
             match detector.remedy(data, &current.summary, ctx, &finding) {
                 Some(Remedy::NoiseReference(new_data)) => {
@@ -526,44 +526,15 @@ impl Workflow {
             let Ok(next) = fit_state(model, data, &starts, label) else {
                 continue;
             };
-            let added = next.summary.n_params.saturating_sub(now.n_params);
-            if added == 0 {
-                continue;
-            }
-            let Ok(test) = lrt::lr_test(
-                now.cost,
-                now.n_params,
-                next.summary.cost,
-                next.summary.n_params,
-                data.len(),
-                now.noise_known,
-            ) else {
+            let Some((p, gain)) = lr_accept(now, &next.summary, data.len(), alpha) else {
                 continue;
             };
-            if !(test.p_value < alpha) {
-                continue;
-            }
-            let gain = (now.cost - next.summary.cost) / added as f64;
-            let better = accepted
-                .as_ref()
-                .is_none_or(|(_, _, p, g)| test.p_value < *p || (test.p_value == *p && gain > *g));
-            if better {
-                accepted = Some((finding, next, test.p_value, gain));
+            if better(accepted.as_ref().map(|(_, _, p, g)| (*p, *g)), p, gain) {
+                accepted = Some((finding, next, p, gain));
             }
         }
         let (finding, next, lr_p, _) = accepted?;
-        Some((
-            Step {
-                effect: finding.effect,
-                p_value: finding.p_value,
-                cost_before: now.cost,
-                cost_after: next.summary.cost,
-                lr_p,
-                detail: finding.detail,
-                revised: false,
-            },
-            next,
-        ))
+        Some((Step::new(finding, now.cost, next.summary.cost, lr_p), next))
     }
 }
 

@@ -341,18 +341,9 @@ pub trait Detector {
     }
 }
 
-/// The scale λ of the normalised residuals: 1 for a known noise level, else
-/// λ̂ = V/(N − p/2) (λ̂ = V/N when there are no degrees of freedom left).
+/// The scale λ of the normalised residuals ([`SpecFit::residual_scale`]).
 pub(crate) fn noise_scale(fit: &SpecFit) -> f64 {
-    if fit.noise_known {
-        return 1.0;
-    }
-    let dof = fit.residuals.len() as f64 - fit.n_params as f64 / 2.0;
-    if dof > 0.0 {
-        fit.cost / dof
-    } else {
-        fit.noise_variance
-    }
+    fit.residual_scale()
 }
 
 /// Per-line moments (mean, variance) of |r_k|² under the null: 1 and 1 for exact noise

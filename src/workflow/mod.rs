@@ -84,6 +84,20 @@ pub struct Step {
 }
 
 impl Step {
+    /// The step naming `finding`'s effect with its p-value and detail, the costs before
+    /// and after, and the p-value `lr_p` of the test that accepted it (not revised).
+    pub(crate) fn new(finding: Finding, cost_before: f64, cost_after: f64, lr_p: f64) -> Self {
+        Self {
+            effect: finding.effect,
+            p_value: finding.p_value,
+            cost_before,
+            cost_after,
+            lr_p,
+            detail: finding.detail,
+            revised: false,
+        }
+    }
+
     /// How the step was accepted, from its effect: input noise by a criterion switch,
     /// nonlinear distortion by a new noise reference, time variation not absorbed, every
     /// other effect by the likelihood-ratio test (the remedies of the default detectors).
@@ -314,14 +328,9 @@ impl Workflow {
             .collect();
         findings.sort_by(|a, b| a.1.p_value.total_cmp(&b.1.p_value));
         for (detector, finding) in findings {
-            let step = |cost_after: f64| Step {
-                effect: finding.effect,
-                p_value: finding.p_value,
-                cost_before: current.cost,
-                cost_after,
-                lr_p: finding.p_value,
-                detail: finding.detail.clone(),
-                revised: false,
+            // the detector's own test accepts a measurement-level step
+            let step = |cost_after: f64| {
+                Step::new(finding.clone(), current.cost, cost_after, finding.p_value)
             };
             match detector.remedy(data, current, ctx, &finding) {
                 Some(Remedy::Criterion) => {
@@ -399,54 +408,60 @@ impl Workflow {
             if next.n_params <= current.n_params || (current.is_stable() && !next.is_stable()) {
                 continue;
             }
-            let test = if next.spec.noise_order != current.spec.noise_order {
-                // a new noise model: concentrated likelihoods W = ln(V/N) (eq. 26)
-                let n = data.len() as f64;
-                lrt::concentrated_lr_test(
-                    (current.cost / n).ln(),
-                    current.n_params,
-                    (next.cost / n).ln(),
-                    next.n_params,
-                    data.len(),
-                )
-            } else {
-                lrt::lr_test(
-                    current.cost,
-                    current.n_params,
-                    next.cost,
-                    next.n_params,
-                    data.len(),
-                    current.noise_known,
-                )
-            };
-            let Ok(test) = test else {
+            let Some((p, gain)) = lr_accept(current, &next, data.len(), alpha) else {
                 continue;
             };
-            if !(test.p_value < alpha) {
-                continue;
-            }
-            let gain = (current.cost - next.cost) / (next.n_params - current.n_params) as f64;
-            let better = accepted
-                .as_ref()
-                .is_none_or(|(_, _, p, g)| test.p_value < *p || (test.p_value == *p && gain > *g));
-            if better {
-                accepted = Some((finding, next, test.p_value, gain));
+            if better(accepted.as_ref().map(|(_, _, p, g)| (*p, *g)), p, gain) {
+                accepted = Some((finding, next, p, gain));
             }
         }
         let (finding, next, lr_p, _) = accepted?;
-        Some((
-            Step {
-                effect: finding.effect,
-                p_value: finding.p_value,
-                cost_before: current.cost,
-                cost_after: next.cost,
-                lr_p,
-                detail: finding.detail,
-                revised: false,
-            },
-            next,
-        ))
+        Some((Step::new(finding, current.cost, next.cost, lr_p), next))
     }
+}
+
+/// The likelihood-ratio test of `next` (more parameters) against `current` on `n` lines
+/// at `level`: the concentrated test (W = ln(V/N), eq. 26) when the noise model changes,
+/// else [`lrt::lr_test`]. Its p-value and the cost drop per added parameter when it
+/// accepts, `None` otherwise.
+pub(crate) fn lr_accept(
+    current: &SpecFit,
+    next: &SpecFit,
+    n: usize,
+    level: f64,
+) -> Option<(f64, f64)> {
+    let added = next
+        .n_params
+        .checked_sub(current.n_params)
+        .filter(|a| *a > 0)?;
+    let test = if next.spec.noise_order != current.spec.noise_order {
+        let lines = n as f64;
+        lrt::concentrated_lr_test(
+            (current.cost / lines).ln(),
+            current.n_params,
+            (next.cost / lines).ln(),
+            next.n_params,
+            n,
+        )
+    } else {
+        lrt::lr_test(
+            current.cost,
+            current.n_params,
+            next.cost,
+            next.n_params,
+            n,
+            current.noise_known,
+        )
+    }
+    .ok()?;
+    (test.p_value < level).then_some((test.p_value, (current.cost - next.cost) / added as f64))
+}
+
+/// Whether an accepted proposal (p-value `p`, cost drop per parameter `gain`) explains
+/// more than the best so far: the smaller p-value, then (p-values underflow) the larger
+/// gain.
+pub(crate) fn better(best: Option<(f64, f64)>, p: f64, gain: f64) -> bool {
+    best.is_none_or(|(bp, bg)| p < bp || (p == bp && gain > bg))
 }
 
 /// A measurement-level step: the step, the new fit (`None`: the effect is not absorbed

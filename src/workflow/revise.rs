@@ -96,13 +96,8 @@ impl Workflow {
                         continue;
                     }
                     let step = Step {
-                        effect: other,
-                        p_value: finding.p_value,
-                        cost_before: reduced.cost,
-                        cost_after: next.cost,
-                        lr_p: test.p_value,
-                        detail: finding.detail,
                         revised: true,
+                        ..Step::new(finding, reduced.cost, next.cost, test.p_value)
                     };
                     best = Some((step, next));
                 }

@@ -134,6 +134,20 @@ pub struct SpecFit {
 use crate::validation::Validation;
 
 impl SpecFit {
+    /// The scale λ of the normalised residuals: 1 for a known noise level, else
+    /// λ̂ = V/(N − p/2) (λ̂ = V/N when there are no degrees of freedom left).
+    pub fn residual_scale(&self) -> f64 {
+        if self.noise_known {
+            return 1.0;
+        }
+        let dof = self.residuals.len() as f64 - self.n_params as f64 / 2.0;
+        if dof > 0.0 {
+            self.cost / dof
+        } else {
+            self.noise_variance
+        }
+    }
+
     /// Reduces any fit to what the detectors and the likelihood-ratio test use: the
     /// normalised residuals r_k of the fit's criterion (McKelvey eq. 23 for ML), each line's
     /// normaliser c_k = (Y_k − Ŷ_k)/r_k, the residual Jacobian ∂r/∂θ = −(∂Ŷ/∂θ)/c_k

@@ -183,30 +183,19 @@ fn neighbour_mean(x: &[f64], half: usize) -> Vec<f64> {
 
 /// Leverage h_k of each complex line in a real-stacked Jacobian J (2N × p):
 /// h_k = (‖Q_{2k}‖² + ‖Q_{2k+1}‖²)/2 with Q an orthonormal basis of the column space of
-/// the column-scaled J (SVD, singular values below 10⁻¹⁰ of the largest dropped), so that
+/// the column-scaled J (`column_space`: singular values below 10⁻¹⁰ of the largest dropped), so that
 /// Σ h_k = rank/2 and E|r_k|² = μ(1 − h_k) at a least-squares fit.
 pub(crate) fn leverage(j: &DMatrix<f64>, n: usize) -> Vec<f64> {
     let mut h = vec![0.0; n];
-    if j.ncols() == 0 || j.nrows() != 2 * n {
+    if j.nrows() != 2 * n {
         return h;
     }
-    let mut js = j.clone();
-    for mut c in js.column_iter_mut() {
-        let norm = c.norm();
-        if norm > 0.0 {
-            c /= norm;
-        }
-    }
-    let svd = js.svd(true, false);
-    let Some(u) = svd.u else {
+    let Some(q) = super::score::column_space(j) else {
         return h;
     };
-    let smax = svd.singular_values.max();
-    for (i, s) in svd.singular_values.iter().enumerate() {
-        if *s > 1e-10 * smax {
-            for (k, hk) in h.iter_mut().enumerate() {
-                *hk += (u[(2 * k, i)].powi(2) + u[(2 * k + 1, i)].powi(2)) / 2.0;
-            }
+    for col in q.column_iter() {
+        for (k, hk) in h.iter_mut().enumerate() {
+            *hk += (col[2 * k].powi(2) + col[2 * k + 1].powi(2)) / 2.0;
         }
     }
     h

@@ -63,11 +63,11 @@ pub(crate) fn two_sided_p(t: f64, fit: &SpecFit) -> f64 {
     }
 }
 
-/// (I − P_J) a with P_J the orthogonal projector on the column space of `j` (SVD of the
-/// column-scaled J, singular values below 1e-10 of the largest dropped).
-pub(crate) fn project_off(j: &DMatrix<f64>, a: DVector<f64>) -> DVector<f64> {
-    if j.ncols() == 0 || j.nrows() != a.len() {
-        return a;
+/// An orthonormal basis of the column space of `j` (SVD of the column-scaled J, singular
+/// values below 1e-10 of the largest dropped); `None` for an empty J or a failed SVD.
+pub(crate) fn column_space(j: &DMatrix<f64>) -> Option<DMatrix<f64>> {
+    if j.ncols() == 0 {
+        return None;
     }
     let mut js = j.clone();
     for mut c in js.column_iter_mut() {
@@ -77,17 +77,27 @@ pub(crate) fn project_off(j: &DMatrix<f64>, a: DVector<f64>) -> DVector<f64> {
         }
     }
     let svd = js.svd(true, false);
-    let Some(u) = svd.u else {
+    let u = svd.u?;
+    let smax = svd.singular_values.max();
+    let keep: Vec<usize> = (0..svd.singular_values.len())
+        .filter(|i| svd.singular_values[*i] > 1e-10 * smax)
+        .collect();
+    Some(u.select_columns(&keep))
+}
+
+/// (I − P_J) a with P_J the orthogonal projector on the column space of `j`
+/// ([`column_space`]).
+pub(crate) fn project_off(j: &DMatrix<f64>, a: DVector<f64>) -> DVector<f64> {
+    if j.nrows() != a.len() {
+        return a;
+    }
+    let Some(q) = column_space(j) else {
         return a;
     };
-    let smax = svd.singular_values.max();
     let mut out = a.clone();
-    for (i, s) in svd.singular_values.iter().enumerate() {
-        if *s > 1e-10 * smax {
-            let col = u.column(i);
-            let c = col.dot(&a);
-            out -= col * c;
-        }
+    for col in q.column_iter() {
+        let c = col.dot(&a);
+        out -= col * c;
     }
     out
 }
