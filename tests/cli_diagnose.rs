@@ -162,6 +162,7 @@ fn json_contract_keys() {
         "effects",
         "consistent_with_noise",
         "unmodelled",
+        "bands",
         "noise_reference",
         "initial",
         "final",

@@ -19,6 +19,7 @@ use fdid::data::Lpm;
 use fdid::prelude::*;
 use fdid::workflow::{
     Context, Effect, Finding, ModelSpec, SpecCriterion, SpecDomain, SpecFit, Step, Workflow,
+    disagreement_bands,
 };
 use serde_json::{Map, Value, json};
 use std::fmt::Write as _;
@@ -332,6 +333,51 @@ fn run_steps(
     })
 }
 
+/// The frequency bands where `fit` and the data disagree at family-wise level α
+/// ([`disagreement_bands`]), as JSON objects with frequencies in Hz.
+fn bands_json(fit: &SpecFit, alpha: f64) -> Value {
+    let hz = 1.0 / (2.0 * std::f64::consts::PI);
+    let bands: Vec<Value> = disagreement_bands(fit, alpha)
+        .unwrap_or_default()
+        .iter()
+        .map(|b| {
+            json!({
+                "f_lo_hz": num(b.omega_lo * hz),
+                "f_hi_hz": num(b.omega_hi * hz),
+                "lines": b.lines,
+                "power": num(b.power),
+                "expected": num(b.expected),
+                "p_value": num(b.p_value),
+            })
+        })
+        .collect();
+    Value::Array(bands)
+}
+
+/// The bands of [`bands_json`] in one line of text.
+fn bands_text(fit: &SpecFit, alpha: f64) -> String {
+    let hz = 1.0 / (2.0 * std::f64::consts::PI);
+    let bands = disagreement_bands(fit, alpha).unwrap_or_default();
+    if bands.is_empty() {
+        return "no band exceeds the noise".into();
+    }
+    let parts: Vec<String> = bands
+        .iter()
+        .map(|b| {
+            format!(
+                "{} .. {} Hz ({} lines, power {} vs {}, p = {})",
+                g(b.omega_lo * hz),
+                g(b.omega_hi * hz),
+                b.lines,
+                g(b.power),
+                g(b.expected),
+                short(b.p_value)
+            )
+        })
+        .collect();
+    parts.join("; ")
+}
+
 /// max_k |r_k| in noise standard deviations.
 fn max_residual(fit: &SpecFit) -> f64 {
     fit.validation.max_residual / fit.residual_scale().sqrt()
@@ -416,6 +462,10 @@ impl Diagnosis {
             "consistent_with_noise": self.stop == Stop::Consistent,
             "unmodelled": self.unmodelled.iter().map(|e| e.as_str()).collect::<Vec<_>>(),
             "noise_reference": self.noise.name(),
+            "bands": {
+                "initial": bands_json(&self.fits[0], self.alpha),
+                "final": bands_json(self.last_fit(), self.alpha),
+            },
             "initial": self.initial.json_value(),
             "final": self.last.json_value(),
         });
@@ -557,6 +607,9 @@ impl Diagnosis {
         let _ = write!(w, "{}", self.last.model_text());
 
         let _ = writeln!(w);
+        for (name, fit) in [("start", &self.fits[0]), ("final", self.last_fit())] {
+            let _ = writeln!(w, "disagree     {name}: {}", bands_text(fit, self.alpha));
+        }
         let _ = writeln!(w, "verdict      {}", self.verdict());
         let fired: Vec<String> = self
             .remaining
