@@ -132,6 +132,45 @@ impl<G: GreyBox> AutoDiff<G> {
     /// [`crate::TimeData::dft`] the leakage of a record from any initial state has exactly
     /// this form (the 1/√N of eq. 4 is absorbed in t), so noise-free data give the exact θ.
     ///
+    /// ```
+    /// use fdid::prelude::*;
+    /// use fdid::greybox::{AutoDiff, DualScalar, GreyBox, fit_ml};
+    ///
+    /// /// G(z⁻¹) = g/(1 − a z⁻¹), θ = [ln g, a], Ts = 1 ms.
+    /// #[derive(Clone)]
+    /// struct Lag;
+    /// impl GreyBox for Lag {
+    ///     fn n_params(&self) -> usize {
+    ///         2
+    ///     }
+    ///     fn response<S: DualScalar>(&self, theta: &[S], x: Complex<S>) -> Complex<S> {
+    ///         let one = Complex::new(S::one(), S::zero());
+    ///         (one - x * theta[1]).inv() * theta[0].exp()
+    ///     }
+    ///     fn sample_time(&self) -> Option<f64> {
+    ///         Some(1e-3)
+    ///     }
+    ///     fn denominator<S: DualScalar>(&self, theta: &[S]) -> Option<Vec<S>> {
+    ///         Some(vec![S::one(), -theta[1]])
+    ///     }
+    /// }
+    ///
+    /// // y[t] = 0.9 y[t−1] + 2 u[t] from y[−1] = 5: a record that is not periodic
+    /// let u: Vec<f64> = (0..64).map(|t| ((t * 7919) % 13) as f64 - 6.0).collect();
+    /// let mut y = vec![0.0; 64];
+    /// let mut prev = 5.0;
+    /// for t in 0..64 {
+    ///     y[t] = 0.9 * prev + 2.0 * u[t];
+    ///     prev = y[t];
+    /// }
+    /// let data = TimeData::new(u, y, 1e-3).unwrap().dft();
+    /// let model = AutoDiff::new(Lag).with_transient().unwrap();
+    /// // θ = [ln g, a, t₁]
+    /// let fit = fit_ml(&model, &data, &[1.0, 0.5, 0.0]).unwrap();
+    /// assert!((fit.theta()[0].exp() - 2.0).abs() < 1e-9);
+    /// assert!((fit.theta()[1] - 0.9).abs() < 1e-9);
+    /// ```
+    ///
     /// # Errors
     /// [`FdidError::InvalidArgument`] (name `"transient"`) for a continuous-time model (use
     /// [`AutoDiff::with_sampled_transient`]), a model whose [`GreyBox::denominator`] is
