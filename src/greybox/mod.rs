@@ -92,7 +92,9 @@
 //! ∂T/∂θ comes by dual numbers through A, and in continuous time through the poles,
 //! ∂pᵢ/∂θ = −(∂D/∂θ)/(∂D/∂s) at s = pᵢ (the poles are the companion-matrix eigenvalues of
 //! D in f64). [`Fixed`] and [`crate::Delayed`] keep working (the delay does not act on T);
-//! [`physical_values`] lists the tⱼ as `transient1` … (linear, no unit). **Not supported:**
+//! [`physical_values`] lists the tⱼ as `transient1` … (linear, no unit). Start the tⱼ at
+//! zero: T is linear in them, so the first Levenberg–Marquardt steps fit them at the start
+//! θ. **Not supported:**
 //! repeated poles in continuous time (∂D/∂s = 0 there: the Jacobian is not finite), models
 //! without [`GreyBox::denominator`], the transient of a [`Product`] beyond its first
 //! factor's, and data merged from records with different sample times. Periodic data (or
