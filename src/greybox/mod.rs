@@ -73,10 +73,32 @@
 //! x = z⁻¹ = e^{−iωTs} instead of s = iω (the digital-filter convention of
 //! [`crate::Rational::discrete`] and McKelvey eq. 3).
 //!
-//! **Transient.** A transient term (McKelvey eqs. 4–5, 9–10) for grey-box models is not
-//! yet supported: [`AutoDiff`] has none, so fit periodic data (or a record with a
-//! negligible transient). Its form for a sampled continuous-time model needs the poles of
-//! the model, which a general formula does not expose.
+//! **Transient.** The DFT of one non-periodic record (not a whole number of periods in
+//! steady state) carries the leakage of the initial and final states, an input-independent
+//! term Ŷ = G U + T. A model that exposes its denominator ([`GreyBox::denominator`]:
+//! coefficients in x, implemented by every model of [`physical`] and by [`FlexibleModes`])
+//! gets it with θ extended by n real coefficients tⱼ (n the degree of the denominator),
+//! z_k = e^{iω_kTs}:
+//!
+//! ```text
+//! discrete time, AutoDiff::with_transient (McKelvey eqs. 4–5):
+//!     T_k = Σ_{j=1}^{n} tⱼ z_k^{−(j−1)} / A(θ, z_k⁻¹)
+//! continuous time sampled at Ts, AutoDiff::with_sampled_transient(Ts) (eqs. 9–10):
+//!     T_k = Σ_{j=1}^{n} tⱼ z_k^{−(j−1)} / Πᵢ (1 − e^{pᵢ(θ)Ts} z_k⁻¹),  D(θ, pᵢ) = 0
+//! ```
+//!
+//! With the DFT of [`crate::TimeData::dft`] both are exact: noise-free data from any
+//! initial state give θ to rounding. The Jacobian is exact too: ∂T/∂tⱼ is the basis,
+//! ∂T/∂θ comes by dual numbers through A, and in continuous time through the poles,
+//! ∂pᵢ/∂θ = −(∂D/∂θ)/(∂D/∂s) at s = pᵢ (the poles are the companion-matrix eigenvalues of
+//! D in f64). [`Fixed`] and [`crate::Delayed`] keep working (the delay does not act on T);
+//! [`physical_values`] lists the tⱼ as `transient1` … (linear, no unit). Start the tⱼ at
+//! zero: T is linear in them, so the first Levenberg–Marquardt steps fit them at the start
+//! θ. **Not supported:**
+//! repeated poles in continuous time (∂D/∂s = 0 there: the Jacobian is not finite), models
+//! without [`GreyBox::denominator`], the transient of a [`Product`] beyond its first
+//! factor's, and data merged from records with different sample times. Periodic data (or
+//! a record with a negligible transient) need no transient term.
 //!
 //! **Cost.** Vector-mode duals make the Jacobian cost about that of one response evaluated
 //! with p-fold wider arithmetic; `benches/greybox.rs` compares it with the hand-written
@@ -91,9 +113,11 @@
 mod dual;
 mod mode;
 pub mod physical;
+mod transient;
 
 pub use dual::{Dual, DualScalar};
 pub use mode::{FlexibleModes, Product};
+pub use transient::Transient;
 
 use crate::criterion::{ErrorsInVariables, MaximumLikelihood};
 use crate::data::FrequencyData;
@@ -145,6 +169,25 @@ pub trait GreyBox {
     fn check_params(&self, theta: &[f64]) -> Result<()> {
         let _ = theta;
         Ok(())
+    }
+
+    /// The coefficients of the denominator of G in ascending powers of x, `None` (the
+    /// default) when the model does not expose it:
+    ///
+    /// ```text
+    /// D(θ, x) = d₀(θ) + d₁(θ) x + … + d_n(θ) xⁿ,   x = s (continuous time) or z⁻¹
+    /// (discrete time),
+    /// ```
+    ///
+    /// such that G·D is a polynomial in x (D holds every pole of G, with d_n ≠ 0 in
+    /// continuous time). Its length n + 1 must not depend on θ. The transient term of a
+    /// non-periodic record ([`AutoDiff::with_transient`], McKelvey eqs. 4–5;
+    /// [`AutoDiff::with_sampled_transient`], eqs. 9–10) is built from it. A discrete-time
+    /// model whose numerator has a higher degree than its denominator pads D with zero
+    /// coefficients up to the state dimension max(na, nb).
+    fn denominator<S: DualScalar>(&self, theta: &[S]) -> Option<Vec<S>> {
+        let _ = theta;
+        None
     }
 }
 
@@ -290,6 +333,10 @@ pub trait PhysicalParameters {
 /// rounding (no step size). Up to 32 parameters take one pass per line with a dual of
 /// exactly as many (or a few more) components; more take ⌈p/32⌉ passes.
 ///
+/// With a transient term ([`AutoDiff::with_transient`], McKelvey eqs. 4–5;
+/// [`AutoDiff::with_sampled_transient`], eqs. 9–10) θ = [θ_model, t₁ … t_n] and
+/// `transient_into` gives T and ∂T/∂θ (G does not depend on the tⱼ).
+///
 /// A θ of the wrong length makes `response_into`/`jacobian_into` write NaN (which every
 /// criterion reports as a numerical failure) instead of panicking; [`AutoDiff::evaluate`]
 /// and [`fit_ml`] return typed errors.
@@ -307,12 +354,23 @@ pub trait PhysicalParameters {
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct AutoDiff<G> {
     model: G,
+    /// The transient term of a non-periodic record, when enabled.
+    #[cfg_attr(feature = "serde", serde(default))]
+    transient: Option<Transient>,
 }
 
 impl<G: GreyBox> AutoDiff<G> {
-    /// Wraps `model`.
+    /// Wraps `model` (without a transient term).
     pub fn new(model: G) -> Self {
-        Self { model }
+        Self {
+            model,
+            transient: None,
+        }
+    }
+
+    /// p = the model's parameters plus the transient coefficients.
+    fn total_params(&self) -> usize {
+        self.model.n_params() + self.n_transient()
     }
 
     /// The wrapped model.
@@ -331,9 +389,9 @@ impl<G: GreyBox> AutoDiff<G> {
     /// [`FdidError::LengthMismatch`] (what `"theta"`), [`FdidError::NonFinite`] (what
     /// `"theta"`), or the model's own error.
     pub fn check_theta<T: Real>(&self, theta: &[T]) -> Result<()> {
-        check_theta_common(self.model.n_params(), theta)?;
+        check_theta_common(self.total_params(), theta)?;
         let t: Vec<f64> = theta.iter().map(|v| v.to_f64_lossless()).collect();
-        self.model.check_params(&t)
+        self.model.check_params(&t[..self.model.n_params()])
     }
 
     /// G(θ, ω_k), checking θ first.
@@ -363,8 +421,8 @@ impl<G: GreyBox> AutoDiff<G> {
     #[inline(never)]
     fn jacobian_pass<T: Real, const N: usize>(
         &self,
-        theta: &[T],
         first: usize,
+        theta: &[T],
         omega: &[T],
         g: &mut [Complex<T>],
         jac: &mut DMatrix<Complex<T>>,
@@ -412,15 +470,29 @@ fn fill_nan<T: Real>(g: &mut [Complex<T>], jac: Option<&mut DMatrix<Complex<T>>>
     }
 }
 
-/// Dispatches a Jacobian evaluation to a dual of (at least) p components.
+/// Dispatches a Jacobian evaluation (`jacobian_pass` or `transient_pass`) to a dual of (at
+/// least) p components.
 macro_rules! dispatch {
-    ($self:ident, $theta:ident, $omega:ident, $g:ident, $jac:ident; $($lo:literal ..= $hi:literal => $n:literal),*) => {
+    ($self:ident . $pass:ident ($theta:expr, $omega:ident, $g:ident, $jac:ident)) => {
         match $theta.len() {
-            $($lo..=$hi => $self.jacobian_pass::<T, $n>($theta, 0, $omega, $g, $jac),)*
+            1 => $self.$pass::<T, 1>(0, $theta, $omega, $g, $jac),
+            2 => $self.$pass::<T, 2>(0, $theta, $omega, $g, $jac),
+            3 => $self.$pass::<T, 3>(0, $theta, $omega, $g, $jac),
+            4 => $self.$pass::<T, 4>(0, $theta, $omega, $g, $jac),
+            5 => $self.$pass::<T, 5>(0, $theta, $omega, $g, $jac),
+            6 => $self.$pass::<T, 6>(0, $theta, $omega, $g, $jac),
+            7 => $self.$pass::<T, 7>(0, $theta, $omega, $g, $jac),
+            8 => $self.$pass::<T, 8>(0, $theta, $omega, $g, $jac),
+            9..=10 => $self.$pass::<T, 10>(0, $theta, $omega, $g, $jac),
+            11..=12 => $self.$pass::<T, 12>(0, $theta, $omega, $g, $jac),
+            13..=16 => $self.$pass::<T, 16>(0, $theta, $omega, $g, $jac),
+            17..=20 => $self.$pass::<T, 20>(0, $theta, $omega, $g, $jac),
+            21..=24 => $self.$pass::<T, 24>(0, $theta, $omega, $g, $jac),
+            25..=32 => $self.$pass::<T, 32>(0, $theta, $omega, $g, $jac),
             p => {
                 let mut first = 0;
                 while first < p {
-                    $self.jacobian_pass::<T, 32>($theta, first, $omega, $g, $jac);
+                    $self.$pass::<T, 32>(first, $theta, $omega, $g, $jac);
                     first += 32;
                 }
             }
@@ -428,16 +500,58 @@ macro_rules! dispatch {
     };
 }
 
+/// Checks data against a sample time `ts` (s): no mixed sample times, the data's Ts (if
+/// any) equal to it, every ω at or below the Nyquist frequency π/Ts.
+fn check_sample_time<T: Real>(ts: f64, data: &FrequencyData<T>) -> Result<()> {
+    if !(ts.is_finite() && ts > 0.0) {
+        return Err(FdidError::InvalidArgument {
+            name: "ts",
+            value: format!("{ts}"),
+            reason: "the model's sample time must be positive and finite".into(),
+        });
+    }
+    if data.mixed_sample_times() {
+        return Err(FdidError::InvalidArgument {
+            name: "ts",
+            value: "several".into(),
+            reason: "the data merge experiments with different sample times: only a \
+                     continuous-time model without a transient term fits them"
+                .into(),
+        });
+    }
+    if let Some(dts) = data.ts() {
+        let d = dts.to_f64_lossless();
+        if (d - ts).abs() > 1e-6 * ts {
+            return Err(FdidError::InvalidArgument {
+                name: "ts",
+                value: format!("{d}"),
+                reason: format!("the data's sample time differs from the model's ({ts})"),
+            });
+        }
+    }
+    let nyquist = std::f64::consts::PI / ts * (1.0 + 1e-6);
+    if let Some(w) = data.omega().iter().find(|w| w.to_f64_lossless() > nyquist) {
+        return Err(FdidError::InvalidArgument {
+            name: "omega",
+            value: format!("{w} rad/s"),
+            reason: format!("above the Nyquist frequency of Ts = {ts} s"),
+        });
+    }
+    Ok(())
+}
+
 impl<T: Real, G: GreyBox> ModelStructure<T> for AutoDiff<G> {
+    /// The model's parameters plus the n transient coefficients, if any.
     fn n_params(&self) -> usize {
-        self.model.n_params()
+        self.total_params()
     }
 
     /// G(θ, ω_k) = response(θ, x_k) evaluated in `T` (NaN for a θ of the wrong length).
     fn response_into(&self, theta: &[T], omega: &[T], out: &mut [Complex<T>]) {
-        if theta.len() != self.model.n_params() {
+        if theta.len() != self.total_params() {
             return fill_nan(out, None);
         }
+        let theta = &theta[..self.model.n_params()];
         for (w, o) in omega.iter().zip(out.iter_mut()) {
             *o = self.model.response(theta, self.variable(*w));
         }
@@ -452,68 +566,78 @@ impl<T: Real, G: GreyBox> ModelStructure<T> for AutoDiff<G> {
         g: &mut [Complex<T>],
         jac: &mut DMatrix<Complex<T>>,
     ) {
-        if theta.len() != self.model.n_params() || jac.shape() != (omega.len(), theta.len()) {
+        if theta.len() != self.total_params() || jac.shape() != (omega.len(), theta.len()) {
             return fill_nan(g, Some(jac));
         }
-        if theta.is_empty() {
-            return self.response_into(theta, omega, g);
+        let pm = self.model.n_params();
+        let model_theta = &theta[..pm];
+        if pm == 0 {
+            self.response_into(theta, omega, g);
+        } else {
+            dispatch!(self.jacobian_pass(model_theta, omega, g, jac));
         }
-        dispatch!(self, theta, omega, g, jac;
-            1 ..= 1 => 1, 2 ..= 2 => 2, 3 ..= 3 => 3, 4 ..= 4 => 4, 5 ..= 5 => 5,
-            6 ..= 6 => 6, 7 ..= 7 => 7, 8 ..= 8 => 8, 9 ..= 10 => 10, 11 ..= 12 => 12,
-            13 ..= 16 => 16, 17 ..= 20 => 20, 21 ..= 24 => 24, 25 ..= 32 => 32);
+        // G does not depend on the transient coefficients
+        for j in pm..theta.len() {
+            jac.column_mut(j).fill(Complex::new(T::zero(), T::zero()));
+        }
     }
 
-    /// At least p/2 lines; for a discrete-time model, the data's sample time (if any) must
-    /// equal the model's and every ω must lie at or below the Nyquist frequency π/Ts.
-    fn check_data(&self, data: &FrequencyData<T>) -> Result<()> {
-        crate::model::check_line_count(self.model.n_params(), data.len())?;
-        let Some(ts) = self.model.sample_time() else {
-            return Ok(());
-        };
-        if !(ts.is_finite() && ts > 0.0) {
-            return Err(FdidError::InvalidArgument {
-                name: "ts",
-                value: format!("{ts}"),
-                reason: "the model's sample time must be positive and finite".into(),
-            });
+    /// The transient term of [`AutoDiff::with_transient`] (McKelvey eqs. 4–5) or
+    /// [`AutoDiff::with_sampled_transient`] (eqs. 9–10), with ∂T/∂θ by dual numbers (through
+    /// the denominator, and in continuous time through the poles); false without one. NaN
+    /// for a θ of the wrong length or a denominator that cannot be evaluated.
+    fn transient_into(
+        &self,
+        theta: &[T],
+        omega: &[T],
+        t: &mut [Complex<T>],
+        jac: Option<&mut DMatrix<Complex<T>>>,
+    ) -> bool {
+        if self.transient.is_none() {
+            return false;
         }
-        if data.mixed_sample_times() {
-            return Err(FdidError::InvalidArgument {
-                name: "ts",
-                value: "several".into(),
-                reason: "the data merge experiments with different sample times: only a \
-                         continuous-time model fits them"
-                    .into(),
-            });
-        }
-        if let Some(dts) = data.ts() {
-            let d = dts.to_f64_lossless();
-            if (d - ts).abs() > 1e-6 * ts {
-                return Err(FdidError::InvalidArgument {
-                    name: "ts",
-                    value: format!("{d}"),
-                    reason: format!("the data's sample time differs from the model's ({ts})"),
-                });
+        let p = self.total_params();
+        match jac {
+            Some(jac) => {
+                if theta.len() != p || jac.shape() != (omega.len(), p) {
+                    fill_nan(t, Some(jac));
+                } else {
+                    dispatch!(self.transient_pass(theta, omega, t, jac));
+                }
+            }
+            None => {
+                if theta.len() != p {
+                    fill_nan(t, None);
+                } else {
+                    let mut none = DMatrix::zeros(0, 0);
+                    self.transient_pass::<T, 0>(theta.len(), theta, omega, t, &mut none);
+                }
             }
         }
-        let nyquist = std::f64::consts::PI / ts * (1.0 + 1e-6);
-        if let Some(w) = data.omega().iter().find(|w| w.to_f64_lossless() > nyquist) {
-            return Err(FdidError::InvalidArgument {
-                name: "omega",
-                value: format!("{w} rad/s"),
-                reason: format!("above the Nyquist frequency of Ts = {ts} s"),
-            });
+        true
+    }
+
+    /// At least p/2 lines; for a discrete-time model, or with the sampled transient term,
+    /// the data's sample time (if any) must equal the model's (the transient's) and every ω
+    /// must lie at or below the Nyquist frequency π/Ts.
+    fn check_data(&self, data: &FrequencyData<T>) -> Result<()> {
+        crate::model::check_line_count(self.total_params(), data.len())?;
+        if let Some(ts) = self.model.sample_time() {
+            check_sample_time(ts, data)?;
         }
-        Ok(())
+        self.check_sampled_data(data)
     }
 }
 
 impl<G: GreyBox> PhysicalParameters for AutoDiff<G> {
-    /// The model's [`GreyBox::parameters`], all free, in the order of θ.
+    /// The model's [`GreyBox::parameters`], all free, in the order of θ, then the transient
+    /// coefficients `transient1` … `transient{n}` (linear scale, no unit), if any.
     fn physical_parameters(&self) -> Vec<(Parameter, Slot)> {
         let mut params = self.model.parameters();
         params.resize_with(self.model.n_params(), || Parameter::linear("", ""));
+        params.extend(
+            (1..=self.n_transient()).map(|j| Parameter::linear(&format!("transient{j}"), "")),
+        );
         params
             .into_iter()
             .enumerate()
@@ -522,7 +646,8 @@ impl<G: GreyBox> PhysicalParameters for AutoDiff<G> {
     }
 
     fn check_theta(&self, theta: &[f64]) -> Result<()> {
-        self.model.check_params(theta)
+        self.model
+            .check_params(&theta[..self.model.n_params().min(theta.len())])
     }
 }
 

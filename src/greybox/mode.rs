@@ -106,6 +106,25 @@ impl GreyBox for FlexibleModes {
         })
     }
 
+    /// Π (1 + 2ζ_p s/ω_p + (s/ω_p)²), expanded (degree 2·modes; `None` without a mode).
+    fn denominator<S: DualScalar>(&self, theta: &[S]) -> Option<Vec<S>> {
+        if self.modes == 0 {
+            return None;
+        }
+        let two = S::lit(2.0);
+        Some(theta.chunks_exact(4).fold(vec![S::one()], |d, m| {
+            let (wp, zp) = (m[2].exp(), m[3].exp());
+            let f = [S::one(), two * zp / wp, S::one() / (wp * wp)];
+            let mut out = vec![S::zero(); d.len() + 2];
+            for (i, a) in d.iter().enumerate() {
+                for (j, b) in f.iter().enumerate() {
+                    out[i + j] += *a * *b;
+                }
+            }
+            out
+        }))
+    }
+
     fn parameters(&self) -> Vec<Parameter> {
         mode_parameters(self.modes)
     }

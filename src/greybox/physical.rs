@@ -91,6 +91,12 @@ impl GreyBox for MassSpringDamper {
         den.inv() * g
     }
 
+    /// [k, c, m]: m s² + c s + k.
+    fn denominator<S: DualScalar>(&self, theta: &[S]) -> Option<Vec<S>> {
+        let [m, c, k] = exps(theta);
+        Some(vec![k, c, m])
+    }
+
     fn parameters(&self) -> Vec<Parameter> {
         let mut p = vec![
             Parameter::log("m", "kg"),
@@ -227,6 +233,28 @@ impl GreyBox for TwoMassDrive {
         }
     }
 
+    /// With friction D(s) (degree 3); without, s·D₀(s) for the speeds and D₀(s) for the
+    /// accelerations (the common s cancelled), D₀ = J₁J₂ s² + c(J₁ + J₂) s + k(J₁ + J₂).
+    fn denominator<S: DualScalar>(&self, theta: &[S]) -> Option<Vec<S>> {
+        let [j1, j2, k, c] = exps(theta);
+        if self.friction {
+            let (b1, b2) = (theta[4].exp(), theta[5].exp());
+            return Some(vec![
+                k * (b1 + b2),
+                b1 * b2 + c * (b1 + b2) + k * (j1 + j2),
+                j1 * b2 + j2 * b1 + c * (j1 + j2),
+                j1 * j2,
+            ]);
+        }
+        let d0 = [k * (j1 + j2), c * (j1 + j2), j1 * j2];
+        Some(match self.output {
+            DriveOutput::MotorSpeed | DriveOutput::LoadSpeed => {
+                std::iter::once(S::zero()).chain(d0).collect()
+            }
+            _ => d0.to_vec(),
+        })
+    }
+
     fn parameters(&self) -> Vec<Parameter> {
         let mut p = vec![
             Parameter::log("J1", "kg·m²"),
@@ -306,6 +334,12 @@ impl GreyBox for Rlc {
         num / den
     }
 
+    /// [1, RC, LC]: L C s² + R C s + 1.
+    fn denominator<S: DualScalar>(&self, theta: &[S]) -> Option<Vec<S>> {
+        let [r, l, c] = exps(theta);
+        Some(vec![S::one(), r * c, l * c])
+    }
+
     fn parameters(&self) -> Vec<Parameter> {
         let mut p = vec![
             Parameter::log("R", "Ω"),
@@ -363,6 +397,12 @@ impl GreyBox for DcMotor {
         let re = |v: S| Complex::new(v, S::zero());
         let den = (s * l + re(r)) * (s * j + re(b)) + re(k * k);
         den.inv() * (g * k)
+    }
+
+    /// [R b + K², L b + R J, L J]: (L s + R)(J s + b) + K².
+    fn denominator<S: DualScalar>(&self, theta: &[S]) -> Option<Vec<S>> {
+        let [k, r, l, j, b] = exps(theta);
+        Some(vec![r * b + k * k, l * b + r * j, l * j])
     }
 
     fn parameters(&self) -> Vec<Parameter> {
