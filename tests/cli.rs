@@ -1240,3 +1240,53 @@ fn errors_in_variables_on_a_spectra_file() {
     expect_error(&a, "var_u");
     assert_eq!(fdid(&a).status.code(), Some(1));
 }
+
+/// `fit --plot FILE` writes an SVG Bode plot (with the `plot` feature) and still prints the
+/// report; an unwritable path is a runtime error naming it.
+#[test]
+fn fit_plot_writes_an_svg() {
+    let dir = Scratch::new("plot");
+    let svg = dir.0.join("bode.svg");
+    let o = fdid(&[
+        "fit",
+        "data/robot_arm.csv",
+        "--domain",
+        "z",
+        "--na",
+        "4",
+        "--nb",
+        "4",
+        "--periods",
+        "1",
+        "--plot",
+        svg.to_str().unwrap(),
+    ]);
+    if cfg!(feature = "plot") {
+        assert!(o.status.success(), "{}", stderr(&o));
+        assert!(stdout(&o).contains("poles"));
+        let text = std::fs::read_to_string(&svg).unwrap();
+        assert!(text.starts_with("<svg"));
+        assert!(text.contains("model +/- 2 sigma_G"));
+        assert!(text.contains("residual |Y/U - G|"));
+        let bad = dir.0.join("missing-dir").join("bode.svg");
+        let o = fdid(&[
+            "fit",
+            "data/robot_arm.csv",
+            "--domain",
+            "z",
+            "--na",
+            "2",
+            "--nb",
+            "2",
+            "--periods",
+            "1",
+            "--plot",
+            bad.to_str().unwrap(),
+        ]);
+        assert_eq!(o.status.code(), Some(1));
+        assert!(stderr(&o).contains("missing-dir"), "{}", stderr(&o));
+    } else {
+        assert_eq!(o.status.code(), Some(2));
+        assert!(stderr(&o).contains("plot"));
+    }
+}

@@ -219,6 +219,11 @@ pub struct FitArgs {
     /// Print one JSON object instead of text
     #[arg(long)]
     pub json: bool,
+
+    /// Write a Bode plot (SVG) of the data, the model with its 2-sigma uncertainty band
+    /// and the residual |Y/U - G| to FILE (needs the `plot` feature, on by default)
+    #[arg(long, value_name = "FILE")]
+    pub plot: Option<std::path::PathBuf>,
 }
 
 /// Default false-alarm level of `fdid diagnose`.

@@ -132,11 +132,39 @@ fn fit(args: &FitArgs) -> Result<String, Failure> {
     let file = args.common.data.display().to_string();
     check_data_kind(&spec, &file, &prepared)?;
     let report = fit_report(&spec, &file, &prepared)?;
+    if let Some(path) = &args.plot {
+        write_plot(path, &prepared, &report)?;
+    }
     Ok(if args.json {
         report.json()
     } else {
         report.text()
     })
+}
+
+/// `fdid fit --plot FILE`: the Bode plot of the data, the model with its uncertainty band
+/// and the residual.
+#[cfg(feature = "plot")]
+fn write_plot(path: &std::path::Path, prepared: &Prepared, report: &Report) -> Result<(), Failure> {
+    let (response, std) = report.response();
+    let curve = svg::Curve {
+        name: "model",
+        response,
+        std,
+    };
+    let figure = svg::bode_curves(&prepared.data, &[curve], true)
+        .map_err(|e| Failure::runtime(format!("cannot draw the Bode plot: {e}")))?;
+    std::fs::write(path, figure)
+        .map_err(|e| Failure::runtime(format!("cannot write {}: {e}", path.display())))
+}
+
+/// Without the `plot` feature `--plot` is a usage error.
+#[cfg(not(feature = "plot"))]
+fn write_plot(path: &std::path::Path, _: &Prepared, _: &Report) -> Result<(), Failure> {
+    Err(Failure::usage(format!(
+        "--plot {} needs the `plot` feature (build with default features)",
+        path.display()
+    )))
 }
 
 /// Fits `spec` to the prepared data with the estimator it names and collects the report

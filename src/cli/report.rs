@@ -111,6 +111,11 @@ pub struct Report {
 }
 
 impl Report {
+    /// The fitted response on the data's lines and its standard deviation, if known.
+    pub fn response(&self) -> (&[Complex<f64>], Option<&[f64]>) {
+        (&self.frf, self.frf_std.as_deref())
+    }
+
     /// Collects the results of `fit`, a model whose θ is laid out as `parts` says:
     /// [rational (with its transient coefficients last), τ, c₁ … c_nc, d₁ … d_nd].
     pub fn new<M: ModelStructure<f64> + PolesZeros<f64>>(

@@ -1,5 +1,7 @@
-//! The SVG figures of `fdid diagnose --report DIR` (feature `plot`): a Bode plot of the
-//! data and the initial and final models, and the spectrum of the normalised residuals.
+//! The SVG figures (feature `plot`): for `fdid diagnose --report DIR` a Bode plot of the
+//! data and the initial and final models and the spectrum of the normalised residuals;
+//! for `fdid fit --plot FILE` a Bode plot of the data, the model with its uncertainty
+//! band and the residual.
 
 use fdid::prelude::*;
 use fdid::workflow::SpecFit;
@@ -14,6 +16,7 @@ const DATA: RGBColor = RGBColor(90, 90, 90);
 const INITIAL: RGBColor = RGBColor(31, 119, 180);
 const FINAL: RGBColor = RGBColor(214, 39, 40);
 const NOISE: RGBColor = RGBColor(44, 160, 44);
+const RESIDUAL: RGBColor = RGBColor(148, 103, 189);
 
 /// A drawing error as text.
 fn text<E: std::fmt::Display>(e: E) -> String {
@@ -63,9 +66,18 @@ fn phase_pieces(f: &[f64], g: &[Complex<f64>]) -> Vec<Vec<(f64, f64)>> {
     pieces
 }
 
-/// The Bode plot: magnitude (dB) and phase (degrees) against frequency (Hz, log scale) of
-/// the data Y/U (points), the initial and the final model (lines) and, when the data
-/// carry noise variances, the noise level σ_G = sqrt(var_y)/|U| (line, magnitude only).
+/// One model curve of a Bode plot: its response on the data's lines and, optionally,
+/// the standard deviation σ_G of each line (drawn as the band |Ĝ| ± 2σ_G).
+pub struct Curve<'a> {
+    /// Legend entry.
+    pub name: &'a str,
+    /// Ĝ(ω_k).
+    pub response: &'a [Complex<f64>],
+    /// σ_G(ω_k), if known.
+    pub std: Option<&'a [f64]>,
+}
+
+/// The Bode plot of `fdid diagnose`: the data and the initial and final models ([`bode_curves`]).
 ///
 /// # Errors
 /// The drawing backend's, as text.
@@ -73,6 +85,34 @@ pub fn bode(
     data: &FrequencyData<f64>,
     initial: &SpecFit,
     last: &SpecFit,
+) -> Result<String, String> {
+    let curves = [
+        Curve {
+            name: "initial model",
+            response: &initial.response,
+            std: None,
+        },
+        Curve {
+            name: "final model",
+            response: &last.response,
+            std: None,
+        },
+    ];
+    bode_curves(data, &curves, false)
+}
+
+/// The Bode plot: magnitude (dB) and phase (degrees) against frequency (Hz, log scale) of
+/// the data Y/U (points), each model curve (lines; with its band |Ĝ| ± 2σ_G as thin lines
+/// when σ_G is given), with `residual` the residual |Y/U − Ĝ| of the last curve (points),
+/// and, when the data carry noise variances, the noise level σ_G = sqrt(var_y)/|U| (line,
+/// magnitude only).
+///
+/// # Errors
+/// The drawing backend's, as text.
+pub fn bode_curves(
+    data: &FrequencyData<f64>,
+    curves: &[Curve<'_>],
+    residual: bool,
 ) -> Result<String, String> {
     let f: Vec<f64> = data.omega().iter().map(|w| w / TAU).collect();
     let keep: Vec<bool> = f.iter().map(|x| *x > 0.0).collect();
@@ -97,13 +137,28 @@ pub fn bode(
         (Some(a), _) => (*a * 0.5, *a * 2.0),
         _ => return Err("no line with a positive frequency to plot".into()),
     };
+    let resid: Option<Vec<Complex<f64>>> = curves
+        .last()
+        .filter(|_| residual)
+        .map(|c| ratio.iter().zip(c.response).map(|(r, g)| r - g).collect());
     let mags = ratio
         .iter()
-        .chain(&initial.response)
-        .chain(&last.response)
+        .chain(curves.iter().flat_map(|c| c.response.iter()))
         .map(|z| db(*z))
         .chain(sigma.iter().flatten().map(|s| 20.0 * s.log10()));
-    let (mlo, mhi) = range(mags, 0.05, (-1.0, 1.0));
+    let (mut mlo, mhi) = range(mags, 0.05, (-1.0, 1.0));
+    if let Some(r) = &resid {
+        // the residual may sit far below the response (down to rounding on noise-free
+        // data): show at most 60 dB below the lowest curve
+        let rlo = r
+            .iter()
+            .map(|z| db(*z))
+            .filter(|v| v.is_finite())
+            .fold(f64::INFINITY, f64::min);
+        if rlo.is_finite() {
+            mlo = rlo.max(mlo - 60.0).min(mlo);
+        }
+    }
 
     let mut svg = String::new();
     {
@@ -137,19 +192,50 @@ pub fn bode(
         .map_err(text)?
         .label("data Y/U")
         .legend(|(x, y)| Circle::new((x, y), 3, DATA.filled()));
-        for (fit, colour, name) in [
-            (initial, INITIAL, "initial model"),
-            (last, FINAL, "final model"),
-        ] {
+        for (i, curve) in curves.iter().enumerate() {
+            let colour = if i + 1 == curves.len() {
+                FINAL
+            } else {
+                INITIAL
+            };
             mag.draw_series(LineSeries::new(
-                points(&fit.response, db),
+                points(curve.response, db),
                 colour.stroke_width(2),
             ))
             .map_err(text)?
-            .label(name)
+            .label(curve.name)
             .legend(move |(x, y)| {
                 PathElement::new(vec![(x, y), (x + 20, y)], colour.stroke_width(2))
             });
+            if let Some(std) = curve.std {
+                for sign in [1.0, -1.0] {
+                    let band: Vec<(f64, f64)> = f
+                        .iter()
+                        .zip(curve.response.iter().zip(std))
+                        .map(|(x, (g, s))| (*x, g.norm() + sign * 2.0 * s))
+                        .filter(|(x, m)| *x > 0.0 && *m > 0.0 && m.is_finite())
+                        .map(|(x, m)| (x, 20.0 * m.log10()))
+                        .collect();
+                    let series = mag
+                        .draw_series(LineSeries::new(band, colour.mix(0.5).stroke_width(1)))
+                        .map_err(text)?;
+                    if sign > 0.0 {
+                        series.label("model +/- 2 sigma_G").legend(move |(x, y)| {
+                            PathElement::new(vec![(x, y), (x + 20, y)], colour.mix(0.5))
+                        });
+                    }
+                }
+            }
+        }
+        if let Some(r) = &resid {
+            mag.draw_series(
+                points(r, db)
+                    .into_iter()
+                    .map(|p| Cross::new(p, 2, RESIDUAL.stroke_width(1))),
+            )
+            .map_err(text)?
+            .label("residual |Y/U - G|")
+            .legend(|(x, y)| Cross::new((x, y), 3, RESIDUAL.stroke_width(1)));
         }
         if let Some(s) = &sigma {
             let line: Vec<(f64, f64)> = f
@@ -190,8 +276,13 @@ pub fn bode(
                     .map(|p| Circle::new(p, 2, DATA.filled())),
             )
             .map_err(text)?;
-        for (fit, colour) in [(initial, INITIAL), (last, FINAL)] {
-            for piece in phase_pieces(&f, &fit.response) {
+        for (i, curve) in curves.iter().enumerate() {
+            let colour = if i + 1 == curves.len() {
+                FINAL
+            } else {
+                INITIAL
+            };
+            for piece in phase_pieces(&f, curve.response) {
                 phase
                     .draw_series(LineSeries::new(
                         piece.into_iter().filter(|(x, _)| *x > 0.0),
