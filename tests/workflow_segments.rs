@@ -11,7 +11,7 @@
 use fdid::data::OddMultisineDesign;
 use fdid::prelude::*;
 use fdid::simulate::SplitMix64;
-use fdid::workflow::detectors::{TimeDrift, TimeVariation, parameter_drift};
+use fdid::workflow::detectors::{TimeDrift, TimeVariation, TimeVariationTests, parameter_drift};
 use fdid::workflow::{
     Acceptance, Context, Detector, Effect, ModelSpec, SpecFit, Workflow, fit_spec,
     segment_disagreement,
@@ -163,6 +163,18 @@ fn drifting_a1_periodic_is_detected() {
         if drift.p_value < 1e-3 {
             fired += 1;
         }
+        // the workflow's combined detector: both tests, Bonferroni over the two
+        let both = TimeVariationTests::default()
+            .detect(&data, &fit, &ctx)
+            .unwrap();
+        let (skirt_p, drift_p) = (
+            both.detail.get("skirt_p").unwrap(),
+            both.detail.get("drift_p").unwrap(),
+        );
+        assert_eq!(drift_p, drift.p_value);
+        assert_eq!(both.p_value, (2.0 * skirt_p.min(drift_p)).min(1.0));
+        assert!(both.detail.get("skirt_ratio").is_some());
+        assert!(both.detail.get("drift_statistic").is_some());
         let report = Workflow::default()
             .run(&data, ModelSpec::discrete(2, 2, 1.0), ctx)
             .unwrap();
@@ -308,10 +320,11 @@ fn segment_results_point_at_the_changed_quarter() {
 // ---------------------------------------------------------------- false alarms
 
 /// The drift test's rejection rate at α on clean periodic (P = 8) and non-periodic
-/// (N = 2048) records of the correct model, and the segment test's (S = 2) on the
-/// non-periodic ones.
-fn false_alarms(seeds: u64) -> (f64, f64, f64) {
+/// (N = 2048) records of the correct model, the combined test's (skirts and drift) on the
+/// periodic ones, and the segment test's (S = 2) on the non-periodic ones.
+fn false_alarms(seeds: u64) -> (f64, f64, f64, f64) {
     let (mut periodic_fired, mut record_fired, mut segment_fired) = (0, 0, 0);
+    let mut combined_fired = 0;
     for seed in 0..seeds {
         let (record, data) = periodic(&TRUTH, 8, 0.0, 0.05, 10_000 + seed);
         let ctx = periodic_context(record, 8);
@@ -320,6 +333,14 @@ fn false_alarms(seeds: u64) -> (f64, f64, f64) {
         assert!((0.0..=1.0).contains(&f.p_value));
         if f.p_value < ALPHA {
             periodic_fired += 1;
+        }
+        if TimeVariationTests::default()
+            .detect(&data, &fit, &ctx)
+            .unwrap()
+            .p_value
+            < ALPHA
+        {
+            combined_fired += 1;
         }
         let (record, data) = non_periodic(&TRUTH, 2048, 0.0, 0.05, 20_000 + seed);
         let ctx = Context::non_periodic(ALPHA).with_time_record(record.clone());
@@ -338,10 +359,12 @@ fn false_alarms(seeds: u64) -> (f64, f64, f64) {
         rate(periodic_fired),
         rate(record_fired),
         rate(segment_fired),
+        rate(combined_fired),
     );
     println!(
-        "{seeds} seeds: drift false-alarm rate periodic {} non-periodic {}; segment test {}",
-        rates.0, rates.1, rates.2
+        "{seeds} seeds: drift false-alarm rate periodic {} non-periodic {}; segment test {}; \
+         skirts and drift combined {}",
+        rates.0, rates.1, rates.2, rates.3
     );
     rates
 }
@@ -351,7 +374,8 @@ fn false_alarms(seeds: u64) -> (f64, f64, f64) {
 fn clean_records_false_alarm_rate() {
     let seeds = 200;
     let limit = ALPHA + 3.0 * (ALPHA * (1.0 - ALPHA) / seeds as f64).sqrt();
-    let (p, r, s) = false_alarms(seeds);
+    let (p, r, s, c) = false_alarms(seeds);
+    assert!(c <= limit, "combined test {c}");
     assert!(p <= limit, "periodic drift test {p}");
     assert!(r <= limit, "non-periodic drift test {r}");
     assert!(s <= limit, "segment test {s}");

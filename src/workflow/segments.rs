@@ -243,6 +243,34 @@ pub(crate) fn fixed_model_cost(fit: &SpecFit, piece: &Piece, n_t: usize) -> f64 
 /// the p-value S · P(F(q, d) > F) (Bonferroni over the segments, capped at 1): on a
 /// time-invariant system no segment is below α with probability at least 1 − α.
 ///
+/// ```
+/// use fdid::prelude::*;
+/// use fdid::simulate::SplitMix64;
+/// use fdid::workflow::{ModelSpec, fit_spec, segment_disagreement};
+/// # fn main() -> fdid::Result<()> {
+/// // y(t) = 0.5 u(t) + a y(t − 1), a = 0.5 for the first half, 0.6 for the second
+/// let n = 2048;
+/// let mut rng = SplitMix64::new(1);
+/// let u: Vec<f64> = (0..n).map(|_| rng.gaussian()).collect();
+/// let mut y = vec![0.0; n];
+/// for t in 0..n {
+///     let a = if t < n / 2 { 0.5 } else { 0.6 };
+///     y[t] = 0.5 * u[t] + if t > 0 { a * y[t - 1] } else { 0.0 };
+/// }
+/// let y: Vec<f64> = y.iter().map(|v| v + 0.01 * rng.gaussian()).collect();
+/// let record = TimeData::new(u, y, 1.0)?;
+/// let all = record.dft();
+/// let keep: Vec<bool> = (0..all.len()).map(|k| k > 0 && 2 * k < n).collect();
+/// let data = all.select_lines(&keep)?;
+/// let spec = ModelSpec { transient: true, ..ModelSpec::discrete(1, 0, 1.0) };
+/// let fit = fit_spec(&spec, &data)?;
+/// let segments = segment_disagreement(&fit, &record, 2, 0.05)?;
+/// assert_eq!(segments.len(), 2);
+/// assert!(segments.iter().all(|s| s.p_value < 0.05 && s.cost > s.expected));
+/// # Ok(())
+/// # }
+/// ```
+///
 /// # Errors
 /// [`FdidError::InvalidArgument`] for α outside (0, 1), fewer than 2 segments, S not
 /// dividing N, or a fit of a user's model structure; [`FdidError::TooShort`] when a segment

@@ -339,11 +339,39 @@ fn record_fits(
 /// [`TimeVariation`](super::TimeVariation): it needs no periodic excitation (a
 /// non-periodic record, [`Context::with_time_record`]) and sees slow changes of the
 /// dynamics whose skirts are buried in the noise. Both name
-/// [`Effect::TimeVariation`]; the workflow tests each measurement-level detector at
-/// α/(2m) (Bonferroni over the m that apply), so adding this one keeps the family-wise
-/// level. An LTI model cannot absorb the effect ([`Remedy::NotAbsorbed`]). Proposal: the
+/// [`Effect::TimeVariation`]; the workflow's default runs both as one detector,
+/// [`TimeVariationTests`]. An LTI model cannot absorb the effect ([`Remedy::NotAbsorbed`]). Proposal: the
 /// current spec unchanged. Detail: `drift_statistic` (T), `drift_dof` ((S − 1)q),
 /// `segments` (S), `largest_shift` (the largest |θ̂_s,i − θ̄_i|/√(C_s)_ii).
+///
+/// ```
+/// use fdid::prelude::*;
+/// use fdid::simulate::SplitMix64;
+/// use fdid::workflow::detectors::TimeDrift;
+/// use fdid::workflow::{Context, Detector, Effect, ModelSpec, fit_spec};
+/// # fn main() -> fdid::Result<()> {
+/// // y(t) = 0.5 u(t) + a y(t − 1), a = 0.5 for the first half, 0.55 for the second
+/// let n = 2048;
+/// let mut rng = SplitMix64::new(2);
+/// let u: Vec<f64> = (0..n).map(|_| rng.gaussian()).collect();
+/// let mut y = vec![0.0; n];
+/// for t in 1..n {
+///     let a = if t < n / 2 { 0.5 } else { 0.55 };
+///     y[t] = 0.5 * u[t] + a * y[t - 1];
+/// }
+/// let y: Vec<f64> = y.iter().map(|v| v + 0.01 * rng.gaussian()).collect();
+/// let record = TimeData::new(u, y, 1.0)?;
+/// let all = record.dft();
+/// let keep: Vec<bool> = (0..all.len()).map(|k| k > 0 && 2 * k < n).collect();
+/// let data = all.select_lines(&keep)?;
+/// let fit = fit_spec(&ModelSpec { transient: true, ..ModelSpec::discrete(1, 0, 1.0) }, &data)?;
+/// let ctx = Context::non_periodic(0.05).with_time_record(record);
+/// let finding = TimeDrift::default().detect(&data, &fit, &ctx).unwrap();
+/// assert_eq!(finding.effect, Effect::TimeVariation);
+/// assert!(finding.p_value < 1e-3);
+/// # Ok(())
+/// # }
+/// ```
 #[derive(Debug, Clone, Copy)]
 pub struct TimeDrift {
     /// Number S of segments (≥ 2).
@@ -388,6 +416,65 @@ impl Detector for TimeDrift {
                 .with("segments", self.segments as f64)
                 .with("largest_shift", largest),
             proposal: fit.spec.clone(),
+        })
+    }
+
+    fn remedy(
+        &self,
+        _data: &FrequencyData<f64>,
+        _fit: &SpecFit,
+        _ctx: &Context,
+        _finding: &Finding,
+    ) -> Option<Remedy> {
+        Some(Remedy::NotAbsorbed)
+    }
+}
+
+/// Both tests of time variation as one measurement-level detector: the skirts around the
+/// excited lines ([`TimeVariation`](super::TimeVariation), periodic records) and the
+/// parameter drift between time segments ([`TimeDrift`], periodic or non-periodic records).
+///
+/// With the p-values p₁ … p_m of the tests that apply (m ≤ 2), the finding's p-value is
+/// min(1, m · min_i p_i) (Bonferroni), so that on a time-invariant system it falls below
+/// any level α with probability at most α; the workflow then tests it at α/(2m′) among its
+/// m′ measurement-level detectors, as any other. Statistic: that of the smaller p-value's
+/// test. Detail: the details of both tests (`skirt_ratio` …, `drift_statistic` …) and
+/// their p-values `skirt_p`, `drift_p`. `None` when neither applies. Remedy:
+/// [`Remedy::NotAbsorbed`].
+#[derive(Debug, Clone, Copy, Default)]
+pub struct TimeVariationTests {
+    /// The drift test (its number of segments).
+    pub drift: TimeDrift,
+}
+
+impl Detector for TimeVariationTests {
+    fn effect(&self) -> Effect {
+        Effect::TimeVariation
+    }
+
+    fn measurement(&self) -> bool {
+        true
+    }
+
+    fn detect(&self, data: &FrequencyData<f64>, fit: &SpecFit, ctx: &Context) -> Option<Finding> {
+        let skirt = super::TimeVariation.detect(data, fit, ctx);
+        let drift = self.drift.detect(data, fit, ctx);
+        let m = usize::from(skirt.is_some()) + usize::from(drift.is_some());
+        let mut detail = Detail::default();
+        for (name, f) in [("skirt_p", &skirt), ("drift_p", &drift)] {
+            if let Some(f) = f {
+                detail.0.extend(f.detail.0.iter().cloned());
+                detail = detail.with(name, f.p_value);
+            }
+        }
+        let best = [skirt, drift]
+            .into_iter()
+            .flatten()
+            .min_by(|a, b| a.p_value.total_cmp(&b.p_value))?;
+        Some(Finding {
+            p_value: (best.p_value * m as f64).min(1.0),
+            detail,
+            ..best
         })
     }
 

@@ -1,6 +1,6 @@
 //! The detectors of this slice: [`TimeDelay`], [`MissingResonance`], [`Transient`],
 //! [`ColoredNoise`], [`OrderIncrease`] (missing pole or zero), and the measurement-level
-//! [`InputNoise`], [`NonlinearDistortion`], [`TimeVariation`], [`TimeDrift`].
+//! [`InputNoise`], [`NonlinearDistortion`], [`TimeVariation`], [`TimeDrift`] (both in [`TimeVariationTests`]).
 mod colored;
 mod delay;
 mod distortion;
@@ -15,7 +15,7 @@ mod transient;
 pub use colored::ColoredNoise;
 pub use delay::TimeDelay;
 pub use distortion::NonlinearDistortion;
-pub use drift::{Drift, TimeDrift, parameter_drift};
+pub use drift::{Drift, TimeDrift, TimeVariationTests, parameter_drift};
 pub use input_noise::InputNoise;
 pub use order::{Added, OrderIncrease};
 pub use resonance::MissingResonance;
