@@ -383,19 +383,31 @@ fn clean_records_false_alarm_rate() {
 
 // ---------------------------------------------------------------- Monte Carlo of C_s
 
-/// The segment estimates of the drift test on clean periodic records (P = 8): per
-/// parameter, the bias of θ̂_s is below 3 standard errors of the Monte Carlo mean and the
-/// sample standard deviation matches the predicted √(C_s)_ii within 3 sampling errors of
-/// a standard deviation (3/√(2(R − 1))).
-fn segment_monte_carlo(runs: usize) {
+/// The segment estimates of the drift test on clean records, periodic (P = 8, the first
+/// of two groups of four periods) or non-periodic (N = 2048, the first half with its
+/// transient): per parameter, the bias of θ̂_s is below 3 standard errors of the Monte
+/// Carlo mean and the sample standard deviation matches the predicted √(C_s)_ii within 3
+/// sampling errors of a standard deviation (3/√(2(R − 1))).
+fn segment_monte_carlo(runs: usize, periodic_record: bool) {
     let truth = truth_theta(&TRUTH);
     let mut est = vec![vec![]; 5];
     let mut pred = [0.0; 5];
     for r in 0..runs {
-        let (record, data) = periodic(&TRUTH, 8, 0.0, 0.05, 40_000 + r as u64);
-        let ctx = periodic_context(record, 8);
-        let fit = fit_spec(&ModelSpec::discrete(2, 2, 1.0), &data).unwrap();
-        let drift = parameter_drift(&fit, &ctx, 2).unwrap().unwrap();
+        let seed = 40_000 + r as u64;
+        let drift = if periodic_record {
+            let (record, data) = periodic(&TRUTH, 8, 0.0, 0.05, seed);
+            let fit = fit_spec(&ModelSpec::discrete(2, 2, 1.0), &data).unwrap();
+            parameter_drift(&fit, &periodic_context(record, 8), 2)
+        } else {
+            let (record, data) = non_periodic(&TRUTH, 2048, 0.0, 0.05, seed);
+            let fit = fit_spec(&transient_spec(), &data).unwrap();
+            parameter_drift(
+                &fit,
+                &Context::non_periodic(ALPHA).with_time_record(record),
+                2,
+            )
+        };
+        let drift = drift.unwrap().unwrap();
         for i in 0..5 {
             est[i].push(drift.theta[0][i]);
             pred[i] += drift.covariance[0][(i, i)] / runs as f64;
@@ -408,21 +420,34 @@ fn segment_monte_carlo(runs: usize) {
         let var = est[i].iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (rn - 1.0);
         let bias = (mean - truth[i]) / (var / rn).sqrt();
         let ratio = (var / pred[i]).sqrt();
-        println!("θ{i}: bias {bias:+.2} SE, sample/predicted std {ratio:.3} (tolerance {tol:.3})");
+        println!(
+            "{} θ{i}: bias {bias:+.2} SE, sample/predicted std {ratio:.3} (tolerance {tol:.3})",
+            if periodic_record {
+                "periodic"
+            } else {
+                "non-periodic"
+            }
+        );
         assert!(bias.abs() < 3.0, "θ{i}: bias {bias} SE");
         assert!((ratio - 1.0).abs() < tol, "θ{i}: std ratio {ratio}");
     }
 }
 
 #[test]
-fn segment_monte_carlo_fast() {
-    segment_monte_carlo(100);
+fn segment_monte_carlo_periodic_fast() {
+    segment_monte_carlo(100, true);
+}
+
+#[test]
+fn segment_monte_carlo_non_periodic_fast() {
+    segment_monte_carlo(100, false);
 }
 
 #[test]
 #[ignore = "1000 runs; see the file header"]
 fn segment_monte_carlo_long() {
-    segment_monte_carlo(1000);
+    segment_monte_carlo(1000, true);
+    segment_monte_carlo(1000, false);
 }
 
 // ---------------------------------------------------------------- random systems
