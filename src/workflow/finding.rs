@@ -189,6 +189,7 @@ impl PeriodicRecord {
 /// Built by [`Context::periodic`], [`Context::non_periodic`] or
 /// [`Context::frequency_data`]; the measurement-level detectors need more than the fitted
 /// lines: [`Context::with_record`] attaches the periodic time record,
+/// [`Context::with_time_record`] a non-periodic one,
 /// [`Context::with_distortion`] a nonlinear distortion analysis (e.g. over several phase
 /// realisations). Without them those detectors do not apply.
 #[derive(Debug, Clone, PartialEq)]
@@ -202,6 +203,9 @@ pub struct Context {
     pub alpha: f64,
     /// The periodic time record behind the data, if known.
     pub record: Option<Arc<PeriodicRecord>>,
+    /// The non-periodic time record whose DFT ([`TimeData::dft`]) holds the fitted lines,
+    /// if known ([`Context::with_time_record`]).
+    pub time: Option<Arc<TimeData<f64>>>,
     /// A nonlinear distortion analysis of the measurement (odd random-phase multisine),
     /// if known; else [`NonlinearDistortion`](super::detectors::NonlinearDistortion)
     /// builds one from `record`.
@@ -216,6 +220,7 @@ impl Context {
             time_record: true,
             alpha,
             record: None,
+            time: None,
             distortion: None,
         }
     }
@@ -276,6 +281,15 @@ impl Context {
     pub fn with_record(mut self, record: TimeData<f64>, periods: usize) -> crate::Result<Self> {
         self.record = Some(Arc::new(PeriodicRecord::new(record, periods)?));
         Ok(self)
+    }
+
+    /// Attaches the non-periodic time record whose DFT ([`TimeData::dft`], McKelvey eq. 1)
+    /// holds the fitted lines, for the tests that split it in time
+    /// ([`TimeDrift`](super::detectors::TimeDrift)).
+    #[must_use]
+    pub fn with_time_record(mut self, record: TimeData<f64>) -> Self {
+        self.time = Some(Arc::new(record));
+        self
     }
 
     /// Attaches a nonlinear distortion analysis of the measurement.

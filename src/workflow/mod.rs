@@ -50,11 +50,13 @@ pub mod detectors;
 mod finding;
 pub mod lrt;
 mod revise;
+mod segments;
 mod spec;
 
 pub use bands::{Band, disagreement_bands};
 pub use custom::{Augmented, ModelReport};
 pub use finding::{Context, Detail, Detector, Effect, Finding, PeriodicRecord, Remedy};
+pub use segments::{SegmentResult, segment_disagreement};
 pub use spec::{ModelSpec, SpecCriterion, SpecDomain, SpecFit, fit_spec};
 
 use crate::{FdidError, FrequencyData, Result};
@@ -167,7 +169,7 @@ pub struct Report {
 ///
 /// | field | default | meaning |
 /// |---|---|---|
-/// | `detectors` | [`TimeDelay`](detectors::TimeDelay), [`MissingResonance`](detectors::MissingResonance), [`Transient`](detectors::Transient), [`ColoredNoise`](detectors::ColoredNoise), [`OrderIncrease`](detectors::OrderIncrease) for a pole and a zero; the measurement-level [`InputNoise`](detectors::InputNoise), [`NonlinearDistortion`](detectors::NonlinearDistortion), [`TimeVariation`](detectors::TimeVariation) (these return `None` without the information they need) | the tests run at each step |
+/// | `detectors` | [`TimeDelay`](detectors::TimeDelay), [`MissingResonance`](detectors::MissingResonance), [`Transient`](detectors::Transient), [`ColoredNoise`](detectors::ColoredNoise), [`OrderIncrease`](detectors::OrderIncrease) for a pole and a zero; the measurement-level [`InputNoise`](detectors::InputNoise), [`NonlinearDistortion`](detectors::NonlinearDistortion), [`TimeVariationTests`](detectors::TimeVariationTests) (the skirt test [`TimeVariation`](detectors::TimeVariation) and the parameter drift [`TimeDrift`](detectors::TimeDrift)) (these return `None` without the information they need) | the tests run at each step |
 /// | `max_steps` | 4 | most augmentations accepted |
 ///
 /// The level α comes from the [`Context`].
@@ -190,7 +192,7 @@ impl Default for Workflow {
                 Box::new(detectors::OrderIncrease(detectors::Added::Zero)),
                 Box::new(detectors::InputNoise),
                 Box::new(detectors::NonlinearDistortion),
-                Box::new(detectors::TimeVariation),
+                Box::new(detectors::TimeVariationTests::default()),
             ],
             max_steps: 4,
         }

@@ -93,6 +93,15 @@ pub struct SpecFit {
     pub spec: ModelSpec,
     /// Number of estimated parameters p (system, delay and noise model).
     pub n_params: usize,
+    /// The estimate θ̂ (layout of the fitted model: for a [`Rational`] the denominator
+    /// and numerator coefficients, then the transient coefficients; then τ for a delay;
+    /// then the noise-model coefficients).
+    #[cfg_attr(feature = "serde", serde(default))]
+    pub theta: Vec<f64>,
+    /// The covariance of θ̂ from the fit, (λ/2)(JᵀJ)⁻¹ (first order, McKelvey eqs. 32–34 for
+    /// ML), if JᵀJ is invertible. Not serialised.
+    #[cfg_attr(feature = "serde", serde(skip))]
+    pub covariance: Option<DMatrix<f64>>,
     /// The cost V = Σ|r_k|².
     pub cost: f64,
     /// λ̂ = V/N.
@@ -384,6 +393,8 @@ fn reduce<M: ModelStructure<f64>>(
     Ok(SpecFit {
         spec: spec.clone(),
         n_params: theta.len(),
+        theta: theta.to_vec(),
+        covariance: fit.covariance().cloned(),
         cost: fit.cost(),
         noise_variance: fit.noise_variance(),
         noise_known: fit.noise_known(),

@@ -1,9 +1,10 @@
 //! The detectors of this slice: [`TimeDelay`], [`MissingResonance`], [`Transient`],
 //! [`ColoredNoise`], [`OrderIncrease`] (missing pole or zero), and the measurement-level
-//! [`InputNoise`], [`NonlinearDistortion`], [`TimeVariation`].
+//! [`InputNoise`], [`NonlinearDistortion`], [`TimeVariation`], [`TimeDrift`] (both in [`TimeVariationTests`]).
 mod colored;
 mod delay;
 mod distortion;
+mod drift;
 mod input_noise;
 mod order;
 mod resonance;
@@ -14,6 +15,7 @@ mod transient;
 pub use colored::ColoredNoise;
 pub use delay::TimeDelay;
 pub use distortion::NonlinearDistortion;
+pub use drift::{Drift, TimeDrift, TimeVariationTests, parameter_drift};
 pub use input_noise::InputNoise;
 pub use order::{Added, OrderIncrease};
 pub use resonance::MissingResonance;
