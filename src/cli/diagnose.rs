@@ -19,7 +19,7 @@ use fdid::data::Lpm;
 use fdid::prelude::*;
 use fdid::workflow::{
     Context, Effect, Finding, ModelSpec, SpecCriterion, SpecDomain, SpecFit, Step, Workflow,
-    disagreement_bands,
+    disagreement_bands, segment_disagreement,
 };
 use serde_json::{Map, Value, json};
 use std::fmt::Write as _;
@@ -101,6 +101,8 @@ struct Diagnosis {
     steps: Vec<Step>,
     /// Named effects the final model does not absorb.
     unmodelled: Vec<Effect>,
+    /// The final model's disagreement per time segment (one non-periodic record).
+    segments: Option<String>,
     /// `fits[0]` is the starting model's, `fits[i]` the fit after step `i`.
     fits: Vec<SpecFit>,
     stop: Stop,
@@ -162,7 +164,11 @@ pub fn diagnose(args: &DiagnoseArgs) -> Result<String, Failure> {
             )
         }
         (true, None) => (
-            Context::non_periodic(args.alpha),
+            // the record itself, for the tests that split it in time (parameter drift)
+            match prepared.record.clone() {
+                Some(record) => Context::non_periodic(args.alpha).with_time_record(record),
+                None => Context::non_periodic(args.alpha),
+            },
             "one non-periodic record (DFT of the whole record: a transient can exist)",
         ),
         (false, _) => (
@@ -219,6 +225,7 @@ pub fn diagnose(args: &DiagnoseArgs) -> Result<String, Failure> {
         noise,
         source: prepared.source.clone(),
         notes: prepared.notes.clone(),
+        segments: segments_text(&prepared, c.periods.is_none(), &fits, args.alpha),
         steps,
         unmodelled,
         fits,
@@ -352,6 +359,39 @@ fn bands_json(fit: &SpecFit, alpha: f64) -> Value {
         })
         .collect();
     Value::Array(bands)
+}
+
+/// For one non-periodic record, the final model's cost per time segment against its
+/// expected value ([`segment_disagreement`], 4 segments when they divide the record, else
+/// 2), in one line of text; `None` when it does not apply.
+fn segments_text(
+    prepared: &Prepared,
+    non_periodic: bool,
+    fits: &[SpecFit],
+    alpha: f64,
+) -> Option<String> {
+    let record = prepared.record.as_ref().filter(|_| non_periodic)?;
+    let last = fits.last()?;
+    let count = if record.len().is_multiple_of(4) { 4 } else { 2 };
+    let segments = segment_disagreement(last, record, count, alpha).ok()?;
+    let parts: Vec<String> = segments
+        .iter()
+        .map(|s| {
+            format!(
+                "{} .. {} s: V {} vs {}{}",
+                g(s.t_start),
+                g(s.t_end),
+                g(s.cost),
+                g(s.expected),
+                if s.p_value < alpha {
+                    format!(" (p = {})", short(s.p_value))
+                } else {
+                    String::new()
+                }
+            )
+        })
+        .collect();
+    Some(format!("{count} segments: {}", parts.join("; ")))
 }
 
 /// The bands of [`bands_json`] in one line of text.
@@ -609,6 +649,9 @@ impl Diagnosis {
         let _ = writeln!(w);
         for (name, fit) in [("start", &self.fits[0]), ("final", self.last_fit())] {
             let _ = writeln!(w, "disagree     {name}: {}", bands_text(fit, self.alpha));
+        }
+        if let Some(segments) = &self.segments {
+            let _ = writeln!(w, "in time      final model on {segments}");
         }
         let _ = writeln!(w, "verdict      {}", self.verdict());
         let fired: Vec<String> = self

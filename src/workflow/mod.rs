@@ -6,11 +6,16 @@
 //! (the terms of McKelvey's ML cost, eq. 23), refits the proposal of every [`Finding`]
 //! below the level α ([`fit_spec`]), keeps those the likelihood-ratio test of
 //! [`lrt::lr_test`] accepts at α (for a new noise model the concentrated-likelihood test
-//! [`lrt::concentrated_lr_test`] with W = ln(V/N), eq. 26), and takes the one that explains most (smallest LR
-//! p-value, then the largest cost drop per added parameter). The loop
-//! stops when the fit is consistent with the noise (cost and whiteness tests of
-//! [`crate::validation::Validation`] pass at α), when no detector fires, or after
-//! `max_steps`.
+//! [`lrt::concentrated_lr_test`] with W = ln(V/N), eq. 26), and takes the one that
+//! explains most (smallest LR p-value, then the largest cost drop per added parameter).
+//! The loop stops when the fit is consistent with the noise (cost and whiteness tests of
+//! [`crate::validation::Validation`] pass at α; without a cost test the proposals are
+//! still tried, each LR test at α/m), when nothing is accepted, or after `max_steps`. A
+//! revision pass then swaps a delay, pole or zero step for another of the same size that
+//! explains the data better once the other effects are in the model.
+//!
+//! Where the final (or any) fit and the data disagree: in frequency
+//! [`disagreement_bands`], in time [`segment_disagreement`].
 //!
 //! Some effects are properties of the measurement, not missing model terms: input noise
 //! (switch to the errors-in-variables criterion, eq. 42), nonlinear distortion (the model
@@ -21,7 +26,9 @@
 //! likelihood-ratio test compares models under one noise reference. The effects a linear
 //! time-invariant model cannot absorb are listed in [`Report::unmodelled`]. The
 //! distortion and time-variation detectors need the periodic time record
-//! ([`Context::with_record`]) or a distortion analysis ([`Context::with_distortion`]).
+//! ([`Context::with_record`]) or a distortion analysis ([`Context::with_distortion`]);
+//! the parameter-drift test of time variation also works on one non-periodic record
+//! ([`Context::with_time_record`]).
 //!
 //! ```
 //! use fdid::prelude::*;
