@@ -432,6 +432,7 @@ impl Workflow {
                 step_fits,
                 final_data: (data.noise() != original.noise()).then_some(data),
                 final_fit: current.summary,
+                time_varying: None,
             },
             not_added,
             fit: current.fit,

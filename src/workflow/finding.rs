@@ -317,8 +317,10 @@ pub enum Remedy {
     /// workflow continues on the new data.
     NoiseReference(FrequencyData<f64>),
     /// The effect lies outside the model class (e.g. a time-varying system for an LTI
-    /// spec): the workflow names it, records it as unmodelled and stops refining the
-    /// model.
+    /// spec): the workflow names it and stops refining the model. It records the effect
+    /// as unmodelled, unless the detector names a piecewise time-invariant model
+    /// ([`Detector::piecewise_segments`]) that the F test accepts and whose segment fits
+    /// are consistent with the noise ([`Workflow::run`](super::Workflow::run)).
     NotAbsorbed,
 }
 
@@ -340,6 +342,15 @@ pub trait Detector {
     /// stated level. Default `false`.
     fn measurement(&self) -> bool {
         false
+    }
+
+    /// The number S of time segments of the piecewise time-invariant model
+    /// ([`piecewise_model`](super::detectors::piecewise_model)) the workflow switches to
+    /// when this detector's finding is acted on by [`Remedy::NotAbsorbed`] (the effect is
+    /// outside the LTI model class); `None` (the default): no switch, the effect stays
+    /// unmodelled.
+    fn piecewise_segments(&self) -> Option<usize> {
+        None
     }
 
     /// How to act on `finding` (from this detector on `fit` of `data`); `None` when it

@@ -62,6 +62,7 @@ mod spec;
 
 pub use bands::{Band, disagreement_bands};
 pub use custom::{Augmented, ModelReport};
+pub use detectors::TimeVarying;
 pub use finding::{Context, Detail, Detector, Effect, Finding, PeriodicRecord, Remedy};
 pub use segments::{SegmentResult, segment_disagreement};
 pub use spec::{ModelSpec, SpecCriterion, SpecDomain, SpecFit, fit_spec};
@@ -90,6 +91,12 @@ pub struct Step {
     /// `cost_before` is the cost of the final model without this step's augmentation).
     #[cfg_attr(feature = "serde", serde(default))]
     pub revised: bool,
+    /// Whether the step switched to the piecewise time-invariant model
+    /// ([`Report::time_varying`]): then `cost_before` is the common model's cost on the
+    /// time segments and `cost_after` the segment models', and `lr_p` the F test between
+    /// them ([`detectors::piecewise_model`]).
+    #[cfg_attr(feature = "serde", serde(default))]
+    pub piecewise: bool,
 }
 
 impl Step {
@@ -104,16 +111,19 @@ impl Step {
             lr_p,
             detail: finding.detail,
             revised: false,
+            piecewise: false,
         }
     }
 
     /// How the step was accepted, from its effect: input noise by a criterion switch,
-    /// nonlinear distortion by a new noise reference, time variation not absorbed, every
+    /// nonlinear distortion by a new noise reference, time variation by the switch to the
+    /// piecewise time-invariant model when [`Step::piecewise`], else not absorbed, every
     /// other effect by the likelihood-ratio test (the remedies of the default detectors).
     pub fn acceptance(&self) -> Acceptance {
         match self.effect {
             Effect::InputNoise => Acceptance::Criterion,
             Effect::NonlinearDistortion => Acceptance::NoiseReference,
+            Effect::TimeVariation if self.piecewise => Acceptance::Piecewise,
             Effect::TimeVariation => Acceptance::NotAbsorbed,
             _ => Acceptance::LikelihoodRatio,
         }
@@ -138,6 +148,11 @@ pub enum Acceptance {
     /// Named but outside the model class (a time-varying system for an LTI model): the
     /// model is unchanged (`cost_after = cost_before`) and the refinement stops.
     NotAbsorbed,
+    /// A time-varying system described by the piecewise time-invariant model (the spec
+    /// refitted on S time segments, [`Report::time_varying`]), kept by the F test of the
+    /// common model against the segment models ((S − 1)q added parameters); the
+    /// refinement stops.
+    Piecewise,
 }
 
 /// The workflow's outcome: accepted steps, the effects in order, and the final fit.
@@ -170,6 +185,15 @@ pub struct Report {
     /// The final fit.
     #[cfg_attr(feature = "serde", serde(rename = "final"))]
     pub final_fit: SpecFit,
+    /// The piecewise time-invariant model the workflow switched to when it named time
+    /// variation ([`Step::piecewise`], [`detectors::piecewise_model`]): the final
+    /// description of a time-varying system, the spec (`final_fit`'s) refitted on each
+    /// time segment. When present, `consistent_with_noise` is the verdict on the segment
+    /// models ([`TimeVarying::consistent_with_noise`]: their combined cost test at α/2
+    /// and each segment's whiteness test at α/(2S)) and `time_variation` is absent from
+    /// `unmodelled` when that verdict is positive (the piecewise model absorbs it).
+    #[cfg_attr(feature = "serde", serde(default))]
+    pub time_varying: Option<TimeVarying>,
 }
 
 /// The workflow's settings.
@@ -203,6 +227,23 @@ impl Default for Workflow {
             ],
             max_steps: 4,
         }
+    }
+}
+
+impl Workflow {
+    /// The default workflow whose time-variation detector switches to the piecewise
+    /// time-invariant model on 2 time segments ([`TimeVariationTests::switching`]
+    /// (detectors::TimeVariationTests::switching)) when it names time variation: the step
+    /// reports the common model's cost on the segments and the segment models' cost, the
+    /// F test between them, and [`Report::time_varying`] holds the segment models.
+    pub fn time_varying() -> Self {
+        let mut w = Self::default();
+        for d in &mut w.detectors {
+            if d.effect() == Effect::TimeVariation {
+                *d = Box::new(detectors::TimeVariationTests::switching(2));
+            }
+        }
+        w
     }
 }
 
@@ -251,6 +292,7 @@ impl Workflow {
         let mut steps = Vec::new();
         let mut acted: Vec<Effect> = Vec::new();
         let mut unmodelled = Vec::new();
+        let mut time_varying: Option<(TimeVarying, usize)> = None;
         // after a noise + distortion reference only the cost test applies (see `consistent`)
         let mut cost_only = false;
         while steps.len() < self.max_steps {
@@ -259,8 +301,13 @@ impl Workflow {
                 next,
                 data: new_data,
                 absorbed,
+                piecewise,
             }) = self.measurement_step(&data, &current, &ctx, &acted)
             {
+                if let Some(tv) = piecewise {
+                    let segments = tv.segments.len();
+                    time_varying = Some((tv, segments));
+                }
                 acted.push(step.effect);
                 cost_only |= step.acceptance() == Acceptance::NoiseReference;
                 if !absorbed {
@@ -299,16 +346,39 @@ impl Workflow {
             current = next;
             step_fits.push(current.clone());
         }
+        let spec_before = current.spec.clone();
         self.revise(&data, &ctx, &mut steps, &mut step_fits, &mut current);
+        // a revised structure: the segment models of the final spec
+        if let Some((tv, segments)) = time_varying.as_mut()
+            && current.spec != spec_before
+            && let Ok(Some(new)) = detectors::piecewise_model(&current, &ctx, *segments)
+        {
+            *tv = new;
+            if let Some(step) = steps.iter_mut().find(|s| s.piecewise) {
+                step.cost_before = tv.cost_before;
+                step.cost_after = tv.cost_after;
+                step.lr_p = tv.lr_p;
+            }
+            let absorbed = tv.consistent_with_noise(alpha);
+            unmodelled.retain(|e| *e != Effect::TimeVariation || !absorbed);
+            if !absorbed && !unmodelled.contains(&Effect::TimeVariation) {
+                unmodelled.push(Effect::TimeVariation);
+            }
+        }
+        let time_varying = time_varying.map(|(tv, _)| tv);
         Ok(Report {
             effects: steps.iter().map(|s| s.effect).collect(),
             steps,
-            consistent_with_noise: consistent(&current, alpha, cost_only),
+            consistent_with_noise: match &time_varying {
+                Some(tv) => tv.consistent_with_noise(alpha),
+                None => consistent(&current, alpha, cost_only),
+            },
             unmodelled,
             initial_fit,
             step_fits,
             final_data: (data.noise() != original.noise()).then_some(data),
             final_fit: current,
+            time_varying,
         })
     }
 
@@ -354,6 +424,7 @@ impl Workflow {
                         next: Some(next),
                         data: None,
                         absorbed: true,
+                        piecewise: None,
                     });
                 }
                 Some(Remedy::NoiseReference(new_data)) => {
@@ -365,14 +436,33 @@ impl Workflow {
                         next: Some(next),
                         data: Some(new_data),
                         absorbed: false,
+                        piecewise: None,
                     });
                 }
                 Some(Remedy::NotAbsorbed) => {
+                    // the switch to the piecewise time-invariant model, kept by the F test
+                    // of the common model against the segment models at α
+                    if let Some(segments) = detector.piecewise_segments()
+                        && let Ok(Some(tv)) = detectors::piecewise_model(current, ctx, segments)
+                        && tv.lr_p < ctx.alpha
+                    {
+                        let mut step =
+                            Step::new(finding.clone(), tv.cost_before, tv.cost_after, tv.lr_p);
+                        step.piecewise = true;
+                        return Some(MeasurementStep {
+                            step,
+                            next: None,
+                            data: None,
+                            absorbed: tv.consistent_with_noise(ctx.alpha),
+                            piecewise: Some(tv),
+                        });
+                    }
                     return Some(MeasurementStep {
                         step: step(current.cost),
                         next: None,
                         data: None,
                         absorbed: false,
+                        piecewise: None,
                     });
                 }
                 Some(Remedy::Refit) | None => {}
@@ -481,6 +571,8 @@ struct MeasurementStep {
     next: Option<SpecFit>,
     data: Option<FrequencyData<f64>>,
     absorbed: bool,
+    /// The piecewise time-invariant model switched to.
+    piecewise: Option<TimeVarying>,
 }
 
 /// Whether `fit` is consistent with its noise reference at level α: the cost and

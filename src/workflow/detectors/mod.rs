@@ -15,7 +15,9 @@ mod transient;
 pub use colored::ColoredNoise;
 pub use delay::TimeDelay;
 pub use distortion::NonlinearDistortion;
-pub use drift::{Drift, TimeDrift, TimeVariationTests, parameter_drift};
+pub use drift::{
+    Drift, TimeDrift, TimeVariationTests, TimeVarying, parameter_drift, piecewise_model,
+};
 pub use input_noise::InputNoise;
 pub use order::{Added, OrderIncrease};
 pub use resonance::MissingResonance;
