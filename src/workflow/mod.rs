@@ -24,7 +24,12 @@
 //! ([`Detector::measurement`]) run at every step, are acted on first, and each is
 //! accepted by its own test ([`Remedy`], [`Acceptance`]), since the nested
 //! likelihood-ratio test compares models under one noise reference. The effects a linear
-//! time-invariant model cannot absorb are listed in [`Report::unmodelled`]. The
+//! time-invariant model cannot absorb are listed in [`Report::unmodelled`]. For time
+//! variation, [`Workflow::time_varying`] switches to the piecewise time-invariant model
+//! (the spec refitted on the drift test's time segments, [`detectors::piecewise_model`]):
+//! the step shows the gap shrink from the common model's cost on the segments to the
+//! segment models' cost, kept by the F test of (S − 1)q added parameters, and the report's
+//! verdict on the noise is the segment models' ([`Report::time_varying`]). The
 //! distortion and time-variation detectors need the periodic time record
 //! ([`Context::with_record`]) or a distortion analysis ([`Context::with_distortion`]);
 //! the parameter-drift test of time variation also works on one non-periodic record
@@ -166,10 +171,13 @@ pub struct Report {
     /// Whether the final fit passes the cost and whiteness tests at α against the final
     /// noise reference; when nonlinear distortion was named, the reference is noise +
     /// distortion and only the cost test applies (the distortion of one phase realisation
-    /// is not white across frequency).
+    /// is not white across frequency). After the switch to the piecewise time-invariant
+    /// model, the verdict on the segment models ([`TimeVarying::consistent_with_noise`]).
     pub consistent_with_noise: bool,
     /// Named effects the final model does not absorb (nonlinear distortion, time
-    /// variation): its residual holds them, not a model error.
+    /// variation): its residual holds them, not a model error. Time variation is absent
+    /// when the piecewise time-invariant model absorbs it ([`Report::time_varying`]
+    /// consistent with the noise).
     #[cfg_attr(feature = "serde", serde(default))]
     pub unmodelled: Vec<Effect>,
     /// The fit of the starting model (before any step).
@@ -232,10 +240,44 @@ impl Default for Workflow {
 
 impl Workflow {
     /// The default workflow whose time-variation detector switches to the piecewise
-    /// time-invariant model on 2 time segments ([`TimeVariationTests::switching`]
-    /// (detectors::TimeVariationTests::switching)) when it names time variation: the step
-    /// reports the common model's cost on the segments and the segment models' cost, the
-    /// F test between them, and [`Report::time_varying`] holds the segment models.
+    /// time-invariant model on 2 time segments
+    /// ([`detectors::TimeVariationTests::switching`]) when it names time variation: the
+    /// step reports the common model's cost on the segments and the segment models' cost,
+    /// the F test between them, and [`Report::time_varying`] holds the segment models
+    /// ([`detectors::piecewise_model`]). Discrete-time specs only; for a continuous-time
+    /// spec the effect stays unmodelled as in [`Workflow::default`].
+    ///
+    /// ```
+    /// use fdid::prelude::*;
+    /// use fdid::simulate::SplitMix64;
+    /// use fdid::workflow::{Acceptance, Context, Effect, ModelSpec, Workflow};
+    /// # fn main() -> fdid::Result<()> {
+    /// // y(t) = 0.5 u(t) + a y(t − 1), a = 0.5 for the first half, 0.55 for the second
+    /// let n = 2048;
+    /// let mut rng = SplitMix64::new(2);
+    /// let u: Vec<f64> = (0..n).map(|_| rng.gaussian()).collect();
+    /// let mut y = vec![0.0; n];
+    /// for t in 1..n {
+    ///     let a = if t < n / 2 { 0.5 } else { 0.55 };
+    ///     y[t] = 0.5 * u[t] + a * y[t - 1];
+    /// }
+    /// let y: Vec<f64> = y.iter().map(|v| v + 0.01 * rng.gaussian()).collect();
+    /// let record = TimeData::new(u, y, 1.0)?;
+    /// let all = record.dft();
+    /// let keep: Vec<bool> = (0..all.len()).map(|k| k > 0 && 2 * k < n).collect();
+    /// let data = all.select_lines(&keep)?;
+    /// let spec = ModelSpec { transient: true, ..ModelSpec::discrete(1, 0, 1.0) };
+    /// let ctx = Context::non_periodic(0.05).with_time_record(record);
+    /// let report = Workflow::time_varying().run(&data, spec, ctx)?;
+    /// assert_eq!(report.effects, vec![Effect::TimeVariation]);
+    /// let step = &report.steps[0];
+    /// assert_eq!(step.acceptance(), Acceptance::Piecewise);
+    /// assert!(step.cost_after < step.cost_before && step.lr_p < 1e-3);
+    /// let tv = report.time_varying.as_ref().unwrap();
+    /// assert_eq!(tv.segments, vec![(0.0, 1024.0), (1024.0, 2048.0)]);
+    /// # Ok(())
+    /// # }
+    /// ```
     pub fn time_varying() -> Self {
         let mut w = Self::default();
         for d in &mut w.detectors {
@@ -267,7 +309,10 @@ impl Workflow {
     /// most α/2) whose effect was not acted on yet, by its [`Remedy`]: a criterion switch is kept when the detector's test is
     /// significant and the full negative log-likelihood Σ(ln|c_k|² + |r_k|²) decreases; a
     /// new noise reference is kept on the detector's test and the loop continues on the
-    /// new data; an effect the model class cannot absorb is named and ends the refinement.
+    /// new data; an effect the model class cannot absorb is named and ends the refinement
+    /// (time variation: when the detector names S segments,
+    /// [`Detector::piecewise_segments`], the piecewise time-invariant model is fitted and
+    /// kept when its F test against the common model is below α, [`Step::piecewise`]).
     /// Otherwise, while the fit is not consistent with the noise, the structural findings
     /// are refitted and judged by the likelihood-ratio test (see the module
     /// documentation).

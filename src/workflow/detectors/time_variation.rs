@@ -31,7 +31,8 @@ use crate::workflow::spec::SpecFit;
 /// An LTI [`ModelSpec`](crate::workflow::ModelSpec) cannot absorb a time-varying system
 /// ([`Remedy::NotAbsorbed`]): the workflow names the effect, stops refining the LTI model
 /// and reports it as unmodelled; a time-varying model is [`crate::ltv`] (fitted on the
-/// time record, outside the workflow). Proposal: the current spec unchanged. Detail:
+/// time record, outside the workflow), or the piecewise time-invariant model the
+/// workflow switches to with [`TimeVariationTests::switching`](super::TimeVariationTests::switching). Proposal: the current spec unchanged. Detail:
 /// `skirt_ratio` (F), `skirt_to_noise_db` (10 log₁₀((P_A − P_R)/P_R), present when
 /// P_A > P_R), `skirt_to_output_db` (the same excess relative to the mean output power at
 /// the excited lines), `adjacent_lines` (|A|), `reference_lines` (|R|).
