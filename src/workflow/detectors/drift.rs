@@ -708,9 +708,13 @@ impl TimeVarying {
 ///
 /// - a periodic record ([`Context::with_record`], P ≥ 4): S groups of P_g whole periods;
 ///   segment s holds the averaged spectra of its group at the fitted lines, with the
-///   noise variances of a group mean from the pooled within-group sample (co)variances,
-///   σ²_s,k = Σ_g (P_g − 1) s²_g,k / ((P − S) P_s) for the output, the input and their
-///   covariance (independent of the group means; `variance_dof` = P − S). The segment
+///   noise variances of a group mean from the periods' deviations e_g,j,k from a straight
+///   line in the period index j within each group (a slow drift inside a segment is not
+///   taken for noise), σ²_s,k = Σ_g Σ_j |e_g,j,k|² / ((P − 2S) P_s) for the output, the
+///   input and their covariance (independent of the group means; `variance_dof` =
+///   P − 2S); with fewer than 3 periods per group, the plain pooled within-group sample
+///   (co)variances Σ_g (P_g − 1) s²_g,k / ((P − S) P_s) (`variance_dof` = P − S), which
+///   also hold the drift inside each segment and so make the cost test lenient. The segment
 ///   cost is McKelvey's ML cost (eq. 23),
 ///   `V_s(θ) = Σ_k |Y_s,k − G(ω_k, θ) U_s,k|² / (σ²_Y + |G|²σ²_U − 2 Re(G* σ_YU))_s,k`.
 ///   The common model minimises Σ_s V_s(θ) over one θ (one fit to the segments' lines
