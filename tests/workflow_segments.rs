@@ -175,7 +175,9 @@ fn drifting_a1_periodic_is_detected() {
         assert_eq!(both.p_value, (2.0 * skirt_p.min(drift_p)).min(1.0));
         assert!(both.detail.get("skirt_ratio").is_some());
         assert!(both.detail.get("drift_statistic").is_some());
-        let report = Workflow::default()
+        // the workflow that only names the effect (the default switches to the piecewise
+        // model, tests/workflow_tvswitch.rs)
+        let report = Workflow::naming_time_variation()
             .run(&data, ModelSpec::discrete(2, 2, 1.0), ctx)
             .unwrap();
         if report.effects.first() == Some(&Effect::TimeVariation) {

@@ -211,12 +211,12 @@ fn jump_halfway_non_periodic_switches_to_segments() {
     assert!(consistent >= 8, "consistent {consistent}/{seeds}");
 }
 
-/// The default workflow does not switch: `time_variation` stays unmodelled.
+/// The naming-only workflow does not switch: `time_variation` stays unmodelled.
 #[test]
-fn default_workflow_does_not_switch() {
+fn naming_workflow_does_not_switch() {
     let (record, data) = periodic(&TRUTH, 8, 0.05, 0.05, 300);
     let ctx = periodic_context(record, 8);
-    let report = Workflow::default()
+    let report = Workflow::naming_time_variation()
         .run(&data, ModelSpec::discrete(2, 2, 1.0), ctx)
         .unwrap();
     assert_eq!(report.effects, vec![Effect::TimeVariation]);

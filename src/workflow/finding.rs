@@ -269,7 +269,7 @@ impl Context {
     /// let keep: Vec<bool> = (0..all.len()).map(|k| lines.contains(&k)).collect();
     /// let data = all.select_lines(&keep)?;
     /// let ctx = Context::periodic(0.05).with_record(record, p)?;
-    /// let report = Workflow::default().run(&data, ModelSpec::discrete(1, 0, 1.0), ctx)?;
+    /// let report = Workflow::naming_time_variation().run(&data, ModelSpec::discrete(1, 0, 1.0), ctx)?;
     /// assert_eq!(report.effects.first(), Some(&Effect::TimeVariation));
     /// assert_eq!(report.unmodelled, vec![Effect::TimeVariation]);
     /// # Ok(())

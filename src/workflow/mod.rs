@@ -25,7 +25,8 @@
 //! accepted by its own test ([`Remedy`], [`Acceptance`]), since the nested
 //! likelihood-ratio test compares models under one noise reference. The effects a linear
 //! time-invariant model cannot absorb are listed in [`Report::unmodelled`]. For time
-//! variation, [`Workflow::time_varying`] switches to the piecewise time-invariant model
+//! variation of a discrete-time spec the default workflow switches to the piecewise
+//! time-invariant model ([`Workflow::naming_time_variation`] only names it)
 //! (the spec refitted on the drift test's time segments, [`detectors::piecewise_model`]):
 //! the step shows the gap shrink from the common model's cost on the segments to the
 //! segment models' cost, kept by the F test of (S − 1)q added parameters, and the report's
@@ -208,7 +209,7 @@ pub struct Report {
 ///
 /// | field | default | meaning |
 /// |---|---|---|
-/// | `detectors` | [`TimeDelay`](detectors::TimeDelay), [`MissingResonance`](detectors::MissingResonance), [`Transient`](detectors::Transient), [`ColoredNoise`](detectors::ColoredNoise), [`OrderIncrease`](detectors::OrderIncrease) for a pole and a zero; the measurement-level [`InputNoise`](detectors::InputNoise), [`NonlinearDistortion`](detectors::NonlinearDistortion), [`TimeVariationTests`](detectors::TimeVariationTests) (the skirt test [`TimeVariation`](detectors::TimeVariation) and the parameter drift [`TimeDrift`](detectors::TimeDrift)) (these return `None` without the information they need) | the tests run at each step |
+/// | `detectors` | [`TimeDelay`](detectors::TimeDelay), [`MissingResonance`](detectors::MissingResonance), [`Transient`](detectors::Transient), [`ColoredNoise`](detectors::ColoredNoise), [`OrderIncrease`](detectors::OrderIncrease) for a pole and a zero; the measurement-level [`InputNoise`](detectors::InputNoise), [`NonlinearDistortion`](detectors::NonlinearDistortion), [`TimeVariationTests`](detectors::TimeVariationTests) (the skirt test [`TimeVariation`](detectors::TimeVariation) and the parameter drift [`TimeDrift`](detectors::TimeDrift); switching to the piecewise model on 2 segments) (these return `None` without the information they need) | the tests run at each step |
 /// | `max_steps` | 4 | most augmentations accepted |
 ///
 /// The level α comes from the [`Context`].
@@ -231,7 +232,7 @@ impl Default for Workflow {
                 Box::new(detectors::OrderIncrease(detectors::Added::Zero)),
                 Box::new(detectors::InputNoise),
                 Box::new(detectors::NonlinearDistortion),
-                Box::new(detectors::TimeVariationTests::default()),
+                Box::new(detectors::TimeVariationTests::switching(2)),
             ],
             max_steps: 4,
         }
@@ -239,13 +240,14 @@ impl Default for Workflow {
 }
 
 impl Workflow {
-    /// The default workflow whose time-variation detector switches to the piecewise
-    /// time-invariant model on 2 time segments
+    /// The default workflow, spelled out: its time-variation detector switches to the
+    /// piecewise time-invariant model on 2 time segments
     /// ([`detectors::TimeVariationTests::switching`]) when it names time variation: the
     /// step reports the common model's cost on the segments and the segment models' cost,
     /// the F test between them, and [`Report::time_varying`] holds the segment models
     /// ([`detectors::piecewise_model`]). Discrete-time specs only; for a continuous-time
-    /// spec the effect stays unmodelled as in [`Workflow::default`].
+    /// spec the effect stays unmodelled. [`Workflow::naming_time_variation`] names the
+    /// effect without switching.
     ///
     /// ```
     /// use fdid::prelude::*;
@@ -279,10 +281,17 @@ impl Workflow {
     /// # }
     /// ```
     pub fn time_varying() -> Self {
+        Self::default()
+    }
+
+    /// The default workflow whose time-variation detector names the effect and stops the
+    /// refinement without switching to the piecewise model (the effect is then listed in
+    /// [`Report::unmodelled`]).
+    pub fn naming_time_variation() -> Self {
         let mut w = Self::default();
         for d in &mut w.detectors {
             if d.effect() == Effect::TimeVariation {
-                *d = Box::new(detectors::TimeVariationTests::switching(2));
+                *d = Box::new(detectors::TimeVariationTests::default());
             }
         }
         w
