@@ -83,15 +83,7 @@ struct SegmentFit {
 /// 2 periods or a segment of a non-periodic record fewer fitted lines than p_s + 1; the
 /// segment fits' errors.
 pub fn parameter_drift(fit: &SpecFit, ctx: &Context, segments: usize) -> Result<Option<Drift>> {
-    if segments < 2 {
-        return Err(FdidError::InvalidArgument {
-            name: "segments",
-            value: segments.to_string(),
-            reason: "the drift test compares at least 2 segments".into(),
-        });
-    }
-    check_rational(fit)?;
-    if !matches!(fit.spec.domain, SpecDomain::Z { .. }) {
+    if !segmentable(fit, segments)? {
         return Ok(None);
     }
     let q = system_params(&fit.spec);
@@ -785,15 +777,7 @@ pub fn piecewise_model(
     ctx: &Context,
     segments: usize,
 ) -> Result<Option<TimeVarying>> {
-    if segments < 2 {
-        return Err(FdidError::InvalidArgument {
-            name: "segments",
-            value: segments.to_string(),
-            reason: "the piecewise model has at least 2 segments".into(),
-        });
-    }
-    check_rational(fit)?;
-    if !matches!(fit.spec.domain, SpecDomain::Z { .. }) {
+    if !segmentable(fit, segments)? {
         return Ok(None);
     }
     let q = system_params(&fit.spec);
@@ -933,4 +917,19 @@ fn record_piecewise(
         fit.variance_dof,
     )
     .map(Some)
+}
+
+/// Whether `fit` can be split into `segments` time segments: an error for fewer than 2
+/// segments or a user's model structure, `false` for a continuous-time spec (its
+/// partial-fraction θ is relative to basis poles that move between segments).
+fn segmentable(fit: &SpecFit, segments: usize) -> Result<bool> {
+    if segments < 2 {
+        return Err(FdidError::InvalidArgument {
+            name: "segments",
+            value: segments.to_string(),
+            reason: "time segments compare at least 2 segments".into(),
+        });
+    }
+    check_rational(fit)?;
+    Ok(matches!(fit.spec.domain, SpecDomain::Z { .. }))
 }
