@@ -9,7 +9,7 @@ mod svg;
 
 use args::{Cli, Command, CriterionArg, DomainArg, FitArgs, MAX_ORDER};
 use data::Prepared;
-use fdid::criterion::EivProblem;
+use fdid::criterion::fit_eiv_delayed;
 use fdid::fit::Stage;
 use fdid::prelude::*;
 use fdid::workflow::{ModelSpec, SpecCriterion, SpecDomain};
@@ -427,37 +427,13 @@ fn fit_with_delay(
     model: &Rational<f64>,
     data: &FrequencyData<f64>,
 ) -> Result<Fit<f64, Delayed<Rational<f64>>>, Failure> {
-    let eiv = ErrorsInVariables::default();
     match criterion {
         CriterionArg::Ml => Ok(fit_delayed(&Pipeline::default(), model, data)?),
-        CriterionArg::Eiv => {
-            // validate first, so that unsuitable data get the errors-in-variables message
-            drop(eiv.problem(model, data)?);
-            let start = fit_delayed(&Pipeline::default(), model, data)?;
-            let delayed = start.model().clone();
-            let mut stages = start.stages().to_vec();
-            let theta0 = start.theta().to_vec();
-            drop(start);
-            let lm = LevenbergMarquardt::default();
-            let solution = estimate(&delayed, data, &eiv, &lm, Some(&theta0))?;
-            let theta = solution.theta.clone();
-            stages.push(Stage {
-                name: "eiv".into(),
-                solution,
-            });
-            if let Some(tau) = delayed.delay(&theta) {
-                delayed.check_delay(tau)?;
-            }
-            let problem = EivProblem::new(&delayed, data, eiv.use_covariance)?;
-            Ok(Fit::from_problem(
-                delayed.clone(),
-                data,
-                theta,
-                &problem,
-                NoiseLevel::Known,
-                stages,
-            )?)
-        }
+        CriterionArg::Eiv => Ok(fit_eiv_delayed(
+            &Pipeline::default(),
+            &Delayed::new(model.clone()),
+            data,
+        )?),
         c => Err(Failure::usage(format!(
             "--delay cannot be combined with --criterion {}",
             c.name()

@@ -5,7 +5,7 @@ use super::{Criterion, check_input};
 use crate::data::FrequencyData;
 use crate::error::{FdidError, Result};
 use crate::fit::{Fit, NoiseLevel, Stage};
-use crate::model::{EquationError, ModelStructure, Output};
+use crate::model::{Delayed, EquationError, ModelStructure, Output};
 use crate::pipeline::Pipeline;
 use crate::problem::NonlinearProblem;
 use crate::solver::Solver;
@@ -319,14 +319,43 @@ pub fn fit_eiv<T: Real, M: EquationError<T> + Clone>(
     let eiv = ErrorsInVariables::default();
     // validate first, so that an unsuitable data set gets the errors-in-variables message
     drop(eiv.problem(model, data)?);
-    let start = pipeline.fit(model, data)?;
+    refine_eiv(pipeline, &pipeline.fit(model, data)?, data)
+}
+
+/// [`fit_eiv`] of a delayed model G_M e^{−iωτ}: [`Delayed::fit`] (delay search, pipeline,
+/// output-error ML) gives the start, then the errors-in-variables cost of eq. 42 is
+/// minimised over [θ_M, τ]; a fitted τ̂ outside the model's bounds is an error.
+///
+/// # Errors
+/// As [`fit_eiv`] (the data are checked on the inner model first), [`Delayed::fit`] and
+/// [`Delayed::check_delay`].
+pub fn fit_eiv_delayed<T: Real, M: EquationError<T> + Clone>(
+    pipeline: &Pipeline,
+    model: &Delayed<M>,
+    data: &FrequencyData<T>,
+) -> Result<Fit<T, Delayed<M>>> {
+    drop(ErrorsInVariables::default().problem(model.inner(), data)?);
+    let fit = refine_eiv(pipeline, &model.fit(pipeline, data)?, data)?;
+    if let Some(tau) = fit.model().delay(fit.theta()) {
+        fit.model().check_delay(tau)?;
+    }
+    Ok(fit)
+}
+
+/// The errors-in-variables stage (eq. 42) from the output-error fit `start`: Levenberg–
+/// Marquardt (the pipeline's `ml` settings, or the defaults) from its θ, statistics with
+/// known noise level, stages of `start` followed by `"eiv"`.
+fn refine_eiv<T: Real, M: ModelStructure<T> + Clone>(
+    pipeline: &Pipeline,
+    start: &Fit<T, M>,
+    data: &FrequencyData<T>,
+) -> Result<Fit<T, M>> {
+    let eiv = ErrorsInVariables::default();
     let lm = pipeline.ml.unwrap_or_default();
     let base = start.model().clone();
-    let theta0 = start.theta().to_vec();
     let mut stages = start.stages().to_vec();
-    drop(start);
     let problem = eiv.problem(&base, data)?;
-    let sol = lm.solve(&problem, Some(&theta0))?;
+    let sol = lm.solve(&problem, Some(start.theta()))?;
     let theta = sol.theta.clone();
     stages.push(Stage {
         name: "eiv".into(),

@@ -23,7 +23,7 @@ mod sk;
 mod tls;
 
 mod eiv;
-pub use eiv::{EivProblem, ErrorsInVariables, fit_eiv};
+pub use eiv::{EivProblem, ErrorsInVariables, fit_eiv, fit_eiv_delayed};
 pub use equation_error::EquationErrorSystem;
 pub use levy::{Levy, LevyProblem};
 pub use ml::{MaximumLikelihood, MlProblem};

@@ -1,7 +1,6 @@
 //! A model description (domain, orders, delay, transient, noise model, criterion) and its
 //! fit by the composed estimators, reduced to what the detectors need.
-use crate::criterion::{EivProblem, NoiseWeighting, refine_noise_model};
-use crate::fit::Stage;
+use crate::criterion::{NoiseWeighting, fit_eiv_delayed, refine_noise_model};
 use crate::model::{NoiseModel, Output};
 use crate::prelude::*;
 use nalgebra::DMatrix;
@@ -251,39 +250,11 @@ pub fn fit_spec(spec: &ModelSpec, data: &FrequencyData<f64>) -> Result<SpecFit> 
             data,
             &causal_delay(&model, data)?.fit(&pipeline, data)?,
         ),
-        (true, None, SpecCriterion::Eiv) => {
-            let eiv = ErrorsInVariables::default();
-            drop(eiv.problem(&model, data)?);
-            let start = causal_delay(&model, data)?.fit(&pipeline, data)?;
-            let delayed = start.model().clone();
-            let mut stages = start.stages().to_vec();
-            let theta0 = start.theta().to_vec();
-            let solution = estimate(
-                &delayed,
-                data,
-                &eiv,
-                &LevenbergMarquardt::default(),
-                Some(&theta0),
-            )?;
-            let theta = solution.theta.clone();
-            stages.push(Stage {
-                name: "eiv".into(),
-                solution,
-            });
-            if let Some(tau) = delayed.delay(&theta) {
-                delayed.check_delay(tau)?;
-            }
-            let problem = EivProblem::new(&delayed, data, eiv.use_covariance)?;
-            let fit = Fit::from_problem(
-                delayed.clone(),
-                data,
-                theta,
-                &problem,
-                NoiseLevel::Known,
-                stages,
-            )?;
-            summarise(spec, data, &fit)
-        }
+        (true, None, SpecCriterion::Eiv) => summarise(
+            spec,
+            data,
+            &fit_eiv_delayed(&pipeline, &causal_delay(&model, data)?, data)?,
+        ),
         (false, Some(n), SpecCriterion::Ml) => {
             summarise(spec, data, &fit_noise_model(&pipeline, &model, data, n, n)?)
         }
