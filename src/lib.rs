@@ -67,6 +67,7 @@ pub mod criterion;
 pub mod data;
 pub mod error;
 pub mod fit;
+pub mod fitted;
 pub mod greybox;
 #[cfg(feature = "csv")]
 pub mod io;
@@ -87,6 +88,7 @@ pub use criterion::{ErrorsInVariables, fit_eiv};
 pub use data::{FrequencyData, NoiseVariances, TimeData};
 pub use error::{FdidError, Result};
 pub use fit::{Fit, NoiseLevel};
+pub use fitted::FittedModel;
 pub use model::{Delayed, EquationError, ModelStructure, PolesZeros, Rational};
 pub use pipeline::Pipeline;
 pub use scalar::{Complex, Real};

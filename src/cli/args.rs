@@ -14,6 +14,8 @@ Examples:
   fdid fit frf.csv --domain z --ts 0.001 --na 2 --nb 2 --json
   fdid fit step.csv --domain z --na 2 --nb 1 --transient --noise-order 1 --delay
   fdid diagnose data/dryer.csv --domain z --na 2 --nb 2 --report report
+  fdid fit data/rlc_bandpass.s2p --domain s --na 2 --nb 1 --port 21 --save rlc.json
+  fdid eval rlc.json --freq 1e6:1e7:20
 
 Run `fdid fit --help` for the data file formats and every option, `fdid diagnose --help`
 for the discrepancy workflow.";
@@ -25,6 +27,10 @@ Data files (CSV, header names the columns, any order, case-insensitive; `#` line
   f,u_re,u_im,y_re,y_im[,var_u,var_y]   input and output spectra U(f), Y(f), f in Hz
   t,u,y                                 time record, uniform t in s (sets Ts)
 Frequencies must be non-negative and strictly increasing; every value finite.
+Touchstone version 1 files (by extension): .s1p (1 port) and .s2p (2 ports, columns
+S11 S21 S12 S22), option line `# Hz|kHz|MHz|GHz S|Y|Z|H|G RI|MA|DB R <ohms>`, `!`
+comments; --port IJ picks the entry X_IJ fitted as an FRF (default 11 for .s1p, 21 for
+.s2p); Y, Z, H, G values are de-normalised by R. Version 2 files are rejected.
 
 Time records are transformed by the DFT (or averaged over --periods P periods, which
 also estimates per-line noise variances when P >= 2). The DC line (f = 0) and every
@@ -75,7 +81,9 @@ Examples:
   fdid fit data/robot_arm.csv --domain z --na 4 --nb 4 --periods 1
   fdid fit record.csv --domain z --na 2 --nb 1 --periods 4 --json
   fdid fit record.csv --domain z --na 2 --nb 1 --periods 4 --criterion eiv --delay
-  fdid fit step.csv --domain z --na 2 --nb 1 --transient --noise-order 1";
+  fdid fit step.csv --domain z --na 2 --nb 1 --transient --noise-order 1
+  fdid fit data/rlc_bandpass.s2p --domain s --na 2 --nb 1 --port 21 --save rlc.json
+  fdid eval rlc.json --freq 1e6:1e7:20";
 
 const DIAGNOSE_HELP: &str = "\
 The discrepancy workflow. The data file, --ts, --band, --periods and the starting model
@@ -120,6 +128,20 @@ Examples:
   fdid diagnose data/robot_arm.csv --domain z --na 4 --nb 4 --periods 1 --json
   fdid diagnose record.csv --domain z --na 2 --nb 1 --periods 4 --alpha 0.05";
 
+const EVAL_HELP: &str = "\
+The saved file is one JSON object {\"format\":\"fdid-model\", \"version\":1, \"kind\":
+\"rational\"|\"delayed\"|\"noise_model\"|\"delayed_noise_model\", \"domain\", \"ts\", \"source\",
+\"fitted\":{\"model\", \"theta\", \"covariance\", \"noise_variance\", \"noise_known\", \"cost\",
+\"lines\"}}. Numbers are written so that they read back exactly: the response is that of
+the fitted model to the last bit. The output is CSV f,re,im[,std] (a comment line first),
+std the standard deviation of G from the covariance of theta (no column without one);
+with --json one object {\"frf\":[[f,re,im],..], \"frf_std\":[..]|null}.
+
+Examples:
+  fdid fit data/eis_battery.csv --domain s --na 6 --nb 6 --band :1000 --save eis.json
+  fdid eval eis.json --freq 0.01:1000:50
+  fdid eval eis.json --freq 1,10,100 --json";
+
 /// Frequency-domain system identification: fit rational transfer functions in s or z to
 /// measured frequency responses, spectra or periodic time records.
 #[derive(Debug, Parser)]
@@ -142,14 +164,18 @@ pub enum Command {
     /// coloured noise), add it when a likelihood-ratio test accepts it, and repeat.
     #[command(after_help = DIAGNOSE_HELP)]
     Diagnose(DiagnoseArgs),
+    /// Evaluate a model saved by `fdid fit --save` at given frequencies: the response G and
+    /// its standard deviation from the covariance of theta, as CSV f,re,im,std.
+    #[command(after_help = EVAL_HELP)]
+    Eval(EvalArgs),
 }
 
 /// The data file, how it is prepared, and the model structure: the options `fdid fit` and
 /// `fdid diagnose` share.
 #[derive(Debug, Args)]
 pub struct CommonArgs {
-    /// CSV data file: a frequency response, input/output spectra or a time record (the
-    /// formats are in `fdid fit --help`)
+    /// Data file: CSV (a frequency response, input/output spectra or a time record) or
+    /// Touchstone .s1p/.s2p (the formats are in `fdid fit --help`)
     #[arg(value_name = "DATA")]
     pub data: PathBuf,
 
@@ -193,6 +219,27 @@ pub struct CommonArgs {
     /// (needs nb <= na). Needs a time record
     #[arg(long)]
     pub transient: bool,
+
+    /// Touchstone files (.s1p, .s2p): the entry X_ij to fit, output port i and input port
+    /// j, written `ij` (`21` is S21). Default 11 for .s1p, 21 (forward transmission) for
+    /// .s2p
+    #[arg(long, value_name = "IJ")]
+    pub port: Option<String>,
+}
+
+/// Parses `--port IJ` (`11`, `21`, ...) into (i, j), 1-based.
+pub fn parse_port(text: &str) -> Result<(usize, usize), String> {
+    let digits: Vec<usize> = text
+        .chars()
+        .map(|c| c.to_digit(10).map(|d| d as usize))
+        .collect::<Option<_>>()
+        .unwrap_or_default();
+    match digits.as_slice() {
+        [i, j] if *i >= 1 && *j >= 1 => Ok((*i, *j)),
+        _ => Err(format!(
+            "invalid --port {text}: expected two port digits, output then input (11, 21, 12, 22)"
+        )),
+    }
 }
 
 /// Options of `fdid fit`.
@@ -224,6 +271,27 @@ pub struct FitArgs {
     /// and the residual |Y/U - G| to FILE (needs the `plot` feature, on by default)
     #[arg(long, value_name = "FILE")]
     pub plot: Option<std::path::PathBuf>,
+
+    /// Save the fitted model (structure, theta, covariance, noise level) as JSON to FILE,
+    /// for `fdid eval FILE`
+    #[arg(long, value_name = "FILE")]
+    pub save: Option<std::path::PathBuf>,
+}
+
+/// Options of `fdid eval`.
+#[derive(Debug, Args)]
+pub struct EvalArgs {
+    /// A model saved by `fdid fit ... --save FILE`
+    #[arg(value_name = "MODEL")]
+    pub model: PathBuf,
+
+    /// Frequencies in Hz: a list `F1,F2,...` or `FMIN:FMAX:N` for N log-spaced ones
+    #[arg(long, value_name = "LIST")]
+    pub freq: String,
+
+    /// Print one JSON object {"frf":[[f,re,im],..],"frf_std":[..]|null} instead of CSV
+    #[arg(long)]
+    pub json: bool,
 }
 
 /// Default false-alarm level of `fdid diagnose`.

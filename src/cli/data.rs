@@ -1,9 +1,9 @@
 //! Reading the data file and turning it into the frequency lines that are fitted.
 
 use super::Failure;
-use super::args::{CommonArgs, DomainArg, parse_band};
+use super::args::{CommonArgs, DomainArg, parse_band, parse_port};
 use fdid::criterion::interior_lines;
-use fdid::io::{Measurement, read_csv};
+use fdid::io::{Measurement, read_csv, read_touchstone, touchstone_ports};
 use fdid::prelude::*;
 use std::result::Result;
 
@@ -30,11 +30,47 @@ pub struct Prepared {
 /// Reads `args.data` and applies --periods, --ts and --band. `noise_model`: a noise model
 /// will be fitted, so the lines without input are kept and the Nyquist line dropped.
 pub fn prepare(args: &CommonArgs, noise_model: bool) -> Result<Prepared, Failure> {
-    let measurement = read_csv::<f64>(&args.data).map_err(|e| match e {
+    let name_file = |e: FdidError| match e {
         // these already name the file
         FdidError::Parse { .. } | FdidError::Io(_) => Failure::from(e),
         e => Failure::runtime(format!("{}: {e}", args.data.display())),
-    })?;
+    };
+    let (measurement, entry) = match touchstone_ports(&args.data) {
+        Some(ports) => {
+            let port = match &args.port {
+                Some(text) => parse_port(text).map_err(Failure::usage)?,
+                None if ports == 1 => (1, 1),
+                None => (2, 1),
+            };
+            if port.0 > ports || port.1 > ports {
+                return Err(Failure::usage(format!(
+                    "invalid --port {}{}: {} is a {ports}-port file (ports 1..{ports})",
+                    port.0,
+                    port.1,
+                    args.data.display()
+                )));
+            }
+            let file = read_touchstone(&args.data).map_err(name_file)?;
+            let data = file.frequency_data::<f64>(port).map_err(name_file)?;
+            let entry = format!(
+                "Touchstone {}{}{} (R = {} ohm)",
+                file.parameter.letter(),
+                port.0,
+                port.1,
+                file.reference
+            );
+            (Measurement::Frequency(data), Some(entry))
+        }
+        None => {
+            if let Some(p) = &args.port {
+                return Err(Failure::usage(format!(
+                    "--port {p} applies to Touchstone files (.s1p, .s2p), but {} is not one",
+                    args.data.display()
+                )));
+            }
+            (read_csv::<f64>(&args.data).map_err(name_file)?, None)
+        }
+    };
     let mut notes = Vec::new();
     let time_record = matches!(measurement, Measurement::Time(_));
     let record = match &measurement {
@@ -71,7 +107,11 @@ pub fn prepare(args: &CommonArgs, noise_model: bool) -> Result<Prepared, Failure
             } else {
                 "input/output spectra"
             };
-            (data, ts, format!("{kind}, {n} lines"))
+            let source = match &entry {
+                Some(entry) => format!("{entry}, {n} lines"),
+                None => format!("{kind}, {n} lines"),
+            };
+            (data, ts, source)
         }
         Measurement::Time(record) => {
             let ts = record.ts();

@@ -4,6 +4,7 @@ pub mod args;
 mod data;
 mod diagnose;
 mod report;
+mod saved;
 #[cfg(feature = "plot")]
 mod svg;
 
@@ -49,6 +50,7 @@ pub fn run(cli: &Cli) -> Result<String, Failure> {
     match &cli.command {
         Command::Fit(args) => fit(args),
         Command::Diagnose(args) => diagnose::diagnose(args),
+        Command::Eval(args) => saved::eval(args),
     }
 }
 
@@ -135,6 +137,9 @@ fn fit(args: &FitArgs) -> Result<String, Failure> {
     if let Some(path) = &args.plot {
         write_plot(path, &prepared, &report)?;
     }
+    if let (Some(path), Some(value)) = (&args.save, &report.saved) {
+        saved::write(path, value)?;
+    }
     Ok(if args.json {
         report.json()
     } else {
@@ -185,6 +190,7 @@ pub fn fit_report(spec: &FitSpec, file: &str, prepared: &Prepared) -> Result<Rep
     match (spec.delay, spec.noise_order) {
         (false, None) => {
             let fit = estimate_with(spec.criterion, &model, data)?;
+            let saved = saved::saved(saved::Kind::Rational, spec.domain, prepared.ts, file, &fit)?;
             Report::new(
                 spec,
                 file,
@@ -192,9 +198,11 @@ pub fn fit_report(spec: &FitSpec, file: &str, prepared: &Prepared) -> Result<Rep
                 &fit,
                 method.parts(fit.model(), false, None),
             )
+            .map(|r| r.with_saved(saved))
         }
         (true, None) => {
             let fit = fit_with_delay(spec.criterion, &model, data)?;
+            let saved = saved::saved(saved::Kind::Delayed, spec.domain, prepared.ts, file, &fit)?;
             Report::new(
                 spec,
                 file,
@@ -202,9 +210,12 @@ pub fn fit_report(spec: &FitSpec, file: &str, prepared: &Prepared) -> Result<Rep
                 &fit,
                 method.parts(fit.model().inner(), true, None),
             )
+            .map(|r| r.with_saved(saved))
         }
         (false, Some(n)) => {
             let fit = fit_noise_model(&Pipeline::default(), &model, data, n, n)?;
+            let saved =
+                saved::saved(saved::Kind::NoiseModel, spec.domain, prepared.ts, file, &fit)?;
             let noise = fit.model().noise::<f64>();
             Report::new(
                 spec,
@@ -213,9 +224,17 @@ pub fn fit_report(spec: &FitSpec, file: &str, prepared: &Prepared) -> Result<Rep
                 &fit,
                 method.parts(fit.model().system(), false, Some(noise)),
             )
+            .map(|r| r.with_saved(saved))
         }
         (true, Some(n)) => {
             let fit = fit_delay_noise_model(&model, data, n)?;
+            let saved = saved::saved(
+                saved::Kind::DelayedNoiseModel,
+                spec.domain,
+                prepared.ts,
+                file,
+                &fit,
+            )?;
             let noise = fit.model().noise::<f64>();
             Report::new(
                 spec,
@@ -224,6 +243,7 @@ pub fn fit_report(spec: &FitSpec, file: &str, prepared: &Prepared) -> Result<Rep
                 &fit,
                 method.parts(fit.model().system().inner(), true, Some(noise)),
             )
+            .map(|r| r.with_saved(saved))
         }
     }
 }

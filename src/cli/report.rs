@@ -108,9 +108,17 @@ pub struct Report {
     delay: Option<(f64, Option<f64>)>,
     noise_model: Option<NoiseRow>,
     stages: Vec<StageRow>,
+    /// The saved-model object of `fdid fit --save` (see `saved::saved`).
+    pub saved: Option<Value>,
 }
 
 impl Report {
+    /// The report with the saved-model object of `fdid fit --save`.
+    pub fn with_saved(mut self, saved: Value) -> Self {
+        self.saved = Some(saved);
+        self
+    }
+
     /// The fitted response on the data's lines and its standard deviation, if known.
     pub fn response(&self) -> (&[Complex<f64>], Option<&[f64]>) {
         (&self.frf, self.frf_std.as_deref())
@@ -228,6 +236,7 @@ impl Report {
             delay,
             noise_model,
             stages,
+            saved: None,
         })
     }
 

@@ -1,11 +1,17 @@
 //! Readers for the data files of the `fdid` command (feature `csv`).
 //!
-//! A file holds one [`Measurement`]: frequency-domain data (an FRF or input/output
-//! spectra) or a uniformly sampled time record. See [`parse_csv`] for the format.
+//! A CSV file holds one [`Measurement`]: frequency-domain data (an FRF or input/output
+//! spectra) or a uniformly sampled time record. See [`parse_csv`] for the format. A
+//! Touchstone `.s1p`/`.s2p` file holds the network parameters of a 1- or 2-port; see
+//! [`parse_touchstone`], and [`Touchstone::frequency_data`] for one entry as an FRF.
 
 mod csv;
+mod touchstone;
 
 pub use self::csv::{parse_csv, read_csv};
+pub use self::touchstone::{
+    NumberFormat, Parameter, Touchstone, parse_touchstone, read_touchstone, touchstone_ports,
+};
 
 use crate::Real;
 use crate::data::{FrequencyData, TimeData};

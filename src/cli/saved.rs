@@ -1,0 +1,199 @@
+//! `fdid fit --save FILE` and `fdid eval FILE`: a fitted model saved as JSON and evaluated
+//! later, without the data.
+
+use super::Failure;
+use super::args::{DomainArg, EvalArgs};
+use fdid::fitted::FittedModel;
+use fdid::model::{Delayed, WithNoiseModel};
+use fdid::prelude::*;
+use serde::Serialize;
+use serde::de::DeserializeOwned;
+use serde_json::{Value, json};
+use std::fmt::Write as _;
+use std::result::Result;
+
+/// The `format` key of a saved model file.
+pub const FORMAT: &str = "fdid-model";
+/// Its `version` key.
+pub const VERSION: u64 = 1;
+
+/// Which model structure a saved file holds.
+#[derive(Debug, Clone, Copy)]
+pub enum Kind {
+    /// `Rational<f64>`.
+    Rational,
+    /// `Delayed<Rational<f64>>`.
+    Delayed,
+    /// `WithNoiseModel<Rational<f64>>`.
+    NoiseModel,
+    /// `WithNoiseModel<Delayed<Rational<f64>>>`.
+    DelayedNoiseModel,
+}
+
+impl Kind {
+    fn name(self) -> &'static str {
+        match self {
+            Self::Rational => "rational",
+            Self::Delayed => "delayed",
+            Self::NoiseModel => "noise_model",
+            Self::DelayedNoiseModel => "delayed_noise_model",
+        }
+    }
+}
+
+/// The saved-model JSON object of `fit`:
+/// `{"format":"fdid-model","version":1,"kind":..,"domain":"s"|"z","ts":x|null,
+/// "source":FILE,"fitted":{model,theta,covariance,noise_variance,noise_known,cost,lines}}`.
+pub fn saved<M: ModelStructure<f64> + Clone + Serialize>(
+    kind: Kind,
+    domain: DomainArg,
+    ts: Option<f64>,
+    source: &str,
+    fit: &Fit<f64, M>,
+) -> Result<Value, Failure> {
+    let fitted = serde_json::to_value(FittedModel::of_fit(fit))
+        .map_err(|e| Failure::runtime(format!("cannot serialise the fitted model: {e}")))?;
+    Ok(json!({
+        "format": FORMAT,
+        "version": VERSION,
+        "kind": kind.name(),
+        "domain": match domain { DomainArg::S => "s", DomainArg::Z => "z" },
+        "ts": ts,
+        "source": source,
+        "fitted": fitted,
+    }))
+}
+
+/// Writes `value` to `path`.
+pub fn write(path: &std::path::Path, value: &Value) -> Result<(), Failure> {
+    let text = serde_json::to_string_pretty(value)
+        .map_err(|e| Failure::runtime(format!("cannot serialise the fitted model: {e}")))?;
+    std::fs::write(path, text + "\n")
+        .map_err(|e| Failure::runtime(format!("cannot write {}: {e}", path.display())))
+}
+
+/// `fdid eval MODEL --freq ...`: the response of a saved model, as CSV `f,re,im[,std]` or
+/// as JSON `{"frf":[[f,re,im],..],"frf_std":[..]|null}`.
+pub fn eval(args: &EvalArgs) -> Result<String, Failure> {
+    let name = args.model.display().to_string();
+    let f_hz = parse_freq(&args.freq).map_err(Failure::usage)?;
+    let text = std::fs::read_to_string(&args.model)
+        .map_err(|e| Failure::runtime(format!("cannot read {name}: {e}")))?;
+    let value: Value = serde_json::from_str(&text)
+        .map_err(|e| Failure::runtime(format!("{name}: not JSON: {e}")))?;
+    if value["format"] != FORMAT {
+        return Err(Failure::runtime(format!(
+            "{name}: not a saved fdid model (no \"format\": \"{FORMAT}\"; write one with \
+             `fdid fit ... --save {name}`)"
+        )));
+    }
+    if value["version"] != VERSION {
+        return Err(Failure::runtime(format!(
+            "{name}: saved-model version {} is not supported (this fdid reads version \
+             {VERSION})",
+            value["version"]
+        )));
+    }
+    let omega: Vec<f64> = f_hz.iter().map(|f| std::f64::consts::TAU * f).collect();
+    let fitted = &value["fitted"];
+    let (g, std) = match value["kind"].as_str() {
+        Some("rational") => respond::<Rational<f64>>(fitted, &omega, &name)?,
+        Some("delayed") => respond::<Delayed<Rational<f64>>>(fitted, &omega, &name)?,
+        Some("noise_model") => respond::<WithNoiseModel<Rational<f64>>>(fitted, &omega, &name)?,
+        Some("delayed_noise_model") => {
+            respond::<WithNoiseModel<Delayed<Rational<f64>>>>(fitted, &omega, &name)?
+        }
+        _ => {
+            return Err(Failure::runtime(format!(
+                "{name}: unknown model kind {}",
+                value["kind"]
+            )));
+        }
+    };
+    let finite = |x: f64| if x.is_finite() { json!(x) } else { Value::Null };
+    if args.json {
+        let frf: Vec<Value> = f_hz
+            .iter()
+            .zip(&g)
+            .map(|(f, g)| json!([f, finite(g.re), finite(g.im)]))
+            .collect();
+        let frf_std = std
+            .as_ref()
+            .map(|s| Value::Array(s.iter().map(|x| finite(*x)).collect()));
+        return Ok(json!({"frf": frf, "frf_std": frf_std}).to_string() + "\n");
+    }
+    let mut out = String::new();
+    let _ = writeln!(
+        out,
+        "# {} model from {name} ({}); std: standard deviation of G from the covariance of theta",
+        value["kind"].as_str().unwrap_or(""),
+        value["source"].as_str().unwrap_or("")
+    );
+    let _ = writeln!(out, "f,re,im{}", if std.is_some() { ",std" } else { "" });
+    for (k, (f, g)) in f_hz.iter().zip(&g).enumerate() {
+        let _ = write!(out, "{f:e},{:e},{:e}", g.re, g.im);
+        if let Some(s) = &std {
+            let _ = write!(out, ",{:e}", s[k]);
+        }
+        out.push('\n');
+    }
+    Ok(out)
+}
+
+/// The response and its standard deviation of the saved model in `fitted`.
+fn respond<M: ModelStructure<f64> + DeserializeOwned>(
+    fitted: &Value,
+    omega: &[f64],
+    name: &str,
+) -> Result<(Vec<Complex<f64>>, Option<Vec<f64>>), Failure> {
+    let model: FittedModel<f64, M> = serde_json::from_value(fitted.clone())
+        .map_err(|e| Failure::runtime(format!("{name}: bad saved model: {e}")))?;
+    if model.theta.len() != model.model.n_params() {
+        return Err(Failure::runtime(format!(
+            "{name}: bad saved model: theta has {} entries, the model {}",
+            model.theta.len(),
+            model.model.n_params()
+        )));
+    }
+    if let Some(c) = &model.covariance
+        && (c.nrows() != model.theta.len() || c.ncols() != model.theta.len())
+    {
+        return Err(Failure::runtime(format!(
+            "{name}: bad saved model: the covariance is {}x{}, theta has {} entries",
+            c.nrows(),
+            c.ncols(),
+            model.theta.len()
+        )));
+    }
+    Ok((model.response(omega), model.response_std(omega)))
+}
+
+/// Parses `--freq`: a comma-separated list of frequencies in Hz, or `FMIN:FMAX:N` for N
+/// log-spaced frequencies from FMIN to FMAX (both > 0).
+pub fn parse_freq(text: &str) -> Result<Vec<f64>, String> {
+    let bad = |why: &str| format!("invalid --freq {text}: {why}");
+    let parts: Vec<&str> = text.split(':').collect();
+    let f: Vec<f64> = match parts.as_slice() {
+        [lo, hi, n] => {
+            let lo: f64 = lo.trim().parse().map_err(|_| bad("FMIN is not a number"))?;
+            let hi: f64 = hi.trim().parse().map_err(|_| bad("FMAX is not a number"))?;
+            let n: usize = n.trim().parse().map_err(|_| bad("N is not a whole number"))?;
+            if !(lo > 0.0 && hi > lo && hi.is_finite()) || n < 2 {
+                return Err(bad("FMIN:FMAX:N needs 0 < FMIN < FMAX and N >= 2"));
+            }
+            let (a, b) = (lo.log10(), hi.log10());
+            (0..n)
+                .map(|k| 10f64.powf(a + (b - a) * k as f64 / (n - 1) as f64))
+                .collect()
+        }
+        [list] => list
+            .split(',')
+            .map(|s| s.trim().parse::<f64>().map_err(|_| bad(&format!("`{s}` is not a number"))))
+            .collect::<Result<_, _>>()?,
+        _ => return Err(bad("expected F1,F2,... or FMIN:FMAX:N")),
+    };
+    if let Some(x) = f.iter().find(|x| !(x.is_finite() && **x >= 0.0)) {
+        return Err(bad(&format!("frequency {x} must be finite and non-negative")));
+    }
+    Ok(f)
+}

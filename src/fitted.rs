@@ -1,0 +1,81 @@
+//! A fitted model reduced to what is needed to use it later: the model structure, θ̂, its
+//! covariance and the noise level, without the data (feature `serde` makes it
+//! serialisable, so that a fit can be saved and reloaded).
+
+use crate::fit::Fit;
+use crate::model::ModelStructure;
+use crate::{Complex, Real};
+use nalgebra::DMatrix;
+
+/// The summary of a [`Fit`]: model structure `M`, estimate θ̂ and its covariance, noise
+/// level and cost. Evaluating [`FittedModel::response`] gives exactly (bit for bit) what
+/// the fit's model gives at θ̂, also after a round trip through a serde format that keeps
+/// `f64` exactly (e.g. JSON with `serde_json`'s `float_roundtrip`).
+///
+/// The standard deviation of the response at any ω is that of [`Fit::response_std`]:
+/// σ_G(ω)² = Σ_ij Cov_ij Re(∂G/∂θ_i · conj ∂G/∂θ_j).
+#[derive(Debug, Clone, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+pub struct FittedModel<T: Real, M> {
+    /// The model structure (orders, basis, sample time, delay, noise model structure).
+    pub model: M,
+    /// The estimate θ̂.
+    pub theta: Vec<T>,
+    /// Covariance of θ̂ (see [`Fit`]), when it could be computed.
+    pub covariance: Option<DMatrix<T>>,
+    /// Noise variance λ (known from the data, or λ̂ = V/N).
+    pub noise_variance: T,
+    /// Whether λ came from the data's noise variances.
+    pub noise_known: bool,
+    /// Cost V at θ̂.
+    pub cost: T,
+    /// Number of frequency lines fitted.
+    pub lines: usize,
+}
+
+impl<T: Real, M: ModelStructure<T> + Clone> FittedModel<T, M> {
+    /// The summary of `fit`.
+    pub fn of_fit(fit: &Fit<T, M>) -> Self {
+        Self {
+            model: fit.model().clone(),
+            theta: fit.theta().to_vec(),
+            covariance: fit.covariance().cloned(),
+            noise_variance: fit.noise_variance(),
+            noise_known: fit.noise_known(),
+            cost: fit.cost(),
+            lines: fit.omega().len(),
+        }
+    }
+}
+
+impl<T: Real, M: ModelStructure<T>> FittedModel<T, M> {
+    /// G(θ̂, ω_k) at the angular frequencies `omega` (rad/s).
+    pub fn response(&self, omega: &[T]) -> Vec<Complex<T>> {
+        self.model.response(&self.theta, omega)
+    }
+
+    /// σ_G(ω_k), the standard deviation of the response at `omega` (rad/s) from the
+    /// covariance of θ̂; `None` without a covariance.
+    pub fn response_std(&self, omega: &[T]) -> Option<Vec<T>> {
+        let cov = self.covariance.as_ref()?;
+        let p = self.theta.len();
+        let zero = Complex::new(T::zero(), T::zero());
+        let mut g = vec![zero; omega.len()];
+        let mut jac = DMatrix::from_element(omega.len(), p, zero);
+        self.model
+            .jacobian_into(&self.theta, omega, &mut g, &mut jac);
+        Some(
+            (0..omega.len())
+                .map(|k| {
+                    let mut v = T::zero();
+                    for i in 0..p {
+                        for j in 0..p {
+                            v += cov[(i, j)] * (jac[(k, i)] * jac[(k, j)].conj()).re;
+                        }
+                    }
+                    num_traits::Float::sqrt(num_traits::Float::max(v, T::zero()))
+                })
+                .collect(),
+        )
+    }
+}
