@@ -214,8 +214,13 @@ pub fn fit_report(spec: &FitSpec, file: &str, prepared: &Prepared) -> Result<Rep
         }
         (false, Some(n)) => {
             let fit = fit_noise_model(&Pipeline::default(), &model, data, n, n)?;
-            let saved =
-                saved::saved(saved::Kind::NoiseModel, spec.domain, prepared.ts, file, &fit)?;
+            let saved = saved::saved(
+                saved::Kind::NoiseModel,
+                spec.domain,
+                prepared.ts,
+                file,
+                &fit,
+            )?;
             let noise = fit.model().noise::<f64>();
             Report::new(
                 spec,

@@ -177,7 +177,10 @@ pub fn parse_freq(text: &str) -> Result<Vec<f64>, String> {
         [lo, hi, n] => {
             let lo: f64 = lo.trim().parse().map_err(|_| bad("FMIN is not a number"))?;
             let hi: f64 = hi.trim().parse().map_err(|_| bad("FMAX is not a number"))?;
-            let n: usize = n.trim().parse().map_err(|_| bad("N is not a whole number"))?;
+            let n: usize = n
+                .trim()
+                .parse()
+                .map_err(|_| bad("N is not a whole number"))?;
             if !(lo > 0.0 && hi > lo && hi.is_finite()) || n < 2 {
                 return Err(bad("FMIN:FMAX:N needs 0 < FMIN < FMAX and N >= 2"));
             }
@@ -188,12 +191,18 @@ pub fn parse_freq(text: &str) -> Result<Vec<f64>, String> {
         }
         [list] => list
             .split(',')
-            .map(|s| s.trim().parse::<f64>().map_err(|_| bad(&format!("`{s}` is not a number"))))
+            .map(|s| {
+                s.trim()
+                    .parse::<f64>()
+                    .map_err(|_| bad(&format!("`{s}` is not a number")))
+            })
             .collect::<Result<_, _>>()?,
         _ => return Err(bad("expected F1,F2,... or FMIN:FMAX:N")),
     };
     if let Some(x) = f.iter().find(|x| !(x.is_finite() && **x >= 0.0)) {
-        return Err(bad(&format!("frequency {x} must be finite and non-negative")));
+        return Err(bad(&format!(
+            "frequency {x} must be finite and non-negative"
+        )));
     }
     Ok(f)
 }

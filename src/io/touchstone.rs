@@ -320,7 +320,9 @@ impl Options {
         let mut seen = [false; 4];
         let mut once = |slot: usize, field: &str| {
             if std::mem::replace(&mut seen[slot], true) {
-                Err(format!("option line: `{field}` repeats a setting given before"))
+                Err(format!(
+                    "option line: `{field}` repeats a setting given before"
+                ))
             } else {
                 Ok(())
             }
@@ -449,7 +451,11 @@ mod tests {
         for text in [ri, ma, dbs] {
             let t = parse(&text, 1).unwrap();
             assert_eq!(t.freq_hz, vec![1.0]);
-            assert!((t.values[0][0] - x).norm() < 1e-15, "{text}: {}", t.values[0][0]);
+            assert!(
+                (t.values[0][0] - x).norm() < 1e-15,
+                "{text}: {}",
+                t.values[0][0]
+            );
         }
     }
 
@@ -478,7 +484,10 @@ mod tests {
     fn defaults_are_ghz_s_ma_50_ohm() {
         let t = parse("#\n1 1 90\n", 1).unwrap();
         assert_eq!(t.freq_hz, vec![1e9]);
-        assert_eq!((t.parameter, t.format, t.reference), (Parameter::S, NumberFormat::MagnitudeAngle, 50.0));
+        assert_eq!(
+            (t.parameter, t.format, t.reference),
+            (Parameter::S, NumberFormat::MagnitudeAngle, 50.0)
+        );
         assert!((t.values[0][0] - Complex::new(0.0, 1.0)).norm() < 1e-15);
     }
 
@@ -515,8 +524,16 @@ mod tests {
             let msg = e.to_string();
             assert_eq!(line_of(e), line, "{text:?}: {msg}");
         }
-        assert_eq!(line_of(parse("! only a comment\n# Hz S RI\n", 1).unwrap_err()), 0);
-        assert!(parse("# Hz S RI\n1 nan 0\n", 1).unwrap_err().to_string().contains("not finite"));
+        assert_eq!(
+            line_of(parse("! only a comment\n# Hz S RI\n", 1).unwrap_err()),
+            0
+        );
+        assert!(
+            parse("# Hz S RI\n1 nan 0\n", 1)
+                .unwrap_err()
+                .to_string()
+                .contains("not finite")
+        );
         assert!(parse("# Hz S RI\n1 0 0\n", 3).is_err());
         let v2 = parse("[Version] 2.0\n", 2).unwrap_err().to_string();
         assert!(v2.contains("[Version]") && v2.contains("version 1"), "{v2}");
