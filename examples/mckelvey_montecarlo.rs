@@ -33,6 +33,9 @@
 //!
 //! Run: `cargo run --release --example mckelvey_montecarlo [-- runs]` (default 1000 runs).
 
+#[path = "common/progress.rs"]
+mod progress;
+
 use fdid::criterion::interior_lines;
 use fdid::model::{ModalOptions, fit_modal};
 use fdid::prelude::*;
@@ -268,7 +271,7 @@ fn periodic_record(seed: u64, periods: usize, sigma_u: f64, sigma_y: f64) -> Fre
 fn case_periodic_oe(table: &mut McTable, runs: usize) -> Result<()> {
     let model = Rational::discrete(2, 1, TS)?;
     let mut est = Runs::default();
-    for r in 0..runs {
+    for r in progress::runs(runs, "periodic OE") {
         let data = periodic_record(1000 + r as u64, 8, 0.0, 0.05);
         let fit = Pipeline::default().fit(&model, &data)?;
         let (v, s) = dt_report(&fit);
@@ -292,7 +295,7 @@ fn case_dt_transient(table: &mut McTable, runs: usize) -> Result<()> {
     let plain = Rational::discrete(2, 1, TS)?;
     let with = plain.clone().with_transient()?;
     let (mut est_plain, mut est_with) = (Runs::default(), Runs::default());
-    for r in 0..runs {
+    for r in progress::runs(runs, "DT transient") {
         let mut rng = Gauss::new(2000 + r as u64);
         let u = rng.white(pre + n, 1.0);
         let y = lfilter(&B, &A, &u);
@@ -361,7 +364,7 @@ fn case_zoh_modal(table: &mut McTable, runs: usize) -> Result<()> {
             vec![std[0], std[2], std[3]],
         )
     };
-    for r in 0..runs {
+    for r in progress::runs(runs, "ZOH modal") {
         let mut rng = Gauss::new(3000 + r as u64);
         let y = add(&clean, &rng.white(n, sigma));
         let data = TimeData::new(input.clone(), y, ts)?.dft();
@@ -401,7 +404,7 @@ fn case_noise_model(table: &mut McTable, runs: usize) -> Result<()> {
     let (c, dd) = ([1.0, 0.5], [1.0, -0.9]);
     let model = Rational::discrete(2, 1, TS)?;
     let (mut est_nm, mut est_flat) = (Runs::default(), Runs::default());
-    for r in 0..runs {
+    for r in progress::runs(runs, "noise model") {
         let mut rng = Gauss::new(4000 + r as u64);
         let periods = 2;
         let one = rng.white(n, 1.0);
@@ -441,7 +444,7 @@ fn case_eiv(table: &mut McTable, runs: usize) -> Result<()> {
     let model = Rational::discrete(2, 1, TS)?;
     let sigma_u = 10f64.powf(-10.0 / 20.0);
     let (mut est_eiv, mut est_oe) = (Runs::default(), Runs::default());
-    for r in 0..runs {
+    for r in progress::runs(runs, "EIV") {
         let data = periodic_record(5000 + r as u64, 8, sigma_u, 0.05);
         let fit = fit_eiv(&Pipeline::default(), &model, &data)?;
         let (v, s) = dt_report(&fit);

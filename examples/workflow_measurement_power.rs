@@ -13,6 +13,9 @@
 //!
 //! Run: `cargo run --release --example workflow_measurement_power`
 
+#[path = "common/progress.rs"]
+mod progress;
+
 use fdid::data::OddMultisineDesign;
 use fdid::prelude::*;
 use fdid::simulate::SplitMix64;
@@ -114,7 +117,7 @@ const RUNS: u64 = 50;
 /// Fraction of runs naming `effect` first, and the mean of the first step's `key` detail.
 fn power(sim: &Sim, effect: Effect, key: &str, seed0: u64) -> (f64, Option<f64>) {
     let (mut hits, mut sum, mut count) = (0, 0.0, 0);
-    for r in 0..RUNS {
+    for r in progress::runs(RUNS, effect.as_str()) {
         let (report, _) = run(sim, seed0 + r);
         if report.effects.first() == Some(&effect) {
             hits += 1;
