@@ -144,8 +144,15 @@ fn main() -> Result<()> {
             .collect();
         let f = Pipeline::default().fit(&model, &lines(&ui[..HALF], &y[..HALF], ts)?)?;
         let s = simulate(f.theta(), na, nb, &ui);
-        let e: f64 = yv.iter().zip(&s[HALF..]).map(|(a, b)| (a - b).powi(2)).sum();
-        others.push(format!("d = {dd}: {:.1} %", 100.0 * (1.0 - (e / var).sqrt())));
+        let e: f64 = yv
+            .iter()
+            .zip(&s[HALF..])
+            .map(|(a, b)| (a - b).powi(2))
+            .sum();
+        others.push(format!(
+            "d = {dd}: {:.1} %",
+            100.0 * (1.0 - (e / var).sqrt())
+        ));
     }
     println!("   other delays: {}", others.join(", "));
     Ok(())

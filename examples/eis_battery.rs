@@ -26,7 +26,11 @@ use std::path::Path;
 
 fn rel_err(model: &Fit<f64, Rational<f64>>, data: &FrequencyData<f64>) -> f64 {
     let g = model.response_at(data.omega());
-    let e: f64 = g.iter().zip(data.y()).map(|(a, b)| (a - b).norm_sqr()).sum();
+    let e: f64 = g
+        .iter()
+        .zip(data.y())
+        .map(|(a, b)| (a - b).norm_sqr())
+        .sum();
     let n: f64 = data.y().iter().map(|b| b.norm_sqr()).sum();
     (e / n).sqrt()
 }
@@ -34,7 +38,9 @@ fn rel_err(model: &Fit<f64, Rational<f64>>, data: &FrequencyData<f64>) -> f64 {
 fn main() -> Result<()> {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/eis_battery.csv");
     let Measurement::Frequency(all) = read_csv::<f64>(&path)? else {
-        return Err(FdidError::Io("data/eis_battery.csv is not frequency data".into()));
+        return Err(FdidError::Io(
+            "data/eis_battery.csv is not frequency data".into(),
+        ));
     };
     let capacitive: Vec<bool> = all.y().iter().map(|z| z.im < 0.0).collect();
     let data = all.select_lines(&capacitive)?;
