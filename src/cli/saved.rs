@@ -140,12 +140,15 @@ pub fn eval(args: &EvalArgs) -> Result<String, Failure> {
     Ok(out)
 }
 
+/// A response and its standard deviation, when known.
+type Evaluated = (Vec<Complex<f64>>, Option<Vec<f64>>);
+
 /// The response and its standard deviation of the saved model in `fitted`.
 fn respond<M: ModelStructure<f64> + DeserializeOwned>(
     fitted: &Value,
     omega: &[f64],
     name: &str,
-) -> Result<(Vec<Complex<f64>>, Option<Vec<f64>>), Failure> {
+) -> Result<Evaluated, Failure> {
     let model: FittedModel<f64, M> = serde_json::from_value(fitted.clone())
         .map_err(|e| Failure::runtime(format!("{name}: bad saved model: {e}")))?;
     if model.theta.len() != model.model.n_params() {
