@@ -108,6 +108,39 @@ fn touchstone_port_selects_the_entry_and_s1p_reads() {
 }
 
 #[test]
+fn diagnose_reads_touchstone_and_adds_the_missing_pole() {
+    let v = json_of(&fdid(&[
+        "diagnose",
+        &bundled("rlc_bandpass.s2p"),
+        "--domain",
+        "s",
+        "--na",
+        "1",
+        "--nb",
+        "1",
+        "--port",
+        "21",
+        "--json",
+    ]));
+    assert_eq!(v["effects"][0], "missing_pole", "{v}");
+    assert_eq!(v["final"]["na"], 2);
+    let csv = fdid(&[
+        "fit",
+        &bundled("eis_battery.csv"),
+        "--domain",
+        "s",
+        "--na",
+        "1",
+        "--nb",
+        "1",
+        "--port",
+        "11",
+    ]);
+    assert_eq!(csv.status.code(), Some(2));
+    assert!(stderr(&csv).contains("Touchstone"), "{}", stderr(&csv));
+}
+
+#[test]
 fn malformed_touchstone_is_one_error_line_with_its_line_number() {
     let dir = scratch("bad-ts");
     let p = dir.join("bad.s1p");

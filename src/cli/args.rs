@@ -86,9 +86,9 @@ Examples:
   fdid eval rlc.json --freq 1e6:1e7:20";
 
 const DIAGNOSE_HELP: &str = "\
-The discrepancy workflow. The data file, --ts, --band, --periods and the starting model
-(--domain, --na, --nb, --delay, --transient) are as for `fdid fit` (see `fdid fit --help`
-for the file formats). Each step fits the current model by maximum likelihood (McKelvey
+The discrepancy workflow. The data file, --port, --ts, --band, --periods and the
+starting model (--domain, --na, --nb, --delay, --transient) are as for `fdid fit` (see
+`fdid fit --help` for the file formats). Each step fits the current model by maximum likelihood (McKelvey
 eq. 23), runs every detector on the normalised residuals r_k (time_delay,
 missing_resonance, transient, colored_noise, missing_pole, missing_zero: score tests with
 a p-value), refits the proposals below --alpha and keeps the one a likelihood-ratio test
@@ -126,6 +126,7 @@ data or a failed fit and 2 for bad usage.
 Examples:
   fdid diagnose data/dryer.csv --domain z --na 2 --nb 2 --report report
   fdid diagnose data/robot_arm.csv --domain z --na 4 --nb 4 --periods 1 --json
+  fdid diagnose data/rlc_bandpass.s2p --domain s --na 1 --nb 1 --port 21
   fdid diagnose record.csv --domain z --na 2 --nb 1 --periods 4 --alpha 0.05";
 
 const EVAL_HELP: &str = "\
