@@ -142,7 +142,8 @@ pub fn touchstone_ports(path: &Path) -> Option<usize> {
 ///   `GHz` (default GHz), parameter `S`, `Y`, `Z`, `H` or `G` (default S), format `RI`
 ///   (real, imaginary), `MA` (magnitude, angle in degrees) or `DB` (20·log₁₀ magnitude,
 ///   angle in degrees) (default MA), `R` followed by the reference resistance in Ω (default
-///   50). Later option lines are ignored, as the specification says.
+///   50). Later option lines are ignored, as the specification says; an option line
+///   after data rows that were read with the defaults is an error.
 /// - Data: per frequency the frequency, then the pairs of the `ports × ports` matrix. A
 ///   1-port row is `f X11`; a 2-port row is `f X11 X21 X12 X22` (this column order is
 ///   that of version 1). Fields are separated by spaces, tabs or commas; a row may be
@@ -159,10 +160,11 @@ pub fn touchstone_ports(path: &Path) -> Option<usize> {
 ///
 /// # Errors
 /// [`FdidError::Parse`] with the 1-based line number (0 for the file as a whole) for: a
-/// Touchstone 2 keyword, an unknown or repeated option field, a missing or bad reference
-/// resistance, a field that is not a number or is not finite, a negative or non-increasing
-/// frequency, a row cut short at the end of the file, no data rows, invalid UTF-8, a port
-/// count other than 1 or 2; [`FdidError::Io`] when reading fails.
+/// Touchstone 2 keyword, an unknown or repeated option field, an option line after the
+/// data, a missing or bad reference resistance, a field that is not a number or is not
+/// finite, a negative or non-increasing frequency, a row cut short at the end of the file,
+/// no data rows, invalid UTF-8, a port count other than 1 or 2; [`FdidError::Io`] when
+/// reading fails.
 pub fn parse_touchstone<R: Read>(mut reader: R, ports: usize, name: &str) -> Result<Touchstone> {
     let perr = |line: usize, message: String| FdidError::Parse {
         path: name.to_string(),
@@ -195,6 +197,8 @@ pub fn parse_touchstone<R: Read>(mut reader: R, ports: usize, name: &str) -> Res
     let mut freq_hz = Vec::new();
     let mut values = Vec::new();
     let mut noise_section = false;
+    let mut options_given = false;
+    let mut data_line: Option<usize> = None;
     for (i, raw) in text.lines().enumerate() {
         let line = i + 1;
         let content = raw.split('!').next().unwrap_or("").trim();
@@ -212,11 +216,27 @@ pub fn parse_touchstone<R: Read>(mut reader: R, ports: usize, name: &str) -> Res
             ));
         }
         if let Some(rest) = content.strip_prefix('#') {
+            if let Some(first) = data_line {
+                if options_given {
+                    // later option lines are ignored
+                    continue;
+                }
+                return Err(perr(
+                    line,
+                    format!(
+                        "the option line comes after the data of line {first}: it must \
+                         precede them (the data above would have been read with the \
+                         defaults GHz, S, MA)"
+                    ),
+                ));
+            }
             if options.is_none() {
                 options = Some(Options::parse(rest).map_err(|m| perr(line, m))?);
+                options_given = true;
             }
             continue;
         }
+        data_line.get_or_insert(line);
         let opts = *options.get_or_insert_with(Options::default);
         for field in content
             .split(|c: char| c.is_whitespace() || c == ',')
@@ -519,6 +539,11 @@ mod tests {
             ("[Version] 2.0\n# Hz S RI\n", 2, 1),
             ("# Hz S RI\n1 0 0 0 0 0 0 0 0\n2 1 1 1\n", 2, 3),
         ];
+        // an option line after the data
+        assert_eq!(line_of(parse("1 0 0\n# Hz S RI\n", 1).unwrap_err()), 2);
+        // a second option line is ignored
+        let t = parse("# Hz S RI\n1 0 0\n# GHz S MA\n2 0 0\n", 1).unwrap();
+        assert_eq!(t.freq_hz, vec![1.0, 2.0]);
         for (text, ports, line) in cases {
             let e = parse(text, ports).unwrap_err();
             let msg = e.to_string();
