@@ -17,8 +17,9 @@ Examples:
   fdid fit data/rlc_bandpass.s2p --domain s --na 2 --nb 1 --port 21 --save rlc.json
   fdid eval rlc.json --freq 1e6:1e7:20
 
-Run `fdid fit --help` for the data file formats and every option, `fdid diagnose --help`
-for the discrepancy workflow.";
+Run `fdid fit --help` for the data file formats (CSV, Touchstone .s1p/.s2p) and every
+option, `fdid diagnose --help` for the discrepancy workflow, `fdid eval --help` for saved
+models.";
 
 const FIT_HELP: &str = "\
 Data files (CSV, header names the columns, any order, case-insensitive; `#` lines are comments):
@@ -144,7 +145,7 @@ Examples:
   fdid eval eis.json --freq 1,10,100 --json";
 
 /// Frequency-domain system identification: fit rational transfer functions in s or z to
-/// measured frequency responses, spectra or periodic time records.
+/// measured frequency responses (CSV or Touchstone), spectra or time records.
 #[derive(Debug, Parser)]
 #[command(name = "fdid", version, after_help = MAIN_HELP)]
 pub struct Cli {
