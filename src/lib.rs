@@ -63,6 +63,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod basis;
+pub mod batch;
 pub mod criterion;
 pub mod data;
 pub mod error;
