@@ -7,8 +7,9 @@
 //! * `batch_dt4_1000/rayon_1_thread`, `…/rayon_2_threads`: `fit_many` inside a local rayon
 //!   pool of 1 and 2 threads.
 //!
-//! The speed-up of each against the sequential loop (median of 3 timed batches each) is
-//! printed once to stderr.
+//! The speed-up of each against the sequential loop (best of 5 timed batches each, the
+//! three taking turns) is printed once to stderr: on a machine shared with other work the
+//! best time is the one least disturbed.
 //!
 //! Run: `cargo bench --features rayon --bench batch` (about a minute on 2 cores).
 
@@ -79,16 +80,19 @@ fn pool(threads: usize) -> rayon::ThreadPool {
         .expect("a rayon thread pool")
 }
 
-fn median_secs(mut f: impl FnMut()) -> f64 {
-    let mut t: Vec<f64> = (0..3)
-        .map(|_| {
+/// Best of `ROUNDS` timings of each closure, the closures taking turns round by round, so
+/// that a load from other processes that comes and goes hits all of them alike.
+fn best_interleaved(fs: &mut [&mut dyn FnMut()]) -> Vec<f64> {
+    const ROUNDS: usize = 5;
+    let mut best = vec![f64::INFINITY; fs.len()];
+    for _ in 0..ROUNDS {
+        for (f, b) in fs.iter_mut().zip(&mut best) {
             let t0 = Instant::now();
             f();
-            t0.elapsed().as_secs_f64()
-        })
-        .collect();
-    t.sort_by(f64::total_cmp);
-    t[1]
+            *b = b.min(t0.elapsed().as_secs_f64());
+        }
+    }
+    best
 }
 
 fn bench_batch(c: &mut Criterion) {
@@ -100,23 +104,26 @@ fn bench_batch(c: &mut Criterion) {
 
     let fits = fit_many_sequential(&pipeline, &model, &data);
     let failed = fits.iter().filter(|r| r.is_err()).count();
-    let seq = median_secs(|| {
-        black_box(fit_many_sequential(&pipeline, &model, &data));
-    });
-    let r1 = median_secs(|| {
-        one.install(|| black_box(fit_many(&pipeline, &model, &data)));
-    });
-    let r2 = median_secs(|| {
-        two.install(|| black_box(fit_many(&pipeline, &model, &data)));
-    });
+    let t = best_interleaved(&mut [
+        &mut || {
+            black_box(fit_many_sequential(&pipeline, &model, &data));
+        },
+        &mut || {
+            one.install(|| black_box(fit_many(&pipeline, &model, &data)));
+        },
+        &mut || {
+            two.install(|| black_box(fit_many(&pipeline, &model, &data)));
+        },
+    ]);
     eprintln!(
-        "batch of {ITEMS} DT order-4 FRFs ({failed} failed): sequential {:.0} ms, rayon 1 thread \
-         {:.0} ms ({:.2}x), rayon 2 threads {:.0} ms ({:.2}x)",
-        1e3 * seq,
-        1e3 * r1,
-        seq / r1,
-        1e3 * r2,
-        seq / r2
+        "batch of {ITEMS} DT order-4 FRFs ({failed} failed), best of 5 interleaved rounds: \
+         sequential {:.0} ms, rayon 1 thread {:.0} ms ({:.2}x), rayon 2 threads {:.0} ms \
+         ({:.2}x)",
+        1e3 * t[0],
+        1e3 * t[1],
+        t[0] / t[1],
+        1e3 * t[2],
+        t[0] / t[2]
     );
 
     let mut group = c.benchmark_group("batch_dt4_1000");
