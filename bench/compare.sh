@@ -32,7 +32,8 @@ if [ "${RUST_PEERS:-1}" != 0 ]; then
         cargo build --quiet --release --manifest-path "$rs/Cargo.toml"; then
         CARGO_TARGET_DIR="${RUST_PEERS_TARGET_DIR:-$rs/target}" \
             cargo run --quiet --release --manifest-path "$rs/Cargo.toml" 2> /dev/null
-        "$py" "$here/bench/score_rs.py" "$peers" > /dev/null
+        # its own table (with the reasons of any failed or skipped fit) goes to a file
+        "$py" "$here/bench/score_rs.py" "$peers" > "$PEERS_WORK/rust_peers.txt"
     else
         echo "bench/rust-peers does not build: the table leaves the Rust peers out" >&2
     fi
