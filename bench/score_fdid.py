@@ -1,6 +1,7 @@
 #!/usr/bin/env python3
 """Scores fdid's fits of the peers' cases with the peers' own `score()` and prints one
-table beside the peers' results (from the same machine, written by peers.py).
+table beside the peers' results (from the same machine, written by peers.py), and beside
+the Rust peers' (written by score_rs.py) when $PEERS_WORK/results_rs.json exists.
 
 Usage: score_fdid.py PEERS_DIR   (PEERS_WORK must point at the cases and results)
 """
@@ -16,6 +17,7 @@ import peers  # noqa: E402  (the harness: load_case, score)
 WORK = os.environ["PEERS_WORK"]
 OUT = os.path.join(WORK, "out-fdid")
 PEER_RESULTS = os.path.join(WORK, "results_1thread.json")
+RUST_RESULTS = os.path.join(WORK, "results_rs.json")
 
 
 def fdid_result(name):
@@ -32,17 +34,23 @@ def fdid_result(name):
 
 
 def main():
-    theirs = json.load(open(PEER_RESULTS))["cases"] if os.path.exists(PEER_RESULTS) else {}
+    def load(path):
+        return json.load(open(path))["cases"] if os.path.exists(path) else {}
+
+    theirs, rust = load(PEER_RESULTS), load(RUST_RESULTS)
     names = sorted(f[:-5] for f in os.listdir(OUT) if f.endswith(".json"))
-    print(f"{'case':12s} {'method':8s} {'rel_rms':>9s} {'pole_err':>9s} {'time_ms':>9s} {'fdid x':>7s}")
+    print(f"{'case':12s} {'method':14s} {'rel_rms':>9s} {'pole_err':>9s} {'time_ms':>9s} {'fdid x':>7s}")
     for name in names:
         ours = fdid_result(name)
         rows = [("fdid", ours)] + [
-            (m, r) for m, r in theirs.get(name, {}).get("methods", {}).items() if "time_s" in r
+            (m, r)
+            for results in (theirs, rust)
+            for m, r in results.get(name, {}).get("methods", {}).items()
+            if "time_s" in r
         ]
         for m, r in rows:
             ratio = r["time_s"] / ours["time_s"]
-            print(f"{name:12s} {m:8s} {r['rel_rms']:9.2e} {r['pole_err']:9.2e} "
+            print(f"{name:12s} {m:14s} {r['rel_rms']:9.2e} {r['pole_err']:9.2e} "
                   f"{1e3 * r['time_s']:9.2f} {ratio:7.1f}")
 
 

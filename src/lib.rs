@@ -34,6 +34,8 @@
 //! (Sanathanan–Koerner as pole relocation) before the ML refinement. [`Pipeline`] runs
 //! Levy → SK → ML; [`pipeline::estimate`] composes any criterion with any solver that
 //! accepts its problem.
+//! [`batch::fit_many`] fits many independent data sets with one pipeline, on rayon's
+//! thread pool with the `rayon` feature.
 //!
 //! Equation numbers refer to T. McKelvey, *Frequency domain identification methods*
 //! (Circuits Systems Signal Processing, 2002).
@@ -63,6 +65,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod basis;
+pub mod batch;
 pub mod criterion;
 pub mod data;
 pub mod error;
