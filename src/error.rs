@@ -107,20 +107,6 @@ pub enum FdidError {
         /// Estimated condition number (infinite when exactly singular).
         condition: f64,
     },
-    /// An estimate exists but is not determined by the data to working precision: the
-    /// Jacobian at the estimate is so ill-conditioned that the model could be wrong while
-    /// fitting the data (e.g. poles closer together than the precision resolves).
-    #[error(
-        "ill-conditioned estimate: {what} (condition number {condition:.3e}, limit {limit:.3e})"
-    )]
-    IllConditioned {
-        /// What is ill-conditioned.
-        what: String,
-        /// The estimated condition number.
-        condition: f64,
-        /// The largest condition number accepted.
-        limit: f64,
-    },
     /// An iterative method stopped without converging.
     #[error("{method} did not converge: {reason}")]
     NotConverged {

@@ -8,12 +8,14 @@
 //! keeps the lowest cost;
 //! [`Fit::unresolved_poles`] names poles whose damping the frequency grid cannot determine.
 
+use crate::criterion::MaximumLikelihood;
 use crate::data::FrequencyData;
 use crate::error::{FdidError, Result};
-use crate::fit::Fit;
-use crate::model::{Domain, Rational};
-use crate::pipeline::Pipeline;
+use crate::fit::{Fit, Stage};
+use crate::model::{Domain, EquationError, Rational};
+use crate::pipeline::{Pipeline, estimate};
 use crate::{Complex, Real};
+use nalgebra::{DMatrix, DVector};
 use num_traits::Float;
 
 /// The starting basis poles of [`fit_multistart`] for order `na` on `omega` (rad/s), with
@@ -175,6 +177,156 @@ pub fn fit_multistart<T: Real>(
         (None, Some(e)) => Err(e),
         (None, None) => unreachable!("at least one start"),
     }
+}
+
+/// Fits a discrete-time model B(z⁻¹)/A(z⁻¹) of degrees (`na`, `nb`) with sample time
+/// `ts` by `pipeline` from two kinds of start, returning the fit of lowest cost V:
+/// - the automatic one ([`Pipeline::fit`]: Levy → SK → ML);
+/// - order reduction: the chain at degrees (na + 2, nb + 2), then, for every way of
+///   dropping one pole pair or two real poles of that fit, A = Π(1 − pⱼz⁻¹) over the
+///   remaining poles, B by weighted linear least squares with A fixed
+///   (min_b Σ_k w_k² |Y_k − B(z_k)/A(z_k) U_k|²), and ML from (A, B).
+///
+/// # Errors
+/// `na = 0`, `nb > na + 2` or an invalid `ts`; when every start fails, the error of the
+/// automatic one.
+pub fn fit_multistart_discrete<T: Real>(
+    pipeline: &Pipeline,
+    na: usize,
+    nb: usize,
+    ts: T,
+    data: &FrequencyData<T>,
+) -> Result<Fit<T, Rational<T>>> {
+    if na == 0 {
+        return Err(FdidError::InvalidArgument {
+            name: "na",
+            value: "0".into(),
+            reason: "order reduction needs at least one pole".into(),
+        });
+    }
+    let model = Rational::discrete(na, nb, ts)?;
+    let first = pipeline.fit(&model, data);
+    let mut best = first.as_ref().ok().cloned();
+    if let (Some(lm), Ok(big)) = (
+        pipeline.ml,
+        Rational::discrete(na + 2, nb + 2, ts).and_then(|m| pipeline.fit(&m, data)),
+    ) && let Ok(poles) = big.poles()
+    {
+        let weights = pipeline.weighting.weights(data)?;
+        let ml = MaximumLikelihood {
+            weighting: pipeline.weighting,
+        };
+        for start in reduced_poles_z(&poles) {
+            let Some(theta) = discrete_start(&model, &start, data, weights.as_deref()) else {
+                continue;
+            };
+            let Ok(sol) = estimate(&model, data, &ml, &lm, Some(&theta)) else {
+                continue;
+            };
+            if best.as_ref().is_none_or(|b| sol.cost < b.cost()) {
+                let stages = vec![Stage {
+                    name: "ml-reduced".into(),
+                    solution: sol.clone(),
+                }];
+                if let Ok(f) = Fit::new(model.clone(), data, sol.theta, pipeline.weighting, stages)
+                {
+                    best = Some(f);
+                }
+            }
+        }
+    }
+    match best {
+        Some(b) => Ok(b),
+        None => first,
+    }
+}
+
+/// Every way of dropping one conjugate pair or two real poles of a z-plane pole set
+/// (closed under conjugation), each returned closed under conjugation.
+fn reduced_poles_z<T: Real>(poles: &[Complex<T>]) -> Vec<Vec<Complex<T>>> {
+    let pairs: Vec<Complex<T>> = poles.iter().copied().filter(|q| q.im > T::zero()).collect();
+    let real: Vec<Complex<T>> = poles
+        .iter()
+        .copied()
+        .filter(|q| q.im == T::zero())
+        .collect();
+    let close = |p: Vec<Complex<T>>, r: Vec<Complex<T>>| {
+        let mut out: Vec<Complex<T>> = p.iter().flat_map(|q| [*q, q.conj()]).collect();
+        out.extend(r);
+        out
+    };
+    let mut out = vec![];
+    for i in 0..pairs.len() {
+        let p = pairs
+            .iter()
+            .enumerate()
+            .filter(|(k, _)| *k != i)
+            .map(|(_, q)| *q)
+            .collect();
+        out.push(close(p, real.clone()));
+    }
+    for i in 0..real.len() {
+        for j in i + 1..real.len() {
+            let r = real
+                .iter()
+                .enumerate()
+                .filter(|(k, _)| *k != i && *k != j)
+                .map(|(_, q)| *q)
+                .collect();
+            out.push(close(pairs.clone(), r));
+        }
+    }
+    out
+}
+
+/// θ = [a₁ … a_na, b₀ … b_nb] of `model` with A(z⁻¹) = Π(1 − pⱼz⁻¹) and B the weighted
+/// linear least-squares numerator for that A; `None` when the solve fails.
+fn discrete_start<T: Real>(
+    model: &Rational<T>,
+    poles: &[Complex<T>],
+    data: &FrequencyData<T>,
+    weights: Option<&[T]>,
+) -> Option<Vec<T>> {
+    let (na, nb) = (model.na(), model.nb());
+    // Π(1 − p z⁻¹) in ascending powers of z⁻¹
+    let mut a = vec![Complex::new(T::one(), T::zero())];
+    for p in poles {
+        let mut next = vec![Complex::new(T::zero(), T::zero()); a.len() + 1];
+        for (k, v) in a.iter().enumerate() {
+            next[k] += *v;
+            next[k + 1] -= *v * *p;
+        }
+        a = next;
+    }
+    if a.len() != na + 1 {
+        return None;
+    }
+    let a: Vec<T> = a.iter().map(|c| c.re).collect();
+    let mut theta: Vec<T> = a[1..].to_vec();
+    theta.extend(std::iter::repeat_n(T::zero(), nb + 1));
+    let n = data.len();
+    let mut den = vec![Complex::new(T::zero(), T::zero()); n];
+    model.denominator_into(&theta, data.omega(), &mut den);
+    let mut m = DMatrix::zeros(2 * n, nb + 1);
+    let mut rhs = DVector::zeros(2 * n);
+    for k in 0..n {
+        let w = weights.map_or(T::one(), |w| w[k]);
+        let zinv = model.variable(data.omega()[k]).inv();
+        let base = data.u()[k] * w / den[k];
+        let mut pw = Complex::new(T::one(), T::zero());
+        for j in 0..=nb {
+            let c = base * pw;
+            m[(2 * k, j)] = c.re;
+            m[(2 * k + 1, j)] = c.im;
+            pw *= zinv;
+        }
+        let y = data.y()[k] * w;
+        rhs[2 * k] = y.re;
+        rhs[2 * k + 1] = y.im;
+    }
+    let (b, _) = crate::solver::least_squares(m, rhs, 1e3).ok()?;
+    theta[na..].copy_from_slice(b.as_slice());
+    Some(theta)
 }
 
 impl<T: Real> Fit<T, Rational<T>> {

@@ -1,9 +1,11 @@
 //! Numerical stress: high orders over many decades, clustered poles, and f32 fits.
 //!
-//! Every case must end in one of two ways: a fit that is correct against the known truth
-//! — response and poles within what the noise allows, judged with the fit's own
-//! covariance — or a typed error. A model that is wrong while the fit reports success is
-//! a failure of the test.
+//! Every case must end in one of three ways: a fit that is correct against the known
+//! truth — response and poles within what the noise allows, judged with the fit's own
+//! covariance — a typed `Singular` error, or a fit that flags itself (a pole the grid
+//! does not resolve, `Fit::unresolved_poles`, or a failed cost test). A model that is
+//! wrong while the fit reports nothing is a failure of the test. In the current version
+//! every case but the clustered resonances with noise is a correct fit.
 
 mod common;
 
@@ -40,13 +42,10 @@ fn data_of<T: Real>(
     }
 }
 
-/// A typed singular / ill-conditioned error: the acceptable failure of a stress case.
+/// A typed singular-problem error: the acceptable failure of a stress case.
 fn ill_conditioned(e: &FdidError) -> bool {
     eprintln!("typed error: {e}");
-    matches!(
-        e,
-        FdidError::Singular { .. } | FdidError::IllConditioned { .. }
-    )
+    matches!(e, FdidError::Singular { .. })
 }
 
 fn to_f64<T: Real>(v: &[Complex<T>]) -> Vec<Complex<f64>> {
@@ -215,6 +214,7 @@ fn order_30_over_six_decades_with_noise() {
     let model = Rational::continuous(30, 29, data.omega()).unwrap();
     let fit = Pipeline::default().fit(&model, &data).unwrap();
     check_noisy_fit(&fit, &g0, &sys.poles());
+    assert!(!flagged(&fit), "{:?}", fit.unresolved_poles());
 }
 
 #[test]
@@ -408,6 +408,7 @@ fn f32_at_60_db_matches_the_f64_fit() {
         let m32 = Rational::continuous(na, na - 1, d32.omega()).unwrap();
         let f64fit = Pipeline::default().fit(&m64, &d64).unwrap();
         check_noisy_fit(&f64fit, &g0, &sys.poles());
+        assert!(!flagged(&f64fit), "order {na}");
         let f32fit = match Pipeline::default().fit(&m32, &d32) {
             Ok(f) => f,
             Err(e) => {
@@ -445,4 +446,48 @@ fn f32_at_60_db_matches_the_f64_fit() {
             "order {na}: f32 cost {c32}, f64 cost {c64}"
         );
     }
+}
+
+#[test]
+fn a_resonance_between_two_lines_is_unresolved() {
+    // ζ = 10⁻⁴ at 1 rad/s: half-power band ±10⁻⁴ rad/s, between lines 1 % apart
+    let sys = modal(&[1.0, 20.0], &[1e-4, 0.05], &[1.0, 1.0]);
+    let mut omega = logspace(-1.0, 2.0, 600);
+    omega.retain(|w| (w - 1.0).abs() > 2e-3);
+    let g0 = sys.frf(&omega);
+    let data = data_of::<f64>(&g0, &omega, 0.0, 0);
+    let model = Rational::continuous(4, 3, data.omega()).unwrap();
+    let fit = Pipeline::default().fit(&model, &data).unwrap();
+    let unresolved = fit.unresolved_poles().unwrap();
+    assert_eq!(unresolved.len(), 1, "{unresolved:?}");
+    assert!(
+        (unresolved[0] - sys.poles()[0]).norm() < 1e-3,
+        "{unresolved:?}"
+    );
+    // the same resonance with a line inside its half-power band is resolved
+    omega.push(1.0);
+    omega.sort_by(|a, b| a.total_cmp(b));
+    let g0 = sys.frf(&omega);
+    let data = data_of::<f64>(&g0, &omega, 0.0, 0);
+    let fit = Pipeline::default().fit(&model, &data).unwrap();
+    assert!(fit.unresolved_poles().unwrap().is_empty());
+}
+
+#[test]
+fn multistart_rejects_orders_without_poles() {
+    let omega = logspace(-1.0, 1.0, 50);
+    let g0 = modes(1).frf(&omega);
+    let data = data_of::<f64>(&g0, &omega, 0.0, 0);
+    for (na, nb) in [(0, 0), (2, 3)] {
+        let e = fit_multistart(&Pipeline::default(), na, nb, &data).unwrap_err();
+        assert!(
+            matches!(e, FdidError::InvalidArgument { name: "nb", .. }),
+            "{e}"
+        );
+    }
+    let e = fit_multistart_discrete(&Pipeline::default(), 0, 0, 0.1, &data).unwrap_err();
+    assert!(
+        matches!(e, FdidError::InvalidArgument { name: "na", .. }),
+        "{e}"
+    );
 }

@@ -4,8 +4,8 @@
 //!
 //! For each random stable system (see [`ct_case`] and [`dt_case`]) at 40 dB SNR, the cost
 //! reached by the pipeline is compared with the best of reference runs: ML started at the
-//! true parameters, the chain started from perturbed true poles, and for continuous time
-//! `fit_multistart` (the chain from four starting pole sets). The pipeline
+//! true parameters, the chain started from perturbed true poles, and the multistart fits
+//! (`fit_multistart`, `fit_multistart_discrete`). The pipeline
 //! "reached the global optimum" when its cost is within 10⁻⁶ relative or 10⁻³ absolute of
 //! the best cost found by any run (its own included).
 
@@ -182,7 +182,8 @@ pub struct Outcome {
     pub auto: std::result::Result<f64, String>,
     /// Whether the automatic fit is stable.
     pub auto_stable: bool,
-    /// Cost reached by `fit_multistart` (continuous time only), or its error.
+    /// Cost reached by `fit_multistart` (continuous time) or `fit_multistart_discrete`,
+    /// or its error.
     pub multi: Option<std::result::Result<f64, String>>,
     /// Cost of ML started at the true parameters (`None` if it failed).
     pub truth: Option<f64>,
@@ -197,7 +198,7 @@ impl Outcome {
         self.hit(&self.auto)
     }
 
-    /// `fit_multistart` reached the best cost found (`None` for discrete time).
+    /// The multistart fit reached the best cost found.
     pub fn multi_reached(&self) -> Option<bool> {
         self.multi.as_ref().map(|m| self.hit(m))
     }
@@ -233,8 +234,8 @@ fn ml_from(model: &Rational<f64>, data: &FrequencyData<f64>, start: &[f64]) -> O
 }
 
 /// Runs the study on one case: the automatic pipeline, ML from the truth, `perturbed`
-/// runs from true poles perturbed by 5 % relative (uniform in a complex square), and for
-/// continuous time `fit_multistart` (which is also measured).
+/// runs from true poles perturbed by 5 % relative (uniform in a complex square), and the
+/// multistart fit (`fit_multistart` or `fit_multistart_discrete`, also measured).
 pub fn run(case: &Case, perturbed: usize) -> Outcome {
     let sys = &case.sys;
     let (na, nb) = (sys.na, sys.nb);
@@ -249,11 +250,19 @@ pub fn run(case: &Case, perturbed: usize) -> Outcome {
         ),
         Err(e) => (Err(e.to_string()), false),
     };
-    let multi = (case.kind == Kind::Ct).then(|| {
-        fit_multistart(&Pipeline::default(), na, nb, &case.data)
-            .map(|f| f.cost())
-            .map_err(|e| e.to_string())
-    });
+    let multi = match case.kind {
+        Kind::Ct => fit_multistart(&Pipeline::default(), na, nb, &case.data),
+        Kind::Dt => fit_multistart_discrete(
+            &Pipeline::default(),
+            na,
+            nb,
+            sys.zpk.ts.unwrap(),
+            &case.data,
+        ),
+    }
+    .map(|f| f.cost())
+    .map_err(|e| e.to_string());
+    let multi = Some(multi);
     let mut rng = StdRng::seed_from_u64(case.seed ^ 0x9e37_79b9);
     let mut refs: Vec<f64> = vec![];
     let truth = match case.kind {
@@ -355,7 +364,7 @@ pub fn study(
 ) -> Vec<Outcome> {
     (first..first + count)
         .map(|seed| {
-            let case = if (seed - first) % 2 == 0 {
+            let case = if (seed - first).is_multiple_of(2) {
                 ct_case(seed)
             } else {
                 dt_case(seed)
