@@ -76,6 +76,7 @@ pub mod greybox;
 pub mod io;
 pub mod ltv;
 pub mod model;
+pub mod multistart;
 pub mod pipeline;
 pub mod problem;
 pub mod roots;
@@ -115,6 +116,7 @@ pub mod prelude {
     pub use crate::model::{Domain, EquationError, ModelStructure, PolesZeros, Rational};
     pub use crate::model::{Modal, ModalDomain, ModalOptions, fit_modal};
     pub use crate::model::{NoiseModel, WithNoiseModel};
+    pub use crate::multistart::{fit_multistart, fit_multistart_discrete};
     pub use crate::pipeline::Pipeline;
     pub use crate::pipeline::estimate;
     pub use crate::scalar::{Complex, Real};

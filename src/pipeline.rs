@@ -49,7 +49,10 @@ where
 /// | `ml` | `Some(LevenbergMarquardt::default())` | ML refinement; `None` stops after SK |
 /// | `linear` | [`LinearLeastSquares::default`] | the Levy solve |
 ///
-/// If ML fails from the SK estimate it is retried from the Levy estimate.
+/// If ML fails from the SK estimate it is retried from the Levy estimate (in the model's
+/// original basis). When SK or ML stops at its iteration cap, two more ML starts are
+/// tried — from the Levy estimate, and (for relocatable bases) from a Levy solve in the
+/// basis of the ML poles with unstable ones reflected — and the lowest cost is kept.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Pipeline {
     /// Line weighting used by every stage.
@@ -107,8 +110,10 @@ impl Pipeline {
             solution: levy.clone(),
         }];
         let mut current = levy.theta.clone();
+        let original = model;
         let mut model = model.clone();
-        if let (Some(fp), true) = (&self.sk, model.relocated(&levy.theta).is_some()) {
+        let relocated = self.sk.is_some() && model.relocated(&levy.theta).is_some();
+        if let (Some(fp), true) = (&self.sk, relocated) {
             let (m, sk) = self.relocate(model, data, levy.theta.clone(), fp)?;
             model = m;
             current = sk.theta.clone();
@@ -130,14 +135,45 @@ impl Pipeline {
                 solution: sk,
             });
         }
-        let model = &model;
         if let Some(lm) = &self.ml {
             let ml = MaximumLikelihood { weighting: w };
-            let first = estimate(model, data, &ml, lm, Some(&current));
-            let retry = || estimate(model, data, &ml, lm, Some(&levy.theta));
+            let sk_capped = stages.last().is_some_and(|s| !s.solution.converged());
+            let first = estimate(&model, data, &ml, lm, Some(&current));
+            // the Levy estimate belongs to the original basis
+            let from_levy = || estimate(original, data, &ml, lm, Some(&levy.theta));
+            let suspicious = |a: &Solution<T>| sk_capped || !a.converged();
             let best = match first {
+                Ok(a) if suspicious(&a) && current != levy.theta => {
+                    // SK or ML stopped at its cap: typically the relocation traded a
+                    // heavily damped pole for a spurious lightly damped one. Second starts:
+                    // ML from the Levy estimate, and (relocatable bases) one relocation to
+                    // the ML poles with unstable ones reflected, then ML; the lowest cost wins
+                    let mut best = (None, a);
+                    if let Ok(b) = from_levy()
+                        && b.cost < best.1.cost
+                    {
+                        best = (relocated.then(|| original.clone()), b);
+                    }
+                    if let Some(Ok(m2)) = model.relocated(&best.1.theta)
+                        && let Ok(l2) =
+                            estimate(&m2, data, &Levy { weighting: w }, &self.linear, None)
+                        && let Ok(b) = estimate(&m2, data, &ml, lm, Some(&l2.theta))
+                        && b.cost < best.1.cost
+                    {
+                        best = (Some(m2), b);
+                    }
+                    if let Some(m) = best.0 {
+                        model = m;
+                    }
+                    best.1
+                }
                 Ok(a) => a,
-                Err(e) if current != levy.theta => retry().map_err(|_| e)?,
+                Err(e) if current != levy.theta => {
+                    if relocated {
+                        model = original.clone();
+                    }
+                    from_levy().map_err(|_| e)?
+                }
                 Err(e) => return Err(e),
             };
             current = best.theta.clone();
@@ -146,7 +182,7 @@ impl Pipeline {
                 solution: best,
             });
         }
-        Fit::new(model.clone(), data, current, w, stages)
+        Fit::new(model, data, current, w, stages)
     }
 
     /// Sanathanan–Koerner by basis relocation (vector fitting): a Levy solve in a basis

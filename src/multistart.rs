@@ -1,0 +1,369 @@
+//! Several automatic starts for continuous-time fits, and the poles a fit cannot resolve.
+//!
+//! The ML cost of a rational model is not convex: from its automatic start (Levy → SK,
+//! with lightly damped starting poles) [`Pipeline::fit`] ends in a local minimum on a
+//! fraction of random high-order systems, typically with a spurious lightly damped (or
+//! unstable) pole pair in place of heavily damped or real poles. [`fit_multistart`] runs
+//! the chain from several starting pole sets and from a reduced higher-order fit, and
+//! keeps the lowest cost;
+//! [`Fit::unresolved_poles`] names poles whose damping the frequency grid cannot determine.
+
+use crate::criterion::MaximumLikelihood;
+use crate::data::FrequencyData;
+use crate::error::{FdidError, Result};
+use crate::fit::{Fit, Stage};
+use crate::model::{Domain, EquationError, Rational};
+use crate::pipeline::{Pipeline, estimate};
+use crate::{Complex, Real};
+use nalgebra::{DMatrix, DVector};
+use num_traits::Float;
+
+/// The starting basis poles of [`fit_multistart`] for order `na` on `omega` (rad/s), with
+/// ω_lo, ω_hi the smallest positive and the largest frequency: pairs −ζωₖ ± iωₖ with ωₖ
+/// log-spread over [ω_lo, ω_hi] for ζ = 0.1 and ζ = 0.5 (plus −ω_hi for odd `na`), and
+/// `na` real poles −ω_lo (ω_hi/ω_lo)^((k + ½)/na).
+fn starting_poles<T: Real>(na: usize, omega: &[T]) -> Vec<Vec<Complex<T>>> {
+    let lo = omega
+        .iter()
+        .copied()
+        .filter(|w| *w > T::zero())
+        .fold(T::infinity(), Float::min);
+    let hi = omega.iter().copied().fold(T::zero(), Float::max);
+    if !(hi > T::zero()) {
+        return vec![];
+    }
+    let (llo, lhi) = (Float::ln(lo), Float::ln(hi));
+    let mut out = vec![];
+    let pairs = na / 2;
+    for zeta in [0.1, 0.5] {
+        let mut p: Vec<Complex<T>> = (0..pairs)
+            .map(|k| {
+                let f = if pairs == 1 {
+                    T::lit(0.5)
+                } else {
+                    T::from_usize_lossy(k) / T::from_usize_lossy(pairs - 1)
+                };
+                let w = Float::exp(llo + (lhi - llo) * f);
+                Complex::new(-w * T::lit(zeta), w)
+            })
+            .collect();
+        if na % 2 == 1 {
+            p.push(Complex::new(-hi, T::zero()));
+        }
+        out.push(p);
+    }
+    out.push(
+        (0..na)
+            .map(|k| {
+                let f = (T::from_usize_lossy(k) + T::lit(0.5)) / T::from_usize_lossy(na);
+                Complex::new(-Float::exp(llo + (lhi - llo) * f), T::zero())
+            })
+            .collect(),
+    );
+    out
+}
+
+/// Every way of dropping one conjugate pair or two real poles from `poles` (closed under
+/// conjugation), as basis poles (upper half-plane and real, reflected into the left
+/// half-plane).
+fn reduced_poles<T: Real>(poles: &[Complex<T>]) -> Vec<Vec<Complex<T>>> {
+    let stable = |q: Complex<T>| {
+        let re = -Float::abs(q.re);
+        let re = if re == T::zero() {
+            -T::default_epsilon()
+        } else {
+            re
+        };
+        Complex::new(re, q.im)
+    };
+    let pairs: Vec<Complex<T>> = poles.iter().copied().filter(|q| q.im > T::zero()).collect();
+    let real: Vec<Complex<T>> = poles
+        .iter()
+        .copied()
+        .filter(|q| q.im == T::zero())
+        .collect();
+    let mut out = vec![];
+    for i in 0..pairs.len() {
+        let mut b: Vec<Complex<T>> = pairs
+            .iter()
+            .enumerate()
+            .filter(|(k, _)| *k != i)
+            .map(|(_, q)| stable(*q))
+            .collect();
+        b.extend(real.iter().map(|q| stable(*q)));
+        out.push(b);
+    }
+    for i in 0..real.len() {
+        for j in i + 1..real.len() {
+            let mut b: Vec<Complex<T>> = pairs.iter().map(|q| stable(*q)).collect();
+            b.extend(
+                real.iter()
+                    .enumerate()
+                    .filter(|(k, _)| *k != i && *k != j)
+                    .map(|(_, q)| stable(*q)),
+            );
+            out.push(b);
+        }
+    }
+    out
+}
+
+/// Fits a continuous-time partial-fraction model of orders (`na`, `nb`), `nb ≤ na`, with
+/// `pipeline` from several starts and returns the fit of lowest cost V:
+/// - four starting pole sets — [`Rational::continuous`]'s lightly damped pairs
+///   (ζ = 0.01), pairs with ζ = 0.1 and ζ = 0.5, and real poles, all log-spread over the
+///   data's band — each followed by the whole chain (Levy → SK → ML);
+/// - order reduction: the chain at orders (na + 2, nb + 2), then, for every way of
+///   dropping one pole pair or two real poles of that fit, a Levy solve in the basis of
+///   the remaining poles and ML from it.
+///
+/// About ten times the work of one [`Pipeline::fit`]; on random stable systems of order
+/// ≤ 10 at 40 dB SNR it reaches the best optimum found far more often (see the README's
+/// Tests section for the figures).
+///
+/// # Errors
+/// `na = 0` or `nb > na`; when every start fails, the error of the first.
+pub fn fit_multistart<T: Real>(
+    pipeline: &Pipeline,
+    na: usize,
+    nb: usize,
+    data: &FrequencyData<T>,
+) -> Result<Fit<T, Rational<T>>> {
+    if na == 0 || nb > na {
+        return Err(FdidError::InvalidArgument {
+            name: "nb",
+            value: format!("{nb} (na = {na})"),
+            reason: "multiple starts need a partial-fraction model: na ≥ 1 and nb ≤ na".into(),
+        });
+    }
+    let mut models = vec![Rational::continuous(na, nb, data.omega())?];
+    for p in starting_poles(na, data.omega()) {
+        models.push(Rational::partial_fractions(p, nb)?);
+    }
+    let mut best: Option<Fit<T, Rational<T>>> = None;
+    let mut first_error = None;
+    let mut keep = |fit: Result<Fit<T, Rational<T>>>, first_error: &mut Option<FdidError>| match fit
+    {
+        Ok(f) => {
+            if best.as_ref().is_none_or(|b| f.cost() < b.cost()) {
+                best = Some(f);
+            }
+        }
+        Err(e) => {
+            first_error.get_or_insert(e);
+        }
+    };
+    for m in &models {
+        keep(pipeline.fit(m, data), &mut first_error);
+    }
+    // order reduction: the fit of order na + 2 rarely misses a true pole; each way of
+    // dropping two of its poles is a start (Levy in that basis, then ML)
+    let linear_ml = Pipeline {
+        sk: None,
+        ..*pipeline
+    };
+    if let Ok(big) =
+        Rational::continuous(na + 2, nb + 2, data.omega()).and_then(|m| pipeline.fit(&m, data))
+        && let Ok(poles) = big.poles()
+    {
+        for start in reduced_poles(&poles) {
+            if let Ok(m) = Rational::partial_fractions(start, nb) {
+                keep(linear_ml.fit(&m, data), &mut first_error);
+            }
+        }
+    }
+    match (best, first_error) {
+        (Some(b), _) => Ok(b),
+        (None, Some(e)) => Err(e),
+        (None, None) => unreachable!("at least one start"),
+    }
+}
+
+/// Fits a discrete-time model B(z⁻¹)/A(z⁻¹) of degrees (`na`, `nb`) with sample time
+/// `ts` by `pipeline` from two kinds of start, returning the fit of lowest cost V:
+/// - the automatic one ([`Pipeline::fit`]: Levy → SK → ML);
+/// - order reduction: the chain at degrees (na + 2, nb + 2), then, for every way of
+///   dropping one pole pair or two real poles of that fit, A = Π(1 − pⱼz⁻¹) over the
+///   remaining poles, B by weighted linear least squares with A fixed
+///   (min_b Σ_k w_k² |Y_k − B(z_k)/A(z_k) U_k|²), and ML from (A, B).
+///
+/// # Errors
+/// `na = 0`, `nb > na + 2` or an invalid `ts`; when every start fails, the error of the
+/// automatic one.
+pub fn fit_multistart_discrete<T: Real>(
+    pipeline: &Pipeline,
+    na: usize,
+    nb: usize,
+    ts: T,
+    data: &FrequencyData<T>,
+) -> Result<Fit<T, Rational<T>>> {
+    if na == 0 {
+        return Err(FdidError::InvalidArgument {
+            name: "na",
+            value: "0".into(),
+            reason: "order reduction needs at least one pole".into(),
+        });
+    }
+    let model = Rational::discrete(na, nb, ts)?;
+    let first = pipeline.fit(&model, data);
+    let mut best = first.as_ref().ok().cloned();
+    if let (Some(lm), Ok(big)) = (
+        pipeline.ml,
+        Rational::discrete(na + 2, nb + 2, ts).and_then(|m| pipeline.fit(&m, data)),
+    ) && let Ok(poles) = big.poles()
+    {
+        let weights = pipeline.weighting.weights(data)?;
+        let ml = MaximumLikelihood {
+            weighting: pipeline.weighting,
+        };
+        for start in reduced_poles_z(&poles) {
+            let Some(theta) = discrete_start(&model, &start, data, weights.as_deref()) else {
+                continue;
+            };
+            let Ok(sol) = estimate(&model, data, &ml, &lm, Some(&theta)) else {
+                continue;
+            };
+            if best.as_ref().is_none_or(|b| sol.cost < b.cost()) {
+                let stages = vec![Stage {
+                    name: "ml-reduced".into(),
+                    solution: sol.clone(),
+                }];
+                if let Ok(f) = Fit::new(model.clone(), data, sol.theta, pipeline.weighting, stages)
+                {
+                    best = Some(f);
+                }
+            }
+        }
+    }
+    match best {
+        Some(b) => Ok(b),
+        None => first,
+    }
+}
+
+/// Every way of dropping one conjugate pair or two real poles of a z-plane pole set
+/// (closed under conjugation), each returned closed under conjugation.
+fn reduced_poles_z<T: Real>(poles: &[Complex<T>]) -> Vec<Vec<Complex<T>>> {
+    let pairs: Vec<Complex<T>> = poles.iter().copied().filter(|q| q.im > T::zero()).collect();
+    let real: Vec<Complex<T>> = poles
+        .iter()
+        .copied()
+        .filter(|q| q.im == T::zero())
+        .collect();
+    let close = |p: Vec<Complex<T>>, r: Vec<Complex<T>>| {
+        let mut out: Vec<Complex<T>> = p.iter().flat_map(|q| [*q, q.conj()]).collect();
+        out.extend(r);
+        out
+    };
+    let mut out = vec![];
+    for i in 0..pairs.len() {
+        let p = pairs
+            .iter()
+            .enumerate()
+            .filter(|(k, _)| *k != i)
+            .map(|(_, q)| *q)
+            .collect();
+        out.push(close(p, real.clone()));
+    }
+    for i in 0..real.len() {
+        for j in i + 1..real.len() {
+            let r = real
+                .iter()
+                .enumerate()
+                .filter(|(k, _)| *k != i && *k != j)
+                .map(|(_, q)| *q)
+                .collect();
+            out.push(close(pairs.clone(), r));
+        }
+    }
+    out
+}
+
+/// θ = [a₁ … a_na, b₀ … b_nb] of `model` with A(z⁻¹) = Π(1 − pⱼz⁻¹) and B the weighted
+/// linear least-squares numerator for that A; `None` when the solve fails.
+fn discrete_start<T: Real>(
+    model: &Rational<T>,
+    poles: &[Complex<T>],
+    data: &FrequencyData<T>,
+    weights: Option<&[T]>,
+) -> Option<Vec<T>> {
+    let (na, nb) = (model.na(), model.nb());
+    // Π(1 − p z⁻¹) in ascending powers of z⁻¹
+    let mut a = vec![Complex::new(T::one(), T::zero())];
+    for p in poles {
+        let mut next = vec![Complex::new(T::zero(), T::zero()); a.len() + 1];
+        for (k, v) in a.iter().enumerate() {
+            next[k] += *v;
+            next[k + 1] -= *v * *p;
+        }
+        a = next;
+    }
+    if a.len() != na + 1 {
+        return None;
+    }
+    let a: Vec<T> = a.iter().map(|c| c.re).collect();
+    let mut theta: Vec<T> = a[1..].to_vec();
+    theta.extend(std::iter::repeat_n(T::zero(), nb + 1));
+    let n = data.len();
+    let mut den = vec![Complex::new(T::zero(), T::zero()); n];
+    model.denominator_into(&theta, data.omega(), &mut den);
+    let mut m = DMatrix::zeros(2 * n, nb + 1);
+    let mut rhs = DVector::zeros(2 * n);
+    for k in 0..n {
+        let w = weights.map_or(T::one(), |w| w[k]);
+        let zinv = model.variable(data.omega()[k]).inv();
+        let base = data.u()[k] * w / den[k];
+        let mut pw = Complex::new(T::one(), T::zero());
+        for j in 0..=nb {
+            let c = base * pw;
+            m[(2 * k, j)] = c.re;
+            m[(2 * k + 1, j)] = c.im;
+            pw *= zinv;
+        }
+        let y = data.y()[k] * w;
+        rhs[2 * k] = y.re;
+        rhs[2 * k + 1] = y.im;
+    }
+    let (b, _) = crate::solver::least_squares(m, rhs, 1e3).ok()?;
+    theta[na..].copy_from_slice(b.as_slice());
+    Some(theta)
+}
+
+impl<T: Real> Fit<T, Rational<T>> {
+    /// Poles whose half-power band holds no data line, so that the data do not determine
+    /// their damping: with s = p (continuous time) or s = ln(p)/Ts (discrete time),
+    /// s = σ + iω_p, a pole is unresolved when ω_p lies inside the band of the data and no
+    /// line ω_k satisfies |ω_k − |ω_p|| ≤ |σ|. Such a pole is typically spurious — a
+    /// resonance fitted between two lines (e.g. in place of poles closer together than the
+    /// noise resolves) — even when the cost looks right; one conjugate of each pair is
+    /// listed.
+    ///
+    /// # Errors
+    /// As [`crate::model::PolesZeros::poles`].
+    pub fn unresolved_poles(&self) -> Result<Vec<Complex<T>>> {
+        let omega = self.omega();
+        let (Some(lo), Some(hi)) = (omega.first().copied(), omega.last().copied()) else {
+            return Ok(vec![]);
+        };
+        let mut out = vec![];
+        for p in self.poles()? {
+            if p.im < T::zero() {
+                continue;
+            }
+            let s = match self.model().domain() {
+                Domain::Continuous => p,
+                Domain::Discrete { ts } => p.ln() / ts,
+            };
+            let (sigma, w) = (Float::abs(s.re), Float::abs(s.im));
+            if !(w >= lo && w <= hi) {
+                continue;
+            }
+            // first line at or above w − σ
+            let k = omega.partition_point(|x| *x < w - sigma);
+            if !omega.get(k).is_some_and(|x| *x <= w + sigma) {
+                out.push(p);
+            }
+        }
+        Ok(out)
+    }
+}
