@@ -65,3 +65,21 @@ pub(crate) fn stack_rows<T: Real>(
     }
     out
 }
+
+/// Sets to zero the entries of `m` below max|mᵢⱼ|·ε², before an SVD. nalgebra's SVD can
+/// produce NaN singular values (and then panic while sorting them) on matrices whose
+/// entries reach down to the underflow range next to entries of order one; the
+/// perturbation, of norm at most √(mn)·max|mᵢⱼ|·ε², is far below the SVD's own backward
+/// error ε‖m‖, so the factorisation is unchanged to rounding.
+pub(crate) fn flush_negligible<T: Real>(m: &mut DMatrix<T>) {
+    let max = m.iter().fold(T::zero(), |a, v| {
+        num_traits::Float::max(a, num_traits::Float::abs(*v))
+    });
+    let eps = T::default_epsilon();
+    let tiny = max * eps * eps;
+    for v in m.iter_mut() {
+        if num_traits::Float::abs(*v) < tiny {
+            *v = T::zero();
+        }
+    }
+}

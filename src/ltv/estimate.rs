@@ -142,11 +142,12 @@ impl<T: Real> LtvOde<T> {
         let m = &problem.stacked;
         let p = m.ncols();
         // QR first: the SVD then works on a p × p factor
-        let r = if m.nrows() > p {
+        let mut r = if m.nrows() > p {
             m.clone().qr().unpack_r()
         } else {
             m.clone()
         };
+        crate::problem::flush_negligible(&mut r);
         let svd = nalgebra::SVD::try_new(r, false, true, T::default_epsilon(), 200 * p.max(10))
             .ok_or(FdidError::NotConverged {
                 method: "SVD",

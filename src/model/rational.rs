@@ -92,6 +92,7 @@ impl<T: Real> Rational<T> {
     /// No positive frequency, or too few distinct frequencies for the degrees.
     pub fn polynomial(na: usize, nb: usize, omega: &[T]) -> Result<Self> {
         crate::error::check_finite("omega", omega)?;
+        super::check_degrees_on_grid(na, nb, omega.len())?;
         let basis = PolyBasis::orthonormal(omega, na.max(nb))?;
         Ok(Self {
             na,
@@ -106,8 +107,10 @@ impl<T: Real> Rational<T> {
     /// `nb` in z⁻¹.
     ///
     /// # Errors
-    /// `ts ≤ 0` or not finite.
+    /// `ts ≤ 0` or not finite; a degree above `usize::MAX / 8`
+    /// ([`FdidError::InvalidArgument`] naming it).
     pub fn discrete(na: usize, nb: usize, ts: T) -> Result<Self> {
+        super::check_degrees(na, nb)?;
         Ok(Self {
             na,
             nb,
@@ -288,9 +291,11 @@ impl<T: Real> Rational<T> {
     /// usual vector-fitting start.
     ///
     /// # Errors
-    /// `na = 0`, `nb` not in {na − 1, na}, no positive frequency.
+    /// `na = 0`, `nb` not in {na − 1, na}, no positive frequency; a degree of at least
+    /// 2·`omega.len()` ([`FdidError::TooFewFrequencies`]).
     pub fn partial_fractions_on(na: usize, nb: usize, omega: &[T]) -> Result<Self> {
         crate::error::check_finite("omega", omega)?;
+        super::check_degrees_on_grid(na, nb, omega.len())?;
         let lo = omega
             .iter()
             .copied()

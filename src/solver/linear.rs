@@ -27,7 +27,7 @@ impl Default for LinearLeastSquares {
 
 /// The SVD of the triangular factor of a QR, with the condition check.
 fn svd_of_r<T: Real>(
-    r: DMatrix<T>,
+    mut r: DMatrix<T>,
     what: &'static str,
 ) -> Result<nalgebra::SVD<T, nalgebra::Dyn, nalgebra::Dyn>> {
     let p = r.ncols();
@@ -36,6 +36,7 @@ fn svd_of_r<T: Real>(
             what: format!("{what}: the QR factor overflowed (data too large to scale)"),
         });
     }
+    crate::problem::flush_negligible(&mut r);
     nalgebra::SVD::try_new(r, true, true, T::default_epsilon(), 100 * p.max(10)).ok_or(
         FdidError::NotConverged {
             method: "SVD",
