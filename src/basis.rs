@@ -63,14 +63,6 @@ impl<T: Real> PolyBasis<T> {
     /// No positive frequency, or too few distinct frequencies for the degree
     /// (2·#distinct positive lines + 1 if ω = 0 is present must exceed `degree`).
     pub fn orthonormal(omega: &[T], degree: usize) -> Result<Self> {
-        if degree >= 2 * omega.len() {
-            // never enough points: fail before allocating for `degree`
-            return Err(FdidError::TooFewFrequencies {
-                lines: omega.len(),
-                equations: 2 * omega.len(),
-                parameters: degree.saturating_add(1),
-            });
-        }
         let scale = omega.iter().fold(T::zero(), |m, w| Float::max(m, *w));
         if !(scale > T::zero()) || !Float::is_finite(scale) {
             return Err(FdidError::InvalidArgument {
@@ -78,6 +70,14 @@ impl<T: Real> PolyBasis<T> {
                 value: format!("max {scale}"),
                 reason: "a continuous-time basis needs at least one positive, finite frequency"
                     .into(),
+            });
+        }
+        if degree >= 2 * omega.len() {
+            // never enough points: fail before allocating for `degree`
+            return Err(FdidError::TooFewFrequencies {
+                lines: omega.len(),
+                equations: 2 * omega.len(),
+                parameters: degree.saturating_add(1),
             });
         }
         // symmetric discrete measure: points ±x_k, equal weights summing to one

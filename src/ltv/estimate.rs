@@ -142,17 +142,17 @@ impl<T: Real> LtvOde<T> {
         let m = &problem.stacked;
         let p = m.ncols();
         // QR first: the SVD then works on a p × p factor
-        let mut r = if m.nrows() > p {
+        let r = if m.nrows() > p {
             m.clone().qr().unpack_r()
         } else {
             m.clone()
         };
-        crate::problem::flush_negligible(&mut r);
-        let svd = nalgebra::SVD::try_new(r, false, true, T::default_epsilon(), 200 * p.max(10))
-            .ok_or(FdidError::NotConverged {
+        let svd = crate::problem::try_svd(r, false, true, 200 * p.max(10)).ok_or(
+            FdidError::NotConverged {
                 method: "SVD",
                 reason: "no convergence for the LTV regression matrix".into(),
-            })?;
+            },
+        )?;
         let v_t = svd.v_t.as_ref().ok_or(FdidError::Numerical {
             what: "SVD without right singular vectors".into(),
         })?;

@@ -99,13 +99,13 @@ pub(crate) fn check_degrees(na: usize, nb: usize) -> Result<()> {
     Ok(())
 }
 
-/// Checks the degrees of a continuous-time model built on the grid `omega` of `lines`
-/// frequencies: [`check_degrees`], then a degree of at least 2·lines (more unknowns in one
-/// polynomial than the 2·lines real equations of the grid) is
+/// Checks the degrees of a continuous-time model built on a grid of `lines` frequencies:
+/// [`check_degrees`], then a degree above 2·lines (more unknowns in one polynomial than
+/// the 2·lines real equations of the grid: no fit on that grid can succeed) is
 /// [`crate::FdidError::TooFewFrequencies`] with `parameters = na + nb + 1`.
 pub(crate) fn check_degrees_on_grid(na: usize, nb: usize, lines: usize) -> Result<()> {
     check_degrees(na, nb)?;
-    if na.max(nb) >= 2 * lines {
+    if na.max(nb) > 2 * lines {
         return Err(crate::FdidError::TooFewFrequencies {
             lines,
             equations: 2 * lines,

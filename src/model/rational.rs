@@ -92,7 +92,7 @@ impl<T: Real> Rational<T> {
     /// No positive frequency, or too few distinct frequencies for the degrees.
     pub fn polynomial(na: usize, nb: usize, omega: &[T]) -> Result<Self> {
         crate::error::check_finite("omega", omega)?;
-        super::check_degrees_on_grid(na, nb, omega.len())?;
+        super::check_degrees(na, nb)?;
         let basis = PolyBasis::orthonormal(omega, na.max(nb))?;
         Ok(Self {
             na,
@@ -291,11 +291,10 @@ impl<T: Real> Rational<T> {
     /// usual vector-fitting start.
     ///
     /// # Errors
-    /// `na = 0`, `nb` not in {na − 1, na}, no positive frequency; a degree of at least
-    /// 2·`omega.len()` ([`FdidError::TooFewFrequencies`]).
+    /// `na = 0`, `nb` not in {na − 1, na}, no positive frequency; a degree above
+    /// 2·`omega.len()` ([`FdidError::TooFewFrequencies`]: no fit on the grid can succeed).
     pub fn partial_fractions_on(na: usize, nb: usize, omega: &[T]) -> Result<Self> {
         crate::error::check_finite("omega", omega)?;
-        super::check_degrees_on_grid(na, nb, omega.len())?;
         let lo = omega
             .iter()
             .copied()
@@ -309,6 +308,7 @@ impl<T: Real> Rational<T> {
                 reason: "a continuous-time model needs at least one positive frequency".into(),
             });
         }
+        super::check_degrees_on_grid(na, nb, omega.len())?;
         let pairs = na / 2;
         let (llo, lhi) = (Float::ln(lo), Float::ln(hi));
         let mut poles: Vec<Complex<T>> = (0..pairs)

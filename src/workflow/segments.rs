@@ -215,9 +215,7 @@ pub(crate) fn fixed_model_cost(fit: &SpecFit, piece: &Piece, n_t: usize) -> f64 
     }
     // bounded iterations: a basis with non-finite entries fails instead of looping
     let iterations = 100 * basis.ncols().max(10);
-    let mut flushed = basis.clone();
-    crate::problem::flush_negligible(&mut flushed);
-    let Some(svd) = nalgebra::SVD::try_new(flushed, true, true, f64::EPSILON, iterations) else {
+    let Some(svd) = crate::problem::try_svd(basis.clone(), true, true, iterations) else {
         return r0.norm_squared();
     };
     match svd.solve(&r0, 1e-12 * svd.singular_values.max()) {
