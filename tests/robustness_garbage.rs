@@ -66,7 +66,10 @@ fn guarded<I: Debug>(name: &str, input: &I, f: impl FnOnce() + Send + 'static) -
 }
 
 /// Runs every `(name, f)` guarded; the first failure fails the property.
-fn all<I: Debug>(input: &I, entries: Vec<(&str, Box<dyn FnOnce() + Send>)>) -> TestResult {
+/// Named entry-point calls.
+type Entries = Vec<(&'static str, Box<dyn FnOnce() + Send>)>;
+
+fn all<I: Debug>(input: &I, entries: Entries) -> TestResult {
     for (name, f) in entries {
         if let Some(msg) = guarded(name, input, f) {
             return TestResult::error(msg);
@@ -277,7 +280,7 @@ impl FreqInput {
 // Frequency data, models and fits
 
 fn frequency_entries(x: FreqInput) -> TestResult {
-    let mut e: Vec<(&str, Box<dyn FnOnce() + Send>)> = vec![
+    let mut e: Entries = vec![
         entry!("FrequencyData::new", x, {
             FrequencyData::new(x.omega, x.y, x.u, x.ts)
         }),
@@ -390,14 +393,14 @@ fn workflow_entries(x: FreqInput) -> TestResult {
     let (na, nb) = (x.na.min(3), x.nb.min(3));
     let ts = x.ts.unwrap_or(x.band.1);
     let spec = ModelSpec {
-        domain: if x.na % 2 == 0 {
+        domain: if x.na.is_multiple_of(2) {
             SpecDomain::Z { ts }
         } else {
             SpecDomain::S
         },
         na,
         nb,
-        delay: x.nb % 3 == 0,
+        delay: x.nb.is_multiple_of(3),
         transient: x.na % 3 == 1,
         noise_order: (x.nb % 4 == 1).then_some(1),
         criterion: if x.var.is_some() && x.na % 2 == 1 {
@@ -475,7 +478,7 @@ impl Arbitrary for TimeInput {
 }
 
 fn time_entries(x: TimeInput) -> TestResult {
-    let mut e: Vec<(&str, Box<dyn FnOnce() + Send>)> = vec![
+    let mut e: Entries = vec![
         entry!("TimeData::new", x, TimeData::new(x.u, x.y, x.ts)),
         entry!("LtvOde::validate", x, {
             let (a, b, p) = x.orders;

@@ -236,7 +236,7 @@ impl<T: Real> Modal<T> {
         domain: ModalDomain<T>,
     ) -> Result<Self> {
         let order = n_pairs.checked_mul(2).and_then(|p| p.checked_add(n_real));
-        if !order.is_some_and(|o| o <= super::MAX_DEGREE) {
+        if order.is_none_or(|o| o > super::MAX_DEGREE) {
             return Err(FdidError::InvalidArgument {
                 name: "n_real + 2 n_pairs",
                 value: format!("{n_real} + 2·{n_pairs}"),
