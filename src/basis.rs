@@ -72,6 +72,14 @@ impl<T: Real> PolyBasis<T> {
                     .into(),
             });
         }
+        if degree >= 2 * omega.len() {
+            // never enough points: fail before allocating for `degree`
+            return Err(FdidError::TooFewFrequencies {
+                lines: omega.len(),
+                equations: 2 * omega.len(),
+                parameters: degree.saturating_add(1),
+            });
+        }
         // symmetric discrete measure: points ±x_k, equal weights summing to one
         let x: Vec<T> = omega.iter().map(|w| *w / scale).collect();
         let n = T::from_usize_lossy(x.len());

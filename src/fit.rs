@@ -438,7 +438,7 @@ fn gram_inverse_factor<T: Real>(mut jac: DMatrix<T>) -> Option<DMatrix<T>> {
     if r.iter().any(|v| !Float::is_finite(*v)) {
         return None;
     }
-    let svd = nalgebra::SVD::try_new(r, false, true, T::default_epsilon(), 100 * p.max(10))?;
+    let svd = crate::problem::try_svd(r, false, true, 100 * p.max(10))?;
     let smax = svd.singular_values.max();
     let smin = svd.singular_values.min();
     if !(smin > smax * T::default_epsilon() * T::lit(10.0)) {

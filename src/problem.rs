@@ -65,3 +65,45 @@ pub(crate) fn stack_rows<T: Real>(
     }
     out
 }
+
+/// The SVD of `m` (U and/or Vᵀ on request) in at most `max_niter` iterations, with the
+/// singular values in no particular order; `None` when `m` is empty, when the iteration
+/// does not converge or when a singular value is not finite. The entries below
+/// max|mᵢⱼ|·ε² are first set to zero ([`flush_negligible`]). Unlike nalgebra's ordered
+/// SVD, whose sort panics on a NaN singular value (which its iteration can produce on
+/// rank-deficient or badly scaled factors), it never panics.
+pub(crate) fn try_svd<T: Real>(
+    mut m: DMatrix<T>,
+    compute_u: bool,
+    compute_v: bool,
+    max_niter: usize,
+) -> Option<nalgebra::SVD<T, nalgebra::Dyn, nalgebra::Dyn>> {
+    if m.is_empty() {
+        return None;
+    }
+    flush_negligible(&mut m);
+    let eps = T::default_epsilon();
+    let svd = nalgebra::SVD::try_new_unordered(m, compute_u, compute_v, eps, max_niter)?;
+    svd.singular_values
+        .iter()
+        .all(|s| num_traits::Float::is_finite(*s))
+        .then_some(svd)
+}
+
+/// Sets to zero the entries of `m` below max|mᵢⱼ|·ε², before an SVD. nalgebra's SVD can
+/// produce NaN singular values (and then panic while sorting them) on matrices whose
+/// entries reach down to the underflow range next to entries of order one; the
+/// perturbation, of norm at most √(mn)·max|mᵢⱼ|·ε², is far below the SVD's own backward
+/// error ε‖m‖, so the factorisation is unchanged to rounding.
+fn flush_negligible<T: Real>(m: &mut DMatrix<T>) {
+    let max = m.iter().fold(T::zero(), |a, v| {
+        num_traits::Float::max(a, num_traits::Float::abs(*v))
+    });
+    let eps = T::default_epsilon();
+    let tiny = max * eps * eps;
+    for v in m.iter_mut() {
+        if num_traits::Float::abs(*v) < tiny {
+            *v = T::zero();
+        }
+    }
+}

@@ -147,11 +147,12 @@ impl<T: Real> LtvOde<T> {
         } else {
             m.clone()
         };
-        let svd = nalgebra::SVD::try_new(r, false, true, T::default_epsilon(), 200 * p.max(10))
-            .ok_or(FdidError::NotConverged {
+        let svd = crate::problem::try_svd(r, false, true, 200 * p.max(10)).ok_or(
+            FdidError::NotConverged {
                 method: "SVD",
                 reason: "no convergence for the LTV regression matrix".into(),
-            })?;
+            },
+        )?;
         let v_t = svd.v_t.as_ref().ok_or(FdidError::Numerical {
             what: "SVD without right singular vectors".into(),
         })?;

@@ -76,6 +76,45 @@ pub trait ModelStructure<T: Real> {
     }
 }
 
+/// Largest polynomial degree a model accepts, `usize::MAX / 8`: far beyond any order that
+/// data could identify, and low enough that parameter counts (na + nb + 1, plus a
+/// transient of up to max(na, nb) coefficients) cannot overflow. Orders the data cannot
+/// support are rejected later, by [`ModelStructure::check_data`].
+pub(crate) const MAX_DEGREE: usize = usize::MAX / 8;
+
+/// Checks the degrees `na`, `nb` of a model against [`MAX_DEGREE`].
+///
+/// # Errors
+/// [`crate::FdidError::InvalidArgument`] naming the degree.
+pub(crate) fn check_degrees(na: usize, nb: usize) -> Result<()> {
+    for (name, d) in [("na", na), ("nb", nb)] {
+        if d > MAX_DEGREE {
+            return Err(crate::FdidError::InvalidArgument {
+                name,
+                value: d.to_string(),
+                reason: format!("a model degree must be at most {MAX_DEGREE}"),
+            });
+        }
+    }
+    Ok(())
+}
+
+/// Checks the degrees of a continuous-time model built on a grid of `lines` frequencies:
+/// [`check_degrees`], then a degree above 2·lines (more unknowns in one polynomial than
+/// the 2·lines real equations of the grid: no fit on that grid can succeed) is
+/// [`crate::FdidError::TooFewFrequencies`] with `parameters = na + nb + 1`.
+pub(crate) fn check_degrees_on_grid(na: usize, nb: usize, lines: usize) -> Result<()> {
+    check_degrees(na, nb)?;
+    if na.max(nb) > 2 * lines {
+        return Err(crate::FdidError::TooFewFrequencies {
+            lines,
+            equations: 2 * lines,
+            parameters: na + nb + 1,
+        });
+    }
+    Ok(())
+}
+
 /// Fails with [`crate::FdidError::TooFewFrequencies`] when `lines` complex lines give fewer
 /// real equations than `parameters`.
 pub(crate) fn check_line_count(parameters: usize, lines: usize) -> Result<()> {

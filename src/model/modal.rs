@@ -227,15 +227,23 @@ impl<T: Real> Modal<T> {
     /// `direct`, evaluated in `domain`.
     ///
     /// # Errors
-    /// No pole (`n_real + n_pairs = 0`); for [`ModalDomain::Zoh`], `ts` not positive and
-    /// finite.
+    /// No pole (`n_real + n_pairs = 0`), an order `n_real + 2·n_pairs` above
+    /// `usize::MAX / 8`; for [`ModalDomain::Zoh`], `ts` not positive and finite.
     pub fn new(
         n_real: usize,
         n_pairs: usize,
         direct: bool,
         domain: ModalDomain<T>,
     ) -> Result<Self> {
-        if n_real + n_pairs == 0 {
+        let order = n_pairs.checked_mul(2).and_then(|p| p.checked_add(n_real));
+        if order.is_none_or(|o| o > super::MAX_DEGREE) {
+            return Err(FdidError::InvalidArgument {
+                name: "n_real + 2 n_pairs",
+                value: format!("{n_real} + 2·{n_pairs}"),
+                reason: format!("the model order must be at most {}", super::MAX_DEGREE),
+            });
+        }
+        if order == Some(0) {
             return Err(FdidError::InvalidArgument {
                 name: "n_real + n_pairs",
                 value: "0".into(),

@@ -92,6 +92,7 @@ impl<T: Real> Rational<T> {
     /// No positive frequency, or too few distinct frequencies for the degrees.
     pub fn polynomial(na: usize, nb: usize, omega: &[T]) -> Result<Self> {
         crate::error::check_finite("omega", omega)?;
+        super::check_degrees(na, nb)?;
         let basis = PolyBasis::orthonormal(omega, na.max(nb))?;
         Ok(Self {
             na,
@@ -106,8 +107,10 @@ impl<T: Real> Rational<T> {
     /// `nb` in z⁻¹.
     ///
     /// # Errors
-    /// `ts ≤ 0` or not finite.
+    /// `ts ≤ 0` or not finite; a degree above `usize::MAX / 8`
+    /// ([`FdidError::InvalidArgument`] naming it).
     pub fn discrete(na: usize, nb: usize, ts: T) -> Result<Self> {
+        super::check_degrees(na, nb)?;
         Ok(Self {
             na,
             nb,
@@ -288,7 +291,8 @@ impl<T: Real> Rational<T> {
     /// usual vector-fitting start.
     ///
     /// # Errors
-    /// `na = 0`, `nb` not in {na − 1, na}, no positive frequency.
+    /// `na = 0`, `nb` not in {na − 1, na}, no positive frequency; a degree above
+    /// 2·`omega.len()` ([`FdidError::TooFewFrequencies`]: no fit on the grid can succeed).
     pub fn partial_fractions_on(na: usize, nb: usize, omega: &[T]) -> Result<Self> {
         crate::error::check_finite("omega", omega)?;
         let lo = omega
@@ -304,6 +308,7 @@ impl<T: Real> Rational<T> {
                 reason: "a continuous-time model needs at least one positive frequency".into(),
             });
         }
+        super::check_degrees_on_grid(na, nb, omega.len())?;
         let pairs = na / 2;
         let (llo, lhi) = (Float::ln(lo), Float::ln(hi));
         let mut poles: Vec<Complex<T>> = (0..pairs)

@@ -331,7 +331,7 @@ impl TimeVaryingOde {
         for i in 1..deg {
             m[(i, i - 1)] = 1.0;
         }
-        for r in m.complex_eigenvalues().iter() {
+        for r in crate::roots::eigenvalues(m)?.iter() {
             if r.im.abs() <= 1e-9 * (1.0 + r.norm()) && r.re >= 0.0 && r.re <= t_end {
                 return Err(FdidError::InvalidArgument {
                     name: "alpha",

@@ -36,12 +36,10 @@ fn svd_of_r<T: Real>(
             what: format!("{what}: the QR factor overflowed (data too large to scale)"),
         });
     }
-    nalgebra::SVD::try_new(r, true, true, T::default_epsilon(), 100 * p.max(10)).ok_or(
-        FdidError::NotConverged {
-            method: "SVD",
-            reason: format!("no convergence in {what}"),
-        },
-    )
+    crate::problem::try_svd(r, true, true, 100 * p.max(10)).ok_or(FdidError::NotConverged {
+        method: "SVD",
+        reason: format!("no convergence in {what}"),
+    })
 }
 
 fn check_shape<T: Real>(a: &DMatrix<T>, what: &'static str) -> Result<()> {

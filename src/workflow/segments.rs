@@ -213,7 +213,11 @@ pub(crate) fn fixed_model_cost(fit: &SpecFit, piece: &Piece, n_t: usize) -> f64 
     if n_t == 0 {
         return r0.norm_squared();
     }
-    let svd = basis.clone().svd(true, true);
+    // bounded iterations: a basis with non-finite entries fails instead of looping
+    let iterations = 100 * basis.ncols().max(10);
+    let Some(svd) = crate::problem::try_svd(basis.clone(), true, true, iterations) else {
+        return r0.norm_squared();
+    };
     match svd.solve(&r0, 1e-12 * svd.singular_values.max()) {
         Ok(t) => (r0 - basis * t).norm_squared(),
         Err(_) => r0.norm_squared(),

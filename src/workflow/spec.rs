@@ -1,6 +1,6 @@
 //! A model description (domain, orders, delay, transient, noise model, criterion) and its
 //! fit by the composed estimators, reduced to what the detectors need.
-use crate::criterion::{NoiseWeighting, fit_eiv_delayed, refine_noise_model};
+use crate::criterion::{NoiseWeighting, fit_eiv_delayed, interior_lines, refine_noise_model};
 use crate::model::{NoiseModel, Output};
 use crate::prelude::*;
 use nalgebra::DMatrix;
@@ -256,7 +256,9 @@ pub fn fit_spec(spec: &ModelSpec, data: &FrequencyData<f64>) -> Result<SpecFit> 
             &fit_eiv_delayed(&pipeline, &causal_delay(&model, data)?, data)?,
         ),
         (false, Some(n), SpecCriterion::Ml) => {
-            summarise(spec, data, &fit_noise_model(&pipeline, &model, data, n, n)?)
+            // the noise-model fit keeps the interior lines: summarise on those
+            let fit = fit_noise_model(&pipeline, &model, data, n, n)?;
+            summarise(spec, &interior_lines(data)?, &fit)
         }
         (true, Some(n), SpecCriterion::Ml) => {
             let excited: Vec<bool> = data.u().iter().map(|u| u.norm_sqr() > 0.0).collect();
@@ -325,6 +327,13 @@ fn reduce<M: ModelStructure<f64>>(
     let mut out = Output::new(data.len(), model.n_params());
     out.evaluate(model, theta, data, true);
     let residuals = fit.residuals().to_vec();
+    if residuals.len() != data.len() {
+        return Err(FdidError::LengthMismatch {
+            what: "fit residuals",
+            expected: data.len(),
+            got: residuals.len(),
+        });
+    }
     let scale: Vec<Complex<f64>> = residuals
         .iter()
         .zip(data.y().iter().zip(&out.yhat))

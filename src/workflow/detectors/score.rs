@@ -76,7 +76,9 @@ pub(crate) fn column_space(j: &DMatrix<f64>) -> Option<DMatrix<f64>> {
             c /= norm;
         }
     }
-    let svd = js.svd(true, false);
+    // bounded iterations: a J with non-finite entries fails instead of looping
+    let iterations = 100 * js.ncols().max(10);
+    let svd = crate::problem::try_svd(js, true, false, iterations)?;
     let u = svd.u?;
     let smax = svd.singular_values.max();
     let keep: Vec<usize> = (0..svd.singular_values.len())
