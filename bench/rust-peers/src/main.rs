@@ -54,8 +54,10 @@ struct Case {
     gc: Vec<C>,
     /// Per-line weights (`None`: all ones).
     w: Option<Vec<f64>>,
-    /// Periodic time data `(u, y, N, P, lines)` for the SML fit.
-    time: Option<(Vec<f64>, Vec<f64>, usize, usize, Vec<usize>)>,
+    /// Periodic time data only: the per-period spectra at the excited lines for the SML fit
+    /// (prepared outside the timing, as the averaged FRF of the other methods), or why
+    /// `dsmc` rejects them.
+    sml: Option<Result<SmlData<f64>, String>>,
 }
 
 impl Case {
@@ -138,7 +140,7 @@ fn load_case(dir: &Path, name: &str) -> Case {
             omega,
             gc,
             w: None,
-            time: None,
+            sml: None,
         }
     } else {
         let n = meta["N"].as_u64().unwrap() as usize;
@@ -184,7 +186,7 @@ fn load_case(dir: &Path, name: &str) -> Case {
             omega,
             gc,
             w: Some(w),
-            time: Some((u, y, n, p, lines)),
+            sml: Some(SmlData::from_periods(&u, &y, 1.0, n, &lines).map_err(|e| e.to_string())),
         }
     }
 }
@@ -280,12 +282,12 @@ fn fit_dsmc_vf(case: &Case) -> Result<Fitted, String> {
 /// Periodic time data only: `dsmc`'s SML of `B(z^-1) / A(z^-1)` (orders `na`, `nb`, no extra
 /// input delay) from the per-period spectra at the excited lines.
 fn fit_dsmc_sml(case: &Case) -> Result<Fitted, String> {
-    let (u, y, n, _, lines) = case
-        .time
+    let data = case
+        .sml
         .as_ref()
-        .ok_or("FRF data: SML needs periodic time data")?;
-    let data = SmlData::from_periods(u, y, 1.0, *n, lines).map_err(|e| e.to_string())?;
-    let r = sml::identify_discrete(&data, 1.0, case.na, case.nb, 0, &SmlOptions::default())
+        .ok_or("SML needs periodic time data")?
+        .as_ref()?;
+    let r = sml::identify_discrete(data, 1.0, case.na, case.nb, 0, &SmlOptions::default())
         .map_err(|e| e.to_string())?;
     let poles = roots(&r.model.denominator);
     let (b, a) = (r.model.numerator.0.clone(), r.model.denominator.0.clone());
@@ -403,7 +405,7 @@ fn main() {
         let case = load_case(&cases, &name);
         let mut res = serde_json::Map::new();
         for (m, f) in methods() {
-            let r = if m == "dsmc_sml" && case.time.is_none() {
+            let r = if m == "dsmc_sml" && case.sml.is_none() {
                 json!({"skipped": "SML needs periodic time data"})
             } else {
                 run_one(&case, f)
