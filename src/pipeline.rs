@@ -154,7 +154,8 @@ impl Pipeline {
                     {
                         best = (relocated.then(|| original.clone()), b);
                     }
-                    if let Some(Ok(m2)) = model.relocated(&best.1.theta)
+                    // relocated from the basis the best estimate belongs to
+                    if let Some(Ok(m2)) = best.0.as_ref().unwrap_or(&model).relocated(&best.1.theta)
                         && let Ok(l2) =
                             estimate(&m2, data, &Levy { weighting: w }, &self.linear, None)
                         && let Ok(b) = estimate(&m2, data, &ml, lm, Some(&l2.theta))
