@@ -76,17 +76,46 @@ impl<T: Real, M: ModelStructure<T>> Fit<T, M> {
         stages: Vec<Stage<T>>,
     ) -> Result<Self> {
         let problem = MlProblem::new(&model, data, weighting)?;
+        let (r, jac, level, response) = Self::ml_statistics_input(&problem, &theta)?;
+        drop(problem);
+        Self::from_residuals(model, data, theta, r, jac, level, stages, response)
+    }
+
+    /// [`Fit::new`] with the [`MlProblem`] the estimate was solved with (its work space,
+    /// already allocated, is reused); `problem` must be bound to a model equal to `model`
+    /// and to `data`.
+    pub(crate) fn from_ml_problem<Mp: ModelStructure<T> + ?Sized>(
+        model: M,
+        data: &FrequencyData<T>,
+        theta: Vec<T>,
+        problem: &MlProblem<'_, T, Mp>,
+        stages: Vec<Stage<T>>,
+    ) -> Result<Self> {
+        let (r, jac, level, response) = Self::ml_statistics_input(problem, &theta)?;
+        Self::from_residuals(model, data, theta, r, jac, level, stages, response)
+    }
+
+    /// r, J, the noise level and (G, ∂G/∂θ) of an ML problem at θ.
+    #[allow(clippy::type_complexity)]
+    fn ml_statistics_input<Mp: ModelStructure<T> + ?Sized>(
+        problem: &MlProblem<'_, T, Mp>,
+        theta: &[T],
+    ) -> Result<(
+        Vec<T>,
+        DMatrix<T>,
+        NoiseLevel,
+        Option<(Vec<Complex<T>>, DMatrix<Complex<T>>)>,
+    )> {
+        let (n, p) = (problem.data().len(), problem.n_params());
         let level = if problem.weights().is_some() {
             NoiseLevel::Known
         } else {
             NoiseLevel::Estimated
         };
-        let (r, jac) = residuals_and_jacobian(&problem, &theta)?;
+        let (r, jac) = residuals_and_jacobian(problem, theta)?;
         let (response, dg) = problem.take_response_jacobian();
-        drop(problem);
-        let dg = (dg.shape() == (data.len(), model.n_params()) && response.len() == data.len())
-            .then_some((response, dg));
-        Self::from_residuals(model, data, theta, r, jac, level, stages, dg)
+        let dg = (dg.shape() == (n, p) && response.len() == n).then_some((response, dg));
+        Ok((r, jac, level, dg))
     }
 
     /// Evaluates the statistics of `theta` with the normalised residuals of any
@@ -533,4 +562,49 @@ fn gram_inverse_factor_qr<T: Real>(mut jac: DMatrix<T>) -> Option<DMatrix<T>> {
     Some(DMatrix::from_fn(p, p, |i, k| {
         vt[(k, i)] / (svd.singular_values[k] * scale[i])
     }))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn lcg(state: &mut u64) -> f64 {
+        *state = state
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        ((*state >> 11) as f64) / ((1u64 << 53) as f64) - 0.5
+    }
+
+    /// The Cholesky path of the covariance and of the sandwich equals the QR/SVD path.
+    #[test]
+    fn covariance_from_the_gram_matrix_equals_the_qr_one() {
+        let (n, p) = (300, 7);
+        let mut s = 21;
+        let jac = DMatrix::from_fn(2 * n, p, |_, j| lcg(&mut s) * 10f64.powi(j as i32 - 2));
+        let r: Vec<Complex<f64>> = (0..n)
+            .map(|_| Complex::new(lcg(&mut s), lcg(&mut s)))
+            .collect();
+        let (f, robust) = covariance_factors(jac.clone(), &r);
+        let (f, robust) = (f.expect("gram path"), robust.expect("robust"));
+        let fq = gram_inverse_factor_qr(jac.clone()).expect("qr path");
+        let (c, cq) = (&f * f.transpose(), &fq * fq.transpose());
+        assert!((&c - &cq).norm() <= 1e-10 * cq.norm(), "{c} vs {cq}");
+        let rq = sandwich(&jac, &fq, &r);
+        assert!((&robust - &rq).norm() <= 1e-10 * rq.norm());
+        // f32 with its tighter guard still agrees to its precision
+        let j32 = jac.map(|v| v as f32);
+        let r32: Vec<Complex<f32>> = r
+            .iter()
+            .map(|v| Complex::new(v.re as f32, v.im as f32))
+            .collect();
+        let (f32c, _) = covariance_factors(j32, &r32);
+        let f32c = f32c.expect("well conditioned in f32 too");
+        let c32 = (&f32c * f32c.transpose()).map(f64::from);
+        assert!((&c32 - &cq).norm() <= 1e-3 * cq.norm());
+        // a rank-deficient J has no covariance on either path
+        let mut def = jac.clone();
+        let col = def.column(0).into_owned();
+        def.set_column(1, &col);
+        assert!(covariance_factors(def, &r).0.is_none());
+    }
 }

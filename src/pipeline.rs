@@ -42,6 +42,25 @@ where
     solver.solve(&problem, start)
 }
 
+/// Buffers of the Levy/SK solves of one fit.
+struct LevyWork<T: Real> {
+    weights: Option<Option<Vec<T>>>,
+    regressor: nalgebra::DMatrix<crate::Complex<T>>,
+    a: nalgebra::DMatrix<T>,
+    b: nalgebra::DVector<T>,
+}
+
+impl<T: Real> Default for LevyWork<T> {
+    fn default() -> Self {
+        Self {
+            weights: None,
+            regressor: nalgebra::DMatrix::zeros(0, 0),
+            a: nalgebra::DMatrix::zeros(0, 0),
+            b: nalgebra::DVector::zeros(0),
+        }
+    }
+}
+
 /// Levy → Sanathanan–Koerner → maximum likelihood, each stage starting from the previous.
 ///
 /// | setting | default | meaning |
@@ -111,7 +130,8 @@ impl Pipeline {
         data: &FrequencyData<T>,
     ) -> Result<Fit<T, M>> {
         let w = self.weighting;
-        let levy = self.levy_solve(model, data, &self.linear)?;
+        let mut work = LevyWork::default();
+        let levy = self.levy_solve(model, data, &self.linear, &mut work)?;
         let mut stages = vec![Stage {
             name: "levy".into(),
             solution: levy.clone(),
@@ -119,7 +139,7 @@ impl Pipeline {
         let mut current = levy.theta.clone();
         let mut model = model.clone();
         if let (Some(fp), true) = (&self.sk, model.relocated(&levy.theta).is_some()) {
-            let (m, sk) = self.relocate(model, data, levy.theta.clone(), fp)?;
+            let (m, sk) = self.relocate(model, data, levy.theta.clone(), fp, &mut work)?;
             model = m;
             current = sk.theta.clone();
             stages.push(Stage {
@@ -143,10 +163,11 @@ impl Pipeline {
         let model = &model;
         if let Some(lm) = &self.ml {
             let ml = MaximumLikelihood { weighting: w };
+            let problem = ml.problem(model, data)?;
             let fast = GramLevenbergMarquardt::from(*lm);
             let solve = |start: &[T]| {
-                estimate(model, data, &ml, &fast, Some(start))
-                    .or_else(|_| estimate(model, data, &ml, lm, Some(start)))
+                fast.solve(&problem, Some(start))
+                    .or_else(|_| lm.solve(&problem, Some(start)))
             };
             let first = solve(&current);
             let retry = || solve(&levy.theta);
@@ -160,17 +181,21 @@ impl Pipeline {
                 name: "ml".into(),
                 solution: best,
             });
+            return Fit::from_ml_problem(model.clone(), data, current, &problem, stages);
         }
         Fit::new(model.clone(), data, current, w, stages)
     }
 
     /// One Levy solve: through the guarded normal equations when ML follows (falling back
-    /// to `linear`'s QR/SVD when they are ill-conditioned), else by `linear`.
+    /// to `linear`'s QR/SVD when they are ill-conditioned), else by `linear`. `work` holds
+    /// the regressor and the real-stacked system, reused across the relocations so that the
+    /// large buffers are allocated once per fit.
     fn levy_solve<T: Real, M: EquationError<T>>(
         &self,
         model: &M,
         data: &FrequencyData<T>,
         linear: &LinearLeastSquares,
+        work: &mut LevyWork<T>,
     ) -> Result<Solution<T>> {
         let levy = Levy {
             weighting: self.weighting,
@@ -178,16 +203,31 @@ impl Pipeline {
         if self.ml.is_none() {
             return estimate(model, data, &levy, linear, None);
         }
-        let problem = levy.problem(model, data)?;
-        let (a, b) = crate::problem::LinearProblem::system(&problem);
+        model.check_data(data)?;
+        crate::criterion::check_input(data)?;
+        if work.weights.is_none() {
+            work.weights = Some(self.weighting.weights(data)?);
+        }
+        let q = model.n_coefficients();
+        if work.regressor.shape() != (data.len(), q) {
+            work.regressor = nalgebra::DMatrix::zeros(data.len(), q);
+        }
+        model.regressor_into(data, &mut work.regressor);
+        crate::criterion::normalised_into(
+            &work.regressor,
+            work.weights.as_ref().and_then(|w| w.as_deref()),
+            model.normalising_index(),
+            &mut work.a,
+            &mut work.b,
+        );
         let gram = crate::solver::gram::least_squares_gram(
-            &a,
-            &b,
+            &work.a,
+            &work.b,
             crate::solver::gram::max_condition::<T>(),
         );
         let (theta, cost) = match gram {
             Some(v) => v,
-            None => crate::solver::least_squares(a, b, linear.rcond_eps)?,
+            None => crate::solver::least_squares(work.a.clone(), work.b.clone(), linear.rcond_eps)?,
         };
         Ok(Solution {
             theta: theta.as_slice().to_vec(),
@@ -207,6 +247,7 @@ impl Pipeline {
         data: &FrequencyData<T>,
         mut theta: Vec<T>,
         fp: &FixedPoint,
+        work: &mut LevyWork<T>,
     ) -> Result<(M, Solution<T>)> {
         let w = self.weighting;
         let tol = fp
@@ -227,7 +268,7 @@ impl Pipeline {
                 break;
             };
             let next = next?;
-            let sol = self.levy_solve(&next, data, &linear)?;
+            let sol = self.levy_solve(&next, data, &linear, work)?;
             let (new_cost, g_new) = oe_cost(&next, &sol.theta);
             let change = crate::criterion::relative_change(&g_old, &g_new);
             let stalled = num_traits::Float::abs(new_cost - cost)

@@ -185,3 +185,91 @@ impl<T: Real, P: NonlinearProblem<T> + ?Sized> Solver<T, P> for GramLevenbergMar
         done(x, cost, evaluations, Termination::MaxIterations)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// r_k = a·exp(−b t_k) + c − y_k, with y from (2, 0.7, 0.3) plus a deterministic ripple.
+    struct Exp {
+        t: Vec<f64>,
+        y: Vec<f64>,
+        /// a copy of b's column in c's place: the Jacobian is rank deficient
+        degenerate: bool,
+    }
+
+    impl NonlinearProblem<f64> for Exp {
+        fn n_params(&self) -> usize {
+            3
+        }
+        fn n_residuals(&self) -> usize {
+            self.t.len()
+        }
+        fn residuals_into(&self, x: &[f64], r: &mut [f64]) -> bool {
+            for (k, (t, y)) in self.t.iter().zip(&self.y).enumerate() {
+                let c = if self.degenerate { x[2] * t } else { x[2] };
+                r[k] = x[0] * (-x[1] * t).exp() + c - y;
+            }
+            true
+        }
+        fn jacobian_into(&self, x: &[f64], r: &mut [f64], jac: &mut DMatrix<f64>) -> bool {
+            self.residuals_into(x, r);
+            for (k, t) in self.t.iter().enumerate() {
+                let e = (-x[1] * t).exp();
+                jac[(k, 0)] = e;
+                jac[(k, 1)] = -x[0] * t * e;
+                jac[(k, 2)] = if self.degenerate { *t } else { 1.0 };
+            }
+            true
+        }
+    }
+
+    fn exp_problem(degenerate: bool) -> Exp {
+        let t: Vec<f64> = (0..200).map(|k| k as f64 * 0.05).collect();
+        let y = t
+            .iter()
+            .map(|t| 2.0 * (-0.7 * t).exp() + 0.3 + 0.01 * (13.0 * t).sin())
+            .collect();
+        Exp { t, y, degenerate }
+    }
+
+    #[test]
+    fn reaches_the_optimum_of_the_qr_solver() {
+        let p = exp_problem(false);
+        let start = [1.0, 0.3, 0.0];
+        let fast = GramLevenbergMarquardt::default()
+            .solve(&p, Some(&start))
+            .expect("fast");
+        let reference = LevenbergMarquardt::default()
+            .solve(&p, Some(&start))
+            .expect("crate");
+        assert!(fast.converged());
+        assert!((fast.cost - reference.cost).abs() <= 1e-9 * reference.cost);
+        for (a, b) in fast.theta.iter().zip(&reference.theta) {
+            assert!((a - b).abs() <= 1e-6 * b.abs().max(1.0), "{a} vs {b}");
+        }
+        // the gradient Jᵀr vanishes at the returned point
+        let mut r = vec![0.0; p.n_residuals()];
+        let mut j = DMatrix::zeros(p.n_residuals(), 3);
+        p.jacobian_into(&fast.theta, &mut r, &mut j);
+        let g = j.transpose() * DVector::from_vec(r);
+        assert!(g.norm() < 1e-8, "gradient {g}");
+    }
+
+    #[test]
+    fn refuses_ill_conditioned_normal_equations_and_bad_starts() {
+        // columns e^{-bt}, -a t e^{-bt}, t: fine; make b = 0 so that column 1 is −a·t = a·(−col 2)
+        let p = exp_problem(true);
+        let err = GramLevenbergMarquardt::default()
+            .solve(&p, Some(&[1.0, 0.0, -1.0]))
+            .unwrap_err();
+        assert!(matches!(err, FdidError::Singular { .. }), "{err:?}");
+        let p = exp_problem(false);
+        assert!(GramLevenbergMarquardt::default().solve(&p, None).is_err());
+        assert!(
+            GramLevenbergMarquardt::default()
+                .solve(&p, Some(&[1.0, f64::NAN, 0.0]))
+                .is_err()
+        );
+    }
+}
