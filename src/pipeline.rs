@@ -76,7 +76,8 @@ impl<T: Real> Default for LevyWork<T> {
 /// from the guarded normal equations, with the tolerances of `ml`), falling back to the
 /// crate's [`LevenbergMarquardt`] when that fails (ill-conditioned normal equations); and
 /// the Levy and SK linear solves, which then only produce ML's start, use the guarded
-/// normal equations too, falling back to QR/SVD when the equilibrated Gram matrix is
+/// normal equations too (for the partial-fraction relocations and for the re-weighted
+/// iterations of [`FixedPoint`] alike), falling back to QR/SVD when the equilibrated Gram matrix is
 /// ill-conditioned (see [`crate::solver`]'s `gram` kernels: κ₁ ≤ 10⁸ in f64, 10³ in f32).
 /// Without ML (`Pipeline::levy`, `Pipeline::sk`) every solve is QR/SVD.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -147,13 +148,9 @@ impl Pipeline {
                 solution: sk,
             });
         } else if let Some(fp) = &self.sk {
-            let sk = estimate(
-                &model,
-                data,
-                &SanathananKoerner { weighting: w },
-                fp,
-                Some(&levy.theta),
-            )?;
+            let criterion = SanathananKoerner { weighting: w };
+            let problem = criterion.problem(&model, data)?;
+            let sk = fp.solve_with(&problem, Some(&levy.theta), self.ml.is_some())?;
             current = sk.theta.clone();
             stages.push(Stage {
                 name: "sk".into(),
