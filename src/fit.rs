@@ -12,6 +12,9 @@ use crate::{Complex, Real};
 use nalgebra::DMatrix;
 use num_traits::Float;
 
+/// G and ∂G/∂θ on the data lines.
+type ResponseJacobian<T> = (Vec<Complex<T>>, DMatrix<Complex<T>>);
+
 /// What one stage of an estimation did.
 #[derive(Debug, Clone, PartialEq)]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
@@ -96,16 +99,11 @@ impl<T: Real, M: ModelStructure<T>> Fit<T, M> {
     }
 
     /// r, J, the noise level and (G, ∂G/∂θ) of an ML problem at θ.
-    #[allow(clippy::type_complexity)]
+    #[allow(clippy::type_complexity)] // a private tuple of the four inputs
     fn ml_statistics_input<Mp: ModelStructure<T> + ?Sized>(
         problem: &MlProblem<'_, T, Mp>,
         theta: &[T],
-    ) -> Result<(
-        Vec<T>,
-        DMatrix<T>,
-        NoiseLevel,
-        Option<(Vec<Complex<T>>, DMatrix<Complex<T>>)>,
-    )> {
+    ) -> Result<(Vec<T>, DMatrix<T>, NoiseLevel, Option<ResponseJacobian<T>>)> {
         let (n, p) = (problem.data().len(), problem.n_params());
         let level = if problem.weights().is_some() {
             NoiseLevel::Known
@@ -162,7 +160,7 @@ impl<T: Real, M: ModelStructure<T>> Fit<T, M> {
         jac: DMatrix<T>,
         level: NoiseLevel,
         stages: Vec<Stage<T>>,
-        response: Option<(Vec<Complex<T>>, DMatrix<Complex<T>>)>,
+        response: Option<ResponseJacobian<T>>,
     ) -> Result<Self> {
         let (n, p) = (data.len(), model.n_params());
         let cost = r.iter().fold(T::zero(), |s, v| s + *v * *v);

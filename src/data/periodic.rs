@@ -74,7 +74,8 @@ impl<T: Real> PeriodicAverage<T> {
         }
         let plan = FftPlanner::<T>::new().plan_fft_forward(m);
         // one packed FFT of u and y per period, as TimeData::dft
-        let (u_p, y_p): (Vec<Vec<Complex<T>>>, Vec<Vec<Complex<T>>>) = record
+        type Spectra<T> = Vec<Vec<Complex<T>>>;
+        let (u_p, y_p): (Spectra<T>, Spectra<T>) = record
             .u()
             .chunks_exact(m)
             .zip(record.y().chunks_exact(m))
