@@ -9,7 +9,7 @@
 //!   and `fit_new` (`Fit::new` at the ML estimate) separate that overhead;
 //! * `lines_ct4/{2000,20000,200000}`: the full chain for `a_ct4` against the number of
 //!   lines (throughput in lines);
-//! * `dft_1e6`: `TimeData::dft` of 10⁶ samples of `u` and `y` (f64).
+//! * `dft_1e6`, `dft_1e7`: `TimeData::dft` of 10⁶ and 10⁷ samples of `u` and `y` (f64).
 //!
 //! All data are simulated with constant seeds outside the timed closures. The accuracy of
 //! the fits (relative RMS error against the noise-free truth) is printed once to stderr.
@@ -226,19 +226,23 @@ fn lines(c: &mut Criterion) {
     group.finish();
 }
 
-fn dft(c: &mut Criterion) {
-    const N: usize = 1_000_000;
+/// A record of `n` samples: white Gaussian u and a first-order low-pass response y.
+fn dft_record(n: usize) -> TimeData<f64> {
     let mut noise = Noise::new(3);
-    let u: Vec<f64> = (0..N).map(|_| noise.gauss()).collect();
+    let u: Vec<f64> = (0..n).map(|_| noise.gauss()).collect();
     // a first-order low-pass response to u, so y is not just a copy of the input
-    let mut y = Vec::with_capacity(N);
+    let mut y = Vec::with_capacity(n);
     let mut state = 0.0;
     for &x in &u {
         state = 0.9 * state + 0.1 * x;
         y.push(state + 0.01 * noise.gauss());
     }
-    let record = TimeData::new(u, y, 1e-3).expect("time record");
+    TimeData::new(u, y, 1e-3).expect("time record")
+}
 
+fn dft(c: &mut Criterion) {
+    const N: usize = 1_000_000;
+    let record = dft_record(N);
     let mut group = c.benchmark_group("dft");
     group
         .sample_size(30)
@@ -246,6 +250,15 @@ fn dft(c: &mut Criterion) {
         .measurement_time(Duration::from_secs(6))
         .throughput(Throughput::Elements(N as u64));
     group.bench_function("dft_1e6", |b| b.iter(|| black_box(&record).dft()));
+    drop(record);
+    // 10⁷ samples (10⁷ = 2⁷·5⁷, a mixed-radix FFT of both channels)
+    const BIG: usize = 10_000_000;
+    let record = dft_record(BIG);
+    group
+        .sample_size(10)
+        .measurement_time(Duration::from_secs(10))
+        .throughput(Throughput::Elements(BIG as u64));
+    group.bench_function("dft_1e7", |b| b.iter(|| black_box(&record).dft()));
     group.finish();
 }
 

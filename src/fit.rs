@@ -12,6 +12,9 @@ use crate::{Complex, Real};
 use nalgebra::DMatrix;
 use num_traits::Float;
 
+/// G and ∂G/∂θ on the data lines.
+type ResponseJacobian<T> = (Vec<Complex<T>>, DMatrix<Complex<T>>);
+
 /// What one stage of an estimation did.
 #[derive(Debug, Clone, PartialEq)]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
@@ -76,14 +79,41 @@ impl<T: Real, M: ModelStructure<T>> Fit<T, M> {
         stages: Vec<Stage<T>>,
     ) -> Result<Self> {
         let problem = MlProblem::new(&model, data, weighting)?;
+        let (r, jac, level, response) = Self::ml_statistics_input(&problem, &theta)?;
+        drop(problem);
+        Self::from_residuals(model, data, theta, r, jac, level, stages, response)
+    }
+
+    /// [`Fit::new`] with the [`MlProblem`] the estimate was solved with (its work space,
+    /// already allocated, is reused); `problem` must be bound to a model equal to `model`
+    /// and to `data`.
+    pub(crate) fn from_ml_problem<Mp: ModelStructure<T> + ?Sized>(
+        model: M,
+        data: &FrequencyData<T>,
+        theta: Vec<T>,
+        problem: &MlProblem<'_, T, Mp>,
+        stages: Vec<Stage<T>>,
+    ) -> Result<Self> {
+        let (r, jac, level, response) = Self::ml_statistics_input(problem, &theta)?;
+        Self::from_residuals(model, data, theta, r, jac, level, stages, response)
+    }
+
+    /// r, J, the noise level and (G, ∂G/∂θ) of an ML problem at θ.
+    #[allow(clippy::type_complexity)] // a private tuple of the four inputs
+    fn ml_statistics_input<Mp: ModelStructure<T> + ?Sized>(
+        problem: &MlProblem<'_, T, Mp>,
+        theta: &[T],
+    ) -> Result<(Vec<T>, DMatrix<T>, NoiseLevel, Option<ResponseJacobian<T>>)> {
+        let (n, p) = (problem.data().len(), problem.n_params());
         let level = if problem.weights().is_some() {
             NoiseLevel::Known
         } else {
             NoiseLevel::Estimated
         };
-        let (r, jac) = residuals_and_jacobian(&problem, &theta)?;
-        drop(problem);
-        Self::from_residuals(model, data, theta, r, jac, level, stages)
+        let (r, jac) = residuals_and_jacobian(problem, theta)?;
+        let (response, dg) = problem.take_response_jacobian();
+        let dg = (dg.shape() == (n, p) && response.len() == n).then_some((response, dg));
+        Ok((r, jac, level, dg))
     }
 
     /// Evaluates the statistics of `theta` with the normalised residuals of any
@@ -117,9 +147,11 @@ impl<T: Real, M: ModelStructure<T>> Fit<T, M> {
             });
         }
         let (r, jac) = residuals_and_jacobian(problem, &theta)?;
-        Self::from_residuals(model, data, theta, r, jac, level, stages)
+        Self::from_residuals(model, data, theta, r, jac, level, stages, None)
     }
 
+    /// `response`: G and ∂G/∂θ at θ on the data lines when the caller has them.
+    #[allow(clippy::too_many_arguments)]
     fn from_residuals(
         model: M,
         data: &FrequencyData<T>,
@@ -128,6 +160,7 @@ impl<T: Real, M: ModelStructure<T>> Fit<T, M> {
         jac: DMatrix<T>,
         level: NoiseLevel,
         stages: Vec<Stage<T>>,
+        response: Option<ResponseJacobian<T>>,
     ) -> Result<Self> {
         let (n, p) = (data.len(), model.n_params());
         let cost = r.iter().fold(T::zero(), |s, v| s + *v * *v);
@@ -145,15 +178,16 @@ impl<T: Real, M: ModelStructure<T>> Fit<T, M> {
         let residuals: Vec<Complex<T>> = r.chunks(2).map(|c| Complex::new(c[0], c[1])).collect();
         let validation = Validation::new(&residuals, p, noise_known, data.variance_dof());
         // (JᵀJ)⁻¹ = F₀F₀ᵀ from the QR/SVD of J; Cov = (λ/2)(JᵀJ)⁻¹ = F Fᵀ, F = √(λ/2) F₀
-        let base = gram_inverse_factor(jac.clone());
-        let robust_covariance = base.as_ref().map(|f0| sandwich(&jac, f0, &residuals));
-        drop(jac);
+        let (base, robust_covariance) = covariance_factors(jac, &residuals);
         let factor = lambda.and_then(|l| base.map(|f| f * Float::sqrt(l / T::lit(2.0))));
         let covariance = factor.as_ref().map(|f| f * f.transpose());
         let omega = data.omega().to_vec();
-        let mut response = vec![Complex::new(T::zero(), T::zero()); n];
-        let mut dg = DMatrix::zeros(n, p);
-        model.jacobian_into(&theta, &omega, &mut response, &mut dg);
+        let (response, dg) = response.unwrap_or_else(|| {
+            let mut response = vec![Complex::new(T::zero(), T::zero()); n];
+            let mut dg = DMatrix::zeros(n, p);
+            model.jacobian_into(&theta, &omega, &mut response, &mut dg);
+            (response, dg)
+        });
         let response_std = factor.map(|f| ResponseStd::new(&dg, &f, &response));
         Ok(Self {
             model,
@@ -342,33 +376,54 @@ struct ResponseStd<T: Real> {
 impl<T: Real> ResponseStd<T> {
     /// From ∂G/∂θ (`dg`), a covariance factor F (Cov = F Fᵀ) and G: with a_k = (∂G_k/∂θ)F,
     /// σ_G² = ‖a_k‖², σ_|G| = ‖Re(conj(G_k) a_k)‖/|G_k|, σ_∠G = ‖Im(a_k/G_k)‖.
+    /// Blocks of lines go through two real products (the real gemm is much faster than the
+    /// complex one) in small reused buffers.
     fn new(dg: &DMatrix<Complex<T>>, f: &DMatrix<T>, g: &[Complex<T>]) -> Self {
-        // two real products (the real gemm is much faster than the complex one)
-        let re = dg.map(|v| v.re) * f;
-        let im = dg.map(|v| v.im) * f;
-        let n = g.len();
+        const BLOCK: usize = 256;
+        let (n, p) = (g.len(), f.ncols());
         let mut out = Self {
             complex: Vec::with_capacity(n),
             magnitude: Vec::with_capacity(n),
             phase: Vec::with_capacity(n),
         };
-        for (k, gk) in g.iter().enumerate() {
-            let (mut c, mut m, mut ph) = (T::zero(), T::zero(), T::zero());
-            let mag2 = gk.norm_sqr();
-            for (x, y) in re.row(k).iter().zip(im.row(k).iter()) {
-                c += *x * *x + *y * *y;
-                let dm = gk.re * *x + gk.im * *y;
-                let dp = gk.re * *y - gk.im * *x;
-                m += dm * dm;
-                ph += dp * dp;
+        let (mut bre, mut bim) = (DMatrix::zeros(BLOCK, p), DMatrix::zeros(BLOCK, p));
+        let (mut are, mut aim) = (DMatrix::zeros(BLOCK, p), DMatrix::zeros(BLOCK, p));
+        for k0 in (0..n).step_by(BLOCK) {
+            let len = BLOCK.min(n - k0);
+            if len < BLOCK {
+                for m in [&mut bre, &mut bim, &mut are, &mut aim] {
+                    *m = DMatrix::zeros(len, p);
+                }
             }
-            out.complex.push(Float::sqrt(c));
-            if mag2 > T::zero() {
-                out.magnitude.push(Float::sqrt(m / mag2));
-                out.phase.push(Float::sqrt(ph) / mag2);
-            } else {
-                out.magnitude.push(Float::sqrt(c));
-                out.phase.push(T::infinity());
+            for j in 0..p {
+                for i in 0..len {
+                    let v = dg[(k0 + i, j)];
+                    bre[(i, j)] = v.re;
+                    bim[(i, j)] = v.im;
+                }
+            }
+            are.gemm(T::one(), &bre, f, T::zero());
+            aim.gemm(T::one(), &bim, f, T::zero());
+            for i in 0..len {
+                let gk = g[k0 + i];
+                let (mut c, mut m, mut ph) = (T::zero(), T::zero(), T::zero());
+                let mag2 = gk.norm_sqr();
+                for j in 0..p {
+                    let (x, y) = (are[(i, j)], aim[(i, j)]);
+                    c += x * x + y * y;
+                    let dm = gk.re * x + gk.im * y;
+                    let dp = gk.re * y - gk.im * x;
+                    m += dm * dm;
+                    ph += dp * dp;
+                }
+                out.complex.push(Float::sqrt(c));
+                if mag2 > T::zero() {
+                    out.magnitude.push(Float::sqrt(m / mag2));
+                    out.phase.push(Float::sqrt(ph) / mag2);
+                } else {
+                    out.magnitude.push(Float::sqrt(c));
+                    out.phase.push(T::infinity());
+                }
             }
         }
         out
@@ -378,14 +433,10 @@ impl<T: Real> ResponseStd<T> {
 /// R⁻¹QR⁻¹ = F₀(MᵀM)F₀ᵀ with M = D J F₀, D² = ŝ_k/2 on both rows of line k, ŝ_k the mean
 /// of |r_j|² over the nine lines nearest k.
 fn sandwich<T: Real>(jac: &DMatrix<T>, f0: &DMatrix<T>, r: &[Complex<T>]) -> DMatrix<T> {
-    let n = r.len();
-    let half = 4usize;
-    let power: Vec<T> = r.iter().map(|v| v.norm_sqr()).collect();
+    let d2 = local_half_power(r);
     let mut m = jac * f0;
-    for k in 0..n {
-        let (lo, hi) = (k.saturating_sub(half), (k + half + 1).min(n));
-        let s = power[lo..hi].iter().fold(T::zero(), |a, b| a + *b) / T::from_usize_lossy(hi - lo);
-        let d = Float::sqrt(s / T::lit(2.0));
+    for (k, s) in d2.iter().enumerate() {
+        let d = Float::sqrt(*s);
         for row in [2 * k, 2 * k + 1] {
             m.row_mut(row).scale_mut(d);
         }
@@ -419,9 +470,70 @@ fn residuals_and_jacobian<T: Real, P: NonlinearProblem<T> + ?Sized>(
     Ok((r, jac))
 }
 
+/// The mean of |r_j|² over the nine lines nearest each line k, halved: the D_k² of the
+/// sandwich covariance (see [`sandwich`]).
+fn local_half_power<T: Real>(r: &[Complex<T>]) -> Vec<T> {
+    let n = r.len();
+    let half = 4usize;
+    let power: Vec<T> = r.iter().map(|v| v.norm_sqr()).collect();
+    (0..n)
+        .map(|k| {
+            let (lo, hi) = (k.saturating_sub(half), (k + half + 1).min(n));
+            power[lo..hi].iter().fold(T::zero(), |a, b| a + *b)
+                / T::from_usize_lossy(hi - lo)
+                / T::lit(2.0)
+        })
+        .collect()
+}
+
+/// F₀ with (JᵀJ)⁻¹ = F₀F₀ᵀ and the sandwich R⁻¹QR⁻¹ (R = JᵀJ, Q = JᵀD²J, see [`sandwich`]).
+///
+/// First from the equilibrated Gram matrix Gₛ = S⁻¹JᵀJS⁻¹ = LLᵀ (S = diag ‖J_j‖) when it
+/// factors with κ₁(Gₛ) ≤ 10⁸ in f64 (10³ in f32): F₀ = S⁻¹L⁻ᵀ, accurate to about κ₁·ε
+/// relative — far more digits than a covariance carries — for one matrix product instead
+/// of a QR, and Q from a second product of the same transposed copy of J. Otherwise from
+/// a QR of J ([`gram_inverse_factor_qr`]), `None` when J is numerically rank deficient.
+/// Only F₀F₀ᵀ is defined: the two factors differ by an orthogonal matrix, which no
+/// statistic computed from F₀ sees.
+fn covariance_factors<T: Real>(
+    mut jac: DMatrix<T>,
+    r: &[Complex<T>],
+) -> (Option<DMatrix<T>>, Option<DMatrix<T>>) {
+    use crate::solver::gram::{GramWork, max_condition, scaled_cholesky};
+    let (m, p) = jac.shape();
+    if p == 0 || m < p || m != 2 * r.len() {
+        return (None, None);
+    }
+    let mut work = GramWork::new(p);
+    work.gram(&jac);
+    if let Some(sc) = scaled_cholesky(&work.g, max_condition::<T>()) {
+        let linv = sc.chol.l().solve_lower_triangular(&DMatrix::identity(p, p));
+        if let Some(linv) = linv {
+            let f0 = DMatrix::from_fn(p, p, |i, k| linv[(k, i)] / sc.d[i]);
+            if f0.iter().all(|v| Float::is_finite(*v)) {
+                // Q = (DJ)ᵀ(DJ), J scaled in place (it is not needed afterwards)
+                for (k, s) in local_half_power(r).iter().enumerate() {
+                    let d = Float::sqrt(*s);
+                    for row in [2 * k, 2 * k + 1] {
+                        jac.row_mut(row).scale_mut(d);
+                    }
+                }
+                work.gram(&jac);
+                let q = &work.g;
+                let c0 = &f0 * f0.transpose();
+                let robust = &c0 * q * &c0;
+                return (Some(f0), Some(robust));
+            }
+        }
+    }
+    let base = gram_inverse_factor_qr(jac.clone());
+    let robust = base.as_ref().map(|f0| sandwich(&jac, f0, r));
+    (base, robust)
+}
+
 /// F with (JᵀJ)⁻¹ = F Fᵀ, from a QR of the column-equilibrated J = Q R D and an SVD
 /// R = UΣVᵀ: F = D⁻¹VΣ⁻¹. `None` when J is (numerically) rank deficient.
-fn gram_inverse_factor<T: Real>(mut jac: DMatrix<T>) -> Option<DMatrix<T>> {
+fn gram_inverse_factor_qr<T: Real>(mut jac: DMatrix<T>) -> Option<DMatrix<T>> {
     let p = jac.ncols();
     if p == 0 || jac.nrows() < p {
         return None;
@@ -448,4 +560,49 @@ fn gram_inverse_factor<T: Real>(mut jac: DMatrix<T>) -> Option<DMatrix<T>> {
     Some(DMatrix::from_fn(p, p, |i, k| {
         vt[(k, i)] / (svd.singular_values[k] * scale[i])
     }))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn lcg(state: &mut u64) -> f64 {
+        *state = state
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        ((*state >> 11) as f64) / ((1u64 << 53) as f64) - 0.5
+    }
+
+    /// The Cholesky path of the covariance and of the sandwich equals the QR/SVD path.
+    #[test]
+    fn covariance_from_the_gram_matrix_equals_the_qr_one() {
+        let (n, p) = (300, 7);
+        let mut s = 21;
+        let jac = DMatrix::from_fn(2 * n, p, |_, j| lcg(&mut s) * 10f64.powi(j as i32 - 2));
+        let r: Vec<Complex<f64>> = (0..n)
+            .map(|_| Complex::new(lcg(&mut s), lcg(&mut s)))
+            .collect();
+        let (f, robust) = covariance_factors(jac.clone(), &r);
+        let (f, robust) = (f.expect("gram path"), robust.expect("robust"));
+        let fq = gram_inverse_factor_qr(jac.clone()).expect("qr path");
+        let (c, cq) = (&f * f.transpose(), &fq * fq.transpose());
+        assert!((&c - &cq).norm() <= 1e-10 * cq.norm(), "{c} vs {cq}");
+        let rq = sandwich(&jac, &fq, &r);
+        assert!((&robust - &rq).norm() <= 1e-10 * rq.norm());
+        // f32 with its tighter guard still agrees to its precision
+        let j32 = jac.map(|v| v as f32);
+        let r32: Vec<Complex<f32>> = r
+            .iter()
+            .map(|v| Complex::new(v.re as f32, v.im as f32))
+            .collect();
+        let (f32c, _) = covariance_factors(j32, &r32);
+        let f32c = f32c.expect("well conditioned in f32 too");
+        let c32 = (&f32c * f32c.transpose()).map(f64::from);
+        assert!((&c32 - &cq).norm() <= 1e-3 * cq.norm());
+        // a rank-deficient J has no covariance on either path
+        let mut def = jac.clone();
+        let col = def.column(0).into_owned();
+        def.set_column(1, &col);
+        assert!(covariance_factors(def, &r).0.is_none());
+    }
 }

@@ -6,8 +6,11 @@ use crate::criterion::{Criterion, Levy, MaximumLikelihood, NoiseWeighting, Sanat
 use crate::data::FrequencyData;
 use crate::error::Result;
 use crate::fit::{Fit, Stage};
-use crate::model::EquationError;
-use crate::solver::{FixedPoint, LevenbergMarquardt, LinearLeastSquares, Solution, Solver};
+use crate::criterion::MlProblem;
+use crate::model::{EquationError, ModelStructure};
+use crate::solver::{
+    FixedPoint, GramLevenbergMarquardt, LevenbergMarquardt, LinearLeastSquares, Solution, Solver,
+};
 
 /// Minimises `criterion` for `model` on `data` with `solver`, from `start` where the solver
 /// iterates. Only combinations where the solver accepts the criterion's problem compile:
@@ -40,6 +43,36 @@ where
     solver.solve(&problem, start)
 }
 
+/// ML from `start`: the guarded normal-equation LM first, the crate's LM when it fails.
+fn ml_solve<T: Real, M: ModelStructure<T> + ?Sized>(
+    fast: &GramLevenbergMarquardt,
+    lm: &LevenbergMarquardt,
+    problem: &MlProblem<'_, T, M>,
+    start: &[T],
+) -> Result<Solution<T>> {
+    fast.solve(problem, Some(start))
+        .or_else(|_| lm.solve(problem, Some(start)))
+}
+
+/// Buffers of the Levy/SK solves of one fit.
+struct LevyWork<T: Real> {
+    weights: Option<Option<Vec<T>>>,
+    regressor: nalgebra::DMatrix<crate::Complex<T>>,
+    a: nalgebra::DMatrix<T>,
+    b: nalgebra::DVector<T>,
+}
+
+impl<T: Real> Default for LevyWork<T> {
+    fn default() -> Self {
+        Self {
+            weights: None,
+            regressor: nalgebra::DMatrix::zeros(0, 0),
+            a: nalgebra::DMatrix::zeros(0, 0),
+            b: nalgebra::DVector::zeros(0),
+        }
+    }
+}
+
 /// Levy → Sanathanan–Koerner → maximum likelihood, each stage starting from the previous.
 ///
 /// | setting | default | meaning |
@@ -53,6 +86,15 @@ where
 /// original basis). When SK or ML stops at its iteration cap, two more ML starts are
 /// tried — from the Levy estimate, and (for relocatable bases) from a Levy solve in the
 /// basis of the ML poles with unstable ones reflected — and the lowest cost is kept.
+///
+/// **Speed.** When ML follows, it is solved first by [`GramLevenbergMarquardt`] (the step
+/// from the guarded normal equations, with the tolerances of `ml`), falling back to the
+/// crate's [`LevenbergMarquardt`] when that fails (ill-conditioned normal equations); and
+/// the Levy and SK linear solves, which then only produce ML's start, use the guarded
+/// normal equations too (for the partial-fraction relocations and for the re-weighted
+/// iterations of [`FixedPoint`] alike), falling back to QR/SVD when the equilibrated Gram matrix is
+/// ill-conditioned (see [`crate::solver`]'s `gram` kernels: κ₁ ≤ 10⁸ in f64, 10³ in f32).
+/// Without ML (`Pipeline::levy`, `Pipeline::sk`) every solve is QR/SVD.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Pipeline {
     /// Line weighting used by every stage.
@@ -104,7 +146,8 @@ impl Pipeline {
         data: &FrequencyData<T>,
     ) -> Result<Fit<T, M>> {
         let w = self.weighting;
-        let levy = estimate(model, data, &Levy { weighting: w }, &self.linear, None)?;
+        let mut work = LevyWork::default();
+        let levy = self.levy_solve(model, data, &self.linear, &mut work)?;
         let mut stages = vec![Stage {
             name: "levy".into(),
             solution: levy.clone(),
@@ -114,7 +157,7 @@ impl Pipeline {
         let mut model = model.clone();
         let relocated = self.sk.is_some() && model.relocated(&levy.theta).is_some();
         if let (Some(fp), true) = (&self.sk, relocated) {
-            let (m, sk) = self.relocate(model, data, levy.theta.clone(), fp)?;
+            let (m, sk) = self.relocate(model, data, levy.theta.clone(), fp, &mut work)?;
             model = m;
             current = sk.theta.clone();
             stages.push(Stage {
@@ -122,13 +165,9 @@ impl Pipeline {
                 solution: sk,
             });
         } else if let Some(fp) = &self.sk {
-            let sk = estimate(
-                &model,
-                data,
-                &SanathananKoerner { weighting: w },
-                fp,
-                Some(&levy.theta),
-            )?;
+            let criterion = SanathananKoerner { weighting: w };
+            let problem = criterion.problem(&model, data)?;
+            let sk = fp.solve_with(&problem, Some(&levy.theta), self.ml.is_some())?;
             current = sk.theta.clone();
             stages.push(Stage {
                 name: "sk".into(),
@@ -137,11 +176,20 @@ impl Pipeline {
         }
         if let Some(lm) = &self.ml {
             let ml = MaximumLikelihood { weighting: w };
+            let fast = GramLevenbergMarquardt::from(*lm);
+            // ML in another basis than `model`'s (the second starts)
+            let solve_in = |m: &M, start: &[T]| -> Result<Solution<T>> {
+                let problem = ml.problem(m, data)?;
+                ml_solve(&fast, lm, &problem, start)
+            };
+            let problem = ml.problem(&model, data)?;
             let sk_capped = stages.last().is_some_and(|s| !s.solution.converged());
-            let first = estimate(&model, data, &ml, lm, Some(&current));
+            let first = ml_solve(&fast, lm, &problem, &current);
             // the Levy estimate belongs to the original basis
-            let from_levy = || estimate(original, data, &ml, lm, Some(&levy.theta));
+            let from_levy = || solve_in(original, &levy.theta);
             let suspicious = |a: &Solution<T>| sk_capped || !a.converged();
+            // the basis the ML estimate belongs to, when it is not `model`'s
+            let mut replaced: Option<M> = None;
             let best = match first {
                 Ok(a) if suspicious(&a) && current != levy.theta => {
                     // SK or ML stopped at its cap: typically the relocation traded a
@@ -158,20 +206,18 @@ impl Pipeline {
                     if let Some(Ok(m2)) = best.0.as_ref().unwrap_or(&model).relocated(&best.1.theta)
                         && let Ok(l2) =
                             estimate(&m2, data, &Levy { weighting: w }, &self.linear, None)
-                        && let Ok(b) = estimate(&m2, data, &ml, lm, Some(&l2.theta))
+                        && let Ok(b) = solve_in(&m2, &l2.theta)
                         && b.cost < best.1.cost
                     {
                         best = (Some(m2), b);
                     }
-                    if let Some(m) = best.0 {
-                        model = m;
-                    }
+                    replaced = best.0;
                     best.1
                 }
                 Ok(a) => a,
                 Err(e) if current != levy.theta => {
                     if relocated {
-                        model = original.clone();
+                        replaced = Some(original.clone());
                     }
                     from_levy().map_err(|_| e)?
                 }
@@ -182,8 +228,64 @@ impl Pipeline {
                 name: "ml".into(),
                 solution: best,
             });
+            return match replaced {
+                // the statistics from the ML problem's own work space
+                None => Fit::from_ml_problem(model.clone(), data, current, &problem, stages),
+                Some(m) => Fit::new(m, data, current, w, stages),
+            };
         }
         Fit::new(model, data, current, w, stages)
+    }
+
+    /// One Levy solve: through the guarded normal equations when ML follows (falling back
+    /// to `linear`'s QR/SVD when they are ill-conditioned), else by `linear`. `work` holds
+    /// the regressor and the real-stacked system, reused across the relocations so that the
+    /// large buffers are allocated once per fit.
+    fn levy_solve<T: Real, M: EquationError<T>>(
+        &self,
+        model: &M,
+        data: &FrequencyData<T>,
+        linear: &LinearLeastSquares,
+        work: &mut LevyWork<T>,
+    ) -> Result<Solution<T>> {
+        let levy = Levy {
+            weighting: self.weighting,
+        };
+        if self.ml.is_none() {
+            return estimate(model, data, &levy, linear, None);
+        }
+        model.check_data(data)?;
+        crate::criterion::check_input(data)?;
+        if work.weights.is_none() {
+            work.weights = Some(self.weighting.weights(data)?);
+        }
+        let q = model.n_coefficients();
+        if work.regressor.shape() != (data.len(), q) {
+            work.regressor = nalgebra::DMatrix::zeros(data.len(), q);
+        }
+        model.regressor_into(data, &mut work.regressor);
+        crate::criterion::normalised_into(
+            &work.regressor,
+            work.weights.as_ref().and_then(|w| w.as_deref()),
+            model.normalising_index(),
+            &mut work.a,
+            &mut work.b,
+        );
+        let gram = crate::solver::gram::least_squares_gram(
+            &work.a,
+            &work.b,
+            crate::solver::gram::max_condition::<T>(),
+        );
+        let (theta, cost) = match gram {
+            Some(v) => v,
+            None => crate::solver::least_squares(work.a.clone(), work.b.clone(), linear.rcond_eps)?,
+        };
+        Ok(Solution {
+            theta: theta.as_slice().to_vec(),
+            cost,
+            iterations: 1,
+            termination: crate::solver::Termination::Direct,
+        })
     }
 
     /// Sanathanan–Koerner by basis relocation (vector fitting): a Levy solve in a basis
@@ -196,6 +298,7 @@ impl Pipeline {
         data: &FrequencyData<T>,
         mut theta: Vec<T>,
         fp: &FixedPoint,
+        work: &mut LevyWork<T>,
     ) -> Result<(M, Solution<T>)> {
         let w = self.weighting;
         let tol = fp
@@ -216,7 +319,7 @@ impl Pipeline {
                 break;
             };
             let next = next?;
-            let sol = estimate(&next, data, &Levy { weighting: w }, &linear, None)?;
+            let sol = self.levy_solve(&next, data, &linear, work)?;
             let (new_cost, g_new) = oe_cost(&next, &sol.theta);
             let change = crate::criterion::relative_change(&g_old, &g_new);
             let stalled = num_traits::Float::abs(new_cost - cost)

@@ -65,20 +65,46 @@ impl<T: Real> EquationErrorSystem<T> {
         let (n, p) = self.regressor.shape();
         let mut a = DMatrix::<T>::zeros(2 * n, p - 1);
         let mut b = DVector::<T>::zeros(2 * n);
-        for j in 0..p {
-            for k in 0..n {
-                let wk = w.as_ref().map_or(T::one(), |w| w[k]);
-                let v = self.regressor[(k, j)] * wk;
-                if j == self.normalising {
-                    b[2 * k] = -v.re;
-                    b[2 * k + 1] = -v.im;
-                } else {
-                    let col = if j < self.normalising { j } else { j - 1 };
-                    a[(2 * k, col)] = v.re;
-                    a[(2 * k + 1, col)] = v.im;
-                }
+        normalised_into(
+            &self.regressor,
+            w.as_deref(),
+            self.normalising,
+            &mut a,
+            &mut b,
+        );
+        (a, b)
+    }
+}
+
+/// The real-stacked system of [`EquationErrorSystem::normalised`] from a regressor,
+/// per-line weights and the normalising column, written into `a` (2N × (q − 1)) and `b`
+/// (2N), which are resized when their shapes differ.
+pub(crate) fn normalised_into<T: Real>(
+    regressor: &DMatrix<Complex<T>>,
+    w: Option<&[T]>,
+    normalising: usize,
+    a: &mut DMatrix<T>,
+    b: &mut DVector<T>,
+) {
+    let (n, p) = regressor.shape();
+    if a.shape() != (2 * n, p - 1) {
+        *a = DMatrix::zeros(2 * n, p - 1);
+    }
+    if b.len() != 2 * n {
+        *b = DVector::zeros(2 * n);
+    }
+    for j in 0..p {
+        for k in 0..n {
+            let wk = w.map_or(T::one(), |w| w[k]);
+            let v = regressor[(k, j)] * wk;
+            if j == normalising {
+                b[2 * k] = -v.re;
+                b[2 * k + 1] = -v.im;
+            } else {
+                let col = if j < normalising { j } else { j - 1 };
+                a[(2 * k, col)] = v.re;
+                a[(2 * k + 1, col)] = v.im;
             }
         }
-        (a, b)
     }
 }

@@ -93,6 +93,18 @@ impl<'a, T: Real, M: ModelStructure<T> + ?Sized> MlProblem<'a, T, M> {
         r.iter().fold(T::zero(), |s, v| s + *v * *v)
     }
 
+    /// Moves G and ∂G/∂θ of the last Jacobian evaluation out of the work space (empty
+    /// before any).
+    pub(crate) fn take_response_jacobian(
+        &self,
+    ) -> (Vec<crate::Complex<T>>, DMatrix<crate::Complex<T>>) {
+        let mut out = self.scratch.borrow_mut();
+        (
+            std::mem::take(&mut out.g),
+            std::mem::replace(&mut out.dg, DMatrix::zeros(0, 0)),
+        )
+    }
+
     fn w(&self, k: usize) -> T {
         self.weight.as_ref().map_or(T::one(), |w| w[k])
     }

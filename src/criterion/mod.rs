@@ -25,6 +25,7 @@ mod tls;
 mod eiv;
 pub use eiv::{EivProblem, ErrorsInVariables, fit_eiv, fit_eiv_delayed};
 pub use equation_error::EquationErrorSystem;
+pub(crate) use equation_error::normalised_into;
 pub use levy::{Levy, LevyProblem};
 pub use ml::{MaximumLikelihood, MlProblem};
 pub use noise_model::{NoiseModelMl, NoiseModelProblem, NoiseModelResiduals};

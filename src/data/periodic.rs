@@ -1,7 +1,7 @@
 //! Periodic records: averaging the DFT over `P` periods and estimating the noise
 //! (co)variances from the spread between periods.
 
-use crate::data::time::{TimeData, dft_lines_with, line_frequencies};
+use crate::data::time::{TimeData, dft_pair_with, line_frequencies};
 use crate::data::{FrequencyData, NoiseVariances};
 use crate::error::{FdidError, Result, check_finite, check_finite_complex};
 use crate::{Complex, Real};
@@ -73,16 +73,14 @@ impl<T: Real> PeriodicAverage<T> {
             });
         }
         let plan = FftPlanner::<T>::new().plan_fft_forward(m);
-        let u_p: Vec<Vec<Complex<T>>> = record
+        // one packed FFT of u and y per period, as TimeData::dft
+        type Spectra<T> = Vec<Vec<Complex<T>>>;
+        let (u_p, y_p): (Spectra<T>, Spectra<T>) = record
             .u()
             .chunks_exact(m)
-            .map(|c| dft_lines_with(plan.as_ref(), c))
-            .collect();
-        let y_p: Vec<Vec<Complex<T>>> = record
-            .y()
-            .chunks_exact(m)
-            .map(|c| dft_lines_with(plan.as_ref(), c))
-            .collect();
+            .zip(record.y().chunks_exact(m))
+            .map(|(u, y)| dft_pair_with(plan.as_ref(), u, y))
+            .unzip();
         let lines = m / 2 + 1;
         let p_t = T::from_usize_lossy(periods);
         let mean = |x: &[Vec<Complex<T>>]| -> Vec<Complex<T>> {

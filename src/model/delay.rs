@@ -229,6 +229,10 @@ impl<T: Real, M: ModelStructure<T>> ModelStructure<T> for Delayed<M> {
         self.inner.n_params() + 1
     }
 
+    fn has_transient(&self) -> bool {
+        self.inner.has_transient()
+    }
+
     /// G = G_M(θ_M) e^{−iωτ}.
     fn response_into(&self, theta: &[T], omega: &[T], out: &mut [Complex<T>]) {
         let p = self.inner.n_params();

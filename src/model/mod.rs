@@ -59,6 +59,13 @@ pub trait ModelStructure<T: Real> {
         false
     }
 
+    /// False when [`ModelStructure::transient_into`] certainly returns false (no transient
+    /// term), so that evaluators can skip the N × p buffer of ∂T/∂θ. The default, true, is
+    /// always correct.
+    fn has_transient(&self) -> bool {
+        true
+    }
+
     /// Checks that the model can be fitted to `data` (domain, sample time, enough lines).
     ///
     /// # Errors

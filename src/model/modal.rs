@@ -628,6 +628,10 @@ impl<T: Real> Modal<T> {
 }
 
 impl<T: Real> ModelStructure<T> for Modal<T> {
+    fn has_transient(&self) -> bool {
+        self.transient.is_some()
+    }
+
     fn n_params(&self) -> usize {
         let transient = if self.transient.is_some() {
             self.order()

@@ -332,6 +332,10 @@ impl<T: Real, M: ModelStructure<T>> ModelStructure<T> for WithNoiseModel<M> {
         self.system.n_params() + self.n_noise_params()
     }
 
+    fn has_transient(&self) -> bool {
+        self.system.has_transient()
+    }
+
     fn response_into(&self, theta: &[T], omega: &[T], out: &mut [Complex<T>]) {
         self.system
             .response_into(&theta[..self.system.n_params()], omega, out);

@@ -71,10 +71,14 @@ impl<T: Real> Output<T> {
                 }
             }
             model.jacobian_into(theta, omega, &mut self.g, &mut self.dg);
-            if self.dt.shape() != (n, p) {
-                self.dt = DMatrix::zeros(n, p);
+            if !model.has_transient() {
+                false
+            } else {
+                if self.dt.shape() != (n, p) {
+                    self.dt = DMatrix::zeros(n, p);
+                }
+                model.transient_into(theta, omega, &mut self.t, Some(&mut self.dt))
             }
-            model.transient_into(theta, omega, &mut self.t, Some(&mut self.dt))
         } else {
             model.response_into(theta, omega, &mut self.g);
             model.transient_into(theta, omega, &mut self.t, None)

@@ -586,6 +586,10 @@ impl<T: Real> ModelStructure<T> for Rational<T> {
         self.na + self.nb + 1 + self.n_transient()
     }
 
+    fn has_transient(&self) -> bool {
+        self.transient.is_some()
+    }
+
     fn response_into(&self, theta: &[T], omega: &[T], out: &mut [Complex<T>]) {
         let mut phi = self.zero_phi();
         for (w, o) in omega.iter().zip(out.iter_mut()) {

@@ -46,6 +46,20 @@ impl Default for FixedPoint {
 
 impl<T: Real, P: ReweightedProblem<T> + ?Sized> Solver<T, P> for FixedPoint {
     fn solve(&self, problem: &P, start: Option<&[T]>) -> Result<Solution<T>> {
+        self.solve_with(problem, start, false)
+    }
+}
+
+impl FixedPoint {
+    /// The iterations of [`Solver::solve`]; with `gram` the linear solves go through the
+    /// guarded normal equations (falling back to QR/SVD when they are ill-conditioned), for
+    /// iterations that only produce the start of a maximum-likelihood refinement.
+    pub(crate) fn solve_with<T: Real, P: ReweightedProblem<T> + ?Sized>(
+        &self,
+        problem: &P,
+        start: Option<&[T]>,
+        gram: bool,
+    ) -> Result<Solution<T>> {
         let tol = match self.tolerance {
             Some(t) => T::lit(t),
             None => num_traits::Float::sqrt(T::default_epsilon()),
@@ -57,7 +71,15 @@ impl<T: Real, P: ReweightedProblem<T> + ?Sized> Solver<T, P> for FixedPoint {
         let ctol = T::lit(self.cost_tolerance);
         for it in 1..=self.max_iterations.max(1) {
             let (a, b) = problem.system(previous.as_deref());
-            let (theta, _) = least_squares(a, b, self.rcond_eps)?;
+            let fast = if gram {
+                super::gram::least_squares_gram(&a, &b, super::gram::max_condition::<T>())
+            } else {
+                None
+            };
+            let (theta, _) = match fast {
+                Some(v) => v,
+                None => least_squares(a, b, self.rcond_eps)?,
+            };
             let theta = theta.as_slice().to_vec();
             let cost = problem.cost(&theta);
             let change = previous.as_deref().map(|old| problem.change(old, &theta));

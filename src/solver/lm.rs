@@ -35,6 +35,57 @@ impl Default for LevenbergMarquardt {
     }
 }
 
+impl LevenbergMarquardt {
+    /// Validates the start (present, `p` long, finite) and the size `m ≥ p` of the
+    /// problem, and returns the step and cost-reduction tolerances.
+    pub(crate) fn checked<T: Real>(
+        &self,
+        start: Option<&[T]>,
+        p: usize,
+        m: usize,
+    ) -> Result<(T, T)> {
+        let start = start.ok_or(FdidError::InvalidArgument {
+            name: "start",
+            value: "none".into(),
+            reason: "Levenberg–Marquardt needs a starting point (e.g. from SK)".into(),
+        })?;
+        if start.len() != p {
+            return Err(FdidError::LengthMismatch {
+                what: "start",
+                expected: p,
+                got: start.len(),
+            });
+        }
+        crate::error::check_finite("start", start)?;
+        if m < p {
+            return Err(FdidError::TooFewFrequencies {
+                lines: m / 2,
+                equations: m,
+                parameters: p,
+            });
+        }
+        let floor = T::default_epsilon() * T::lit(30.0);
+        let setting = |name: &'static str, v: Option<f64>, default: T| -> Result<T> {
+            match v {
+                None => Ok(default),
+                Some(x) if x.is_finite() && x > 0.0 => Ok(T::lit(x)),
+                Some(x) => Err(FdidError::InvalidArgument {
+                    name,
+                    value: format!("{x}"),
+                    reason: "a tolerance must be positive and finite".into(),
+                }),
+            }
+        };
+        let tol = setting("tolerance", self.tolerance, floor)?;
+        let ftol = setting(
+            "cost_tolerance",
+            self.cost_tolerance,
+            num_traits::Float::max(T::lit(1e-10), floor),
+        )?;
+        Ok((tol, ftol))
+    }
+}
+
 /// The adapter the crate's stateful trait needs; kept private.
 struct Adapter<'p, T: Real, P: ?Sized> {
     problem: &'p P,
@@ -89,45 +140,8 @@ impl<T: Real, P: NonlinearProblem<T> + ?Sized> LeastSquaresProblem<T, Dyn, Dyn>
 
 impl<T: Real, P: NonlinearProblem<T> + ?Sized> Solver<T, P> for LevenbergMarquardt {
     fn solve(&self, problem: &P, start: Option<&[T]>) -> Result<Solution<T>> {
-        let p = problem.n_params();
-        let start = start.ok_or(FdidError::InvalidArgument {
-            name: "start",
-            value: "none".into(),
-            reason: "Levenberg–Marquardt needs a starting point (e.g. from SK)".into(),
-        })?;
-        if start.len() != p {
-            return Err(FdidError::LengthMismatch {
-                what: "start",
-                expected: p,
-                got: start.len(),
-            });
-        }
-        crate::error::check_finite("start", start)?;
-        if problem.n_residuals() < p {
-            return Err(FdidError::TooFewFrequencies {
-                lines: problem.n_residuals() / 2,
-                equations: problem.n_residuals(),
-                parameters: p,
-            });
-        }
-        let floor = T::default_epsilon() * T::lit(30.0);
-        let setting = |name: &'static str, v: Option<f64>, default: T| -> Result<T> {
-            match v {
-                None => Ok(default),
-                Some(x) if x.is_finite() && x > 0.0 => Ok(T::lit(x)),
-                Some(x) => Err(FdidError::InvalidArgument {
-                    name,
-                    value: format!("{x}"),
-                    reason: "a tolerance must be positive and finite".into(),
-                }),
-            }
-        };
-        let tol = setting("tolerance", self.tolerance, floor)?;
-        let ftol = setting(
-            "cost_tolerance",
-            self.cost_tolerance,
-            num_traits::Float::max(T::lit(1e-10), floor),
-        )?;
+        let (tol, ftol) = self.checked(start, problem.n_params(), problem.n_residuals())?;
+        let start = start.unwrap_or_default();
         // xtol = tol, gtol = 0 as MINPACK's LMDER1; ftol separately
         let lm = levenberg_marquardt::LevenbergMarquardt::new()
             .with_tol(tol)

@@ -6,12 +6,16 @@
 //! | [`SvdNullVector`] | [`HomogeneousProblem`](crate::problem::HomogeneousProblem) | QR, then the right singular vector of R's smallest singular value |
 //! | [`FixedPoint`] | [`ReweightedProblem`](crate::problem::ReweightedProblem) | repeated weighted linear solves until the model stops changing |
 //! | [`LevenbergMarquardt`] | [`NonlinearProblem`](crate::problem::NonlinearProblem) | the `levenberg-marquardt` crate (MINPACK's trust region) |
+//! | [`GramLevenbergMarquardt`] | [`NonlinearProblem`](crate::problem::NonlinearProblem) | damped Gauss–Newton with the step from the guarded, equilibrated normal equations (fails rather than lose accuracy when they are ill-conditioned) |
 
 mod fixed_point;
+pub(crate) mod gram;
+mod gram_lm;
 mod linear;
 mod lm;
 
 pub use fixed_point::FixedPoint;
+pub use gram_lm::GramLevenbergMarquardt;
 pub use linear::{LinearLeastSquares, SvdNullVector, least_squares};
 pub use lm::LevenbergMarquardt;
 

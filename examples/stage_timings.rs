@@ -1,0 +1,131 @@
+//! Stage timings of the standard chain on the order-10 case (b_ct10, 20 000 lines) and on
+//! a_ct4 against the number of lines: `cargo run --release --example stage_timings`
+//! (`PROBE=full` or `PROBE=fitnew` repeat one part for a profiler, `PROBE=dft` times the
+//! DFT of 10⁷ samples).
+#[path = "../tests/common/mod.rs"]
+mod common;
+use common::{Noise, a_ct4, b_ct10, logspace, rel_rms};
+use fdid::criterion::NoiseWeighting;
+use fdid::pipeline::estimate;
+use fdid::solver::{GramLevenbergMarquardt, LevenbergMarquardt};
+use fdid::{Complex, Fit, FrequencyData, MaximumLikelihood, NoiseVariances, Pipeline, Rational};
+use std::time::Instant;
+
+fn simulate(sys: &common::Modal, n: usize, seed: u64) -> (FrequencyData<f64>, Vec<Complex<f64>>) {
+    let omega = logspace(-1.0, 1.0, n);
+    let g0 = sys.frf(&omega);
+    let rms = (g0.iter().map(|g| g.norm_sqr()).sum::<f64>() / g0.len() as f64).sqrt();
+    let var = (0.01 * rms).powi(2);
+    let mut noise = Noise::new(seed);
+    let y: Vec<Complex<f64>> = g0.iter().map(|g| g + noise.complex(var)).collect();
+    let data = FrequencyData::from_frf(omega, y, None)
+        .unwrap()
+        .with_noise(NoiseVariances::output_only(vec![var; n]))
+        .unwrap();
+    (data, g0)
+}
+
+fn best<R>(n: usize, mut f: impl FnMut() -> R) -> (f64, R) {
+    let mut out = f();
+    let mut t = f64::INFINITY;
+    for _ in 0..n {
+        let s = Instant::now();
+        out = f();
+        t = t.min(s.elapsed().as_secs_f64() * 1e3);
+    }
+    (t, out)
+}
+
+fn main() {
+    if std::env::var("PROBE").as_deref() == Ok("dft") {
+        let n = 10_000_000usize;
+        let mut noise = Noise::new(3);
+        let u: Vec<f64> = (0..n).map(|_| noise.gauss()).collect();
+        let y: Vec<f64> = u.iter().map(|v| 0.5 * v + 0.01 * noise.gauss()).collect();
+        let rec = fdid::TimeData::new(u, y, 1e-3).unwrap();
+        let (t, f) = best(3, || rec.dft());
+        println!("dft 1e7: {t:.1} ms ({} lines)", f.len());
+        return;
+    }
+    let (data, g0) = simulate(&b_ct10(), 20_000, 7);
+    let start = Rational::continuous(10, 9, data.omega()).unwrap();
+    let fit = Pipeline::default().fit(&start, &data).unwrap();
+    let mth = fit.theta().to_vec();
+    let fm = fit.model().clone();
+    match std::env::var("PROBE").as_deref() {
+        Ok("fitnew") => {
+            for _ in 0..40 {
+                Fit::new(fm.clone(), &data, mth.clone(), NoiseWeighting::Auto, vec![]).unwrap();
+            }
+            return;
+        }
+        Ok("full") => {
+            for _ in 0..20 {
+                Pipeline::default().fit(&start, &data).unwrap();
+            }
+            return;
+        }
+        _ => {}
+    }
+    let (t, fit) = best(5, || Pipeline::default().fit(&start, &data).unwrap());
+    let st: Vec<String> = fit
+        .stages()
+        .iter()
+        .map(|s| format!("{} {}", s.name, s.solution.iterations))
+        .collect();
+    println!(
+        "full ct10: {t:.2} ms cost {:.6} rel_rms {:.4e} {st:?}",
+        fit.cost(),
+        rel_rms(fit.response(), &g0)
+    );
+    let (t, _) = best(5, || Pipeline::levy().fit(&start, &data).unwrap());
+    println!("levy (QR)+Fit: {t:.2} ms");
+    let (t, sk) = best(5, || Pipeline::sk().fit(&start, &data).unwrap());
+    println!("levy+sk (QR)+Fit: {t:.2} ms");
+    let model = sk.model().clone();
+    let th = sk.theta().to_vec();
+    let ml = MaximumLikelihood::default();
+    let (t, s) = best(5, || {
+        estimate(
+            &model,
+            &data,
+            &ml,
+            &LevenbergMarquardt::default(),
+            Some(&th),
+        )
+        .unwrap()
+    });
+    println!("ml crate: {t:.2} ms cost {:.6} it {}", s.cost, s.iterations);
+    let (t, s) = best(5, || {
+        estimate(
+            &model,
+            &data,
+            &ml,
+            &GramLevenbergMarquardt::default(),
+            Some(&th),
+        )
+    });
+    println!(
+        "ml gram: {t:.2} ms {:?}",
+        s.as_ref().map(|s| (s.cost, s.iterations))
+    );
+    let (t, _) = best(5, || {
+        Fit::new(fm.clone(), &data, mth.clone(), NoiseWeighting::Auto, vec![]).unwrap()
+    });
+    println!("Fit::new: {t:.2} ms");
+    for n in [2_000usize, 20_000, 200_000] {
+        let (data, g0) = simulate(&a_ct4(), n, 11);
+        let model = Rational::continuous(4, 3, data.omega()).unwrap();
+        let (t, fit) = best(3, || Pipeline::default().fit(&model, &data).unwrap());
+        let st: Vec<String> = fit
+            .stages()
+            .iter()
+            .map(|s| format!("{} {}", s.name, s.solution.iterations))
+            .collect();
+        println!(
+            "lines_ct4/{n}: {t:.2} ms cost {:.6} rel_rms {:.4e} {st:?}",
+            fit.cost(),
+            rel_rms(fit.response(), &g0)
+        );
+    }
+}

@@ -1,0 +1,244 @@
+//! Guarded normal equations: the Gram matrix JᵀJ of a tall real matrix, equilibrated to a
+//! unit diagonal and factored by Cholesky only when it is well conditioned.
+//!
+//! The crate's rule is "QR/SVD, never the normal equations" wherever accuracy matters:
+//! forming JᵀJ squares the condition number, so a solve through it loses twice the digits
+//! a QR loses. These kernels are used only where that loss cannot reach a result:
+//!
+//! - the *step* of a Gauss–Newton / Levenberg–Marquardt iteration
+//!   ([`super::GramLevenbergMarquardt`]): the fixed point of the iteration is set by the
+//!   residuals and the gradient Jᵀr, which are computed directly; an inexact step only
+//!   slows convergence near the optimum, it does not move it;
+//! - the linear solves of Sanathanan–Koerner relocations that are followed by maximum
+//!   likelihood (they only produce its start);
+//! - the covariance of [`crate::Fit`], which needs a few significant digits, not fifteen.
+//!
+//! In every case the equilibrated Gram matrix Gₛ = D⁻¹JᵀJD⁻¹ (D = diag ‖J_j‖) is used only
+//! when its Cholesky factorisation succeeds and its 1-norm condition number
+//! κ₁(Gₛ) = ‖Gₛ‖₁‖Gₛ⁻¹‖₁ is at most [`max_condition`] (10⁸ in f64, 10³ in f32): then the
+//! solve keeps at least about half the digits of the scalar type, and the caller falls back
+//! to the QR path otherwise.
+
+use crate::Real;
+use nalgebra::{Cholesky, DMatrix, DVector, Dyn};
+use num_traits::Float;
+
+/// The largest κ₁ of the equilibrated Gram matrix accepted: 10⁸ for f64, 10³ for f32
+/// (κ·ε ≈ 2·10⁻⁸ and 1.2·10⁻⁴).
+pub(crate) fn max_condition<T: Real>() -> T {
+    if T::default_epsilon() < T::lit(1e-10) {
+        T::lit(1e8)
+    } else {
+        T::lit(1e3)
+    }
+}
+
+/// Work space for G = JᵀJ and g = Jᵀr of an m × p matrix (reused across iterations).
+#[derive(Debug, Clone)]
+pub(crate) struct GramWork<T: Real> {
+    /// JᵀJ (p × p).
+    pub g: DMatrix<T>,
+}
+
+impl<T: Real> GramWork<T> {
+    pub(crate) fn new(p: usize) -> Self {
+        Self {
+            g: DMatrix::zeros(p, p),
+        }
+    }
+
+    /// Forms G = JᵀJ: one blocked matrix product (`matrixmultiply`, through nalgebra's gemm)
+    /// of a transposed *view* of J with J, so no m × p copy is made; column dot products
+    /// for p ≤ 5, below nalgebra's threshold for the blocked product.
+    pub(crate) fn gram(&mut self, jac: &DMatrix<T>) {
+        let (m, p) = jac.shape();
+        if self.g.shape() != (p, p) {
+            self.g = DMatrix::zeros(p, p);
+        }
+        if p <= 5 || m == 0 {
+            jac.tr_mul_to(jac, &mut self.g);
+            return;
+        }
+        let jt = nalgebra::DMatrixView::<T, Dyn, Dyn>::from_slice_with_strides(
+            jac.as_slice(),
+            p,
+            m,
+            m,
+            1,
+        );
+        self.g.gemm(T::one(), &jt, jac, T::zero());
+    }
+
+    /// Jᵀv (column dot products of J, contiguous in memory).
+    pub(crate) fn tr_mul(jac: &DMatrix<T>, v: &[T], out: &mut DVector<T>) {
+        let v = nalgebra::DVectorView::from_slice(v, jac.nrows());
+        out.gemv_tr(T::one(), jac, &v, T::zero());
+    }
+}
+
+/// The equilibrated Gram matrix Gₛ = D⁻¹GD⁻¹ with its Cholesky factor, when well
+/// conditioned.
+#[derive(Debug, Clone)]
+pub(crate) struct ScaledCholesky<T: Real> {
+    /// D = √diag G.
+    pub d: Vec<T>,
+    /// Gₛ (unit diagonal).
+    pub gs: DMatrix<T>,
+    /// Cholesky factor of Gₛ.
+    pub chol: Cholesky<T, Dyn>,
+    /// κ₁(Gₛ).
+    #[cfg_attr(not(test), allow(dead_code))]
+    pub condition: T,
+}
+
+/// Equilibrates the symmetric positive semi-definite `g` and factors it; `None` when a
+/// diagonal entry is zero or not finite, when Cholesky fails, or when κ₁(Gₛ) exceeds
+/// `max_cond`.
+pub(crate) fn scaled_cholesky<T: Real>(g: &DMatrix<T>, max_cond: T) -> Option<ScaledCholesky<T>> {
+    let p = g.nrows();
+    if p == 0 || g.ncols() != p {
+        return None;
+    }
+    let mut d = Vec::with_capacity(p);
+    for j in 0..p {
+        let v = g[(j, j)];
+        if !(v > T::zero() && Float::is_finite(v)) {
+            return None;
+        }
+        d.push(Float::sqrt(v));
+    }
+    let gs = DMatrix::from_fn(p, p, |i, j| {
+        if i == j {
+            T::one()
+        } else {
+            g[(i, j)] / (d[i] * d[j])
+        }
+    });
+    if gs.iter().any(|v| !Float::is_finite(*v)) {
+        return None;
+    }
+    let chol = Cholesky::new(gs.clone())?;
+    let inv = chol.inverse();
+    let norm1 = |m: &DMatrix<T>| {
+        m.column_iter()
+            .map(|c| c.iter().fold(T::zero(), |s, v| s + Float::abs(*v)))
+            .fold(T::zero(), Float::max)
+    };
+    let condition = norm1(&gs) * norm1(&inv);
+    if !(condition <= max_cond) {
+        return None;
+    }
+    Some(ScaledCholesky {
+        d,
+        gs,
+        chol,
+        condition,
+    })
+}
+
+/// Least squares min ‖Aθ − b‖² through the guarded normal equations (see the module
+/// documentation); `None` when the equilibrated Gram matrix is not accepted, so that the
+/// caller uses [`super::least_squares`]. Returns θ and the residual norm² (computed from
+/// the residual itself, not from the normal equations).
+pub(crate) fn least_squares_gram<T: Real>(
+    a: &DMatrix<T>,
+    b: &DVector<T>,
+    max_cond: T,
+) -> Option<(DVector<T>, T)> {
+    let (m, p) = a.shape();
+    if p == 0 || m < p || b.len() != m {
+        return None;
+    }
+    let mut work = GramWork::new(p);
+    work.gram(a);
+    let sc = scaled_cholesky(&work.g, max_cond)?;
+    let mut atb = DVector::zeros(p);
+    GramWork::tr_mul(a, b.as_slice(), &mut atb);
+    for (v, d) in atb.iter_mut().zip(&sc.d) {
+        *v /= *d;
+    }
+    let y = sc.chol.solve(&atb);
+    let theta = DVector::from_iterator(p, y.iter().zip(&sc.d).map(|(v, d)| *v / *d));
+    if theta.iter().any(|v| !Float::is_finite(*v)) {
+        return None;
+    }
+    let mut r = b.clone();
+    r.gemv(-T::one(), a, &theta, T::one());
+    Some((theta, r.norm_squared()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn lcg(state: &mut u64) -> f64 {
+        *state = state
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        ((*state >> 11) as f64) / ((1u64 << 53) as f64) - 0.5
+    }
+
+    /// A tall matrix with columns of very different scales (equilibration must absorb them).
+    fn tall(m: usize, p: usize, seed: u64) -> DMatrix<f64> {
+        let mut s = seed;
+        DMatrix::from_fn(m, p, |_, j| lcg(&mut s) * 10f64.powi(j as i32 - 3))
+    }
+
+    #[test]
+    fn gram_matches_the_direct_product() {
+        for (m, p) in [(7, 3), (9, 5), (12, 6), (400, 11), (1000, 21)] {
+            let j = tall(m, p, 3 + m as u64);
+            let mut w = GramWork::new(1);
+            w.gram(&j);
+            let direct = j.transpose() * &j;
+            let err = (&w.g - &direct).norm() / direct.norm();
+            assert!(err < 1e-14, "{m}×{p}: {err:e}");
+            let v: Vec<f64> = (0..m).map(|k| (k as f64).sin()).collect();
+            let mut out = DVector::zeros(p);
+            GramWork::tr_mul(&j, &v, &mut out);
+            let direct = j.transpose() * DVector::from_vec(v);
+            assert!((&out - &direct).norm() <= 1e-13 * direct.norm());
+        }
+    }
+
+    #[test]
+    fn gram_least_squares_matches_qr_when_well_conditioned() {
+        let a = tall(500, 9, 17);
+        let mut s = 5;
+        let b = DVector::from_fn(500, |_, _| lcg(&mut s));
+        let (x, r) = least_squares_gram(&a, &b, 1e8).expect("well conditioned");
+        let (xq, rq) = crate::solver::least_squares(a.clone(), b.clone(), 1e3).expect("qr");
+        assert!((&x - &xq).norm() <= 1e-10 * xq.norm(), "{x} vs {xq}");
+        assert!((r - rq).abs() <= 1e-10 * rq);
+        // f32 on the same problem, with the f32 guard
+        let a32 = a.map(|v| v as f32);
+        let b32 = b.map(|v| v as f32);
+        let (x32, _) = least_squares_gram(&a32, &b32, max_condition::<f32>()).expect("f32");
+        let e = x32.map(f64::from) - &xq;
+        assert!(e.norm() <= 1e-3 * xq.norm(), "f32 error {}", e.norm());
+    }
+
+    #[test]
+    fn ill_conditioned_or_rank_deficient_is_refused() {
+        // two nearly parallel columns: κ(A) ≈ 1e6, κ(Gₛ) ≈ 1e12 > 1e8
+        let mut a = tall(300, 4, 9);
+        for k in 0..300 {
+            a[(k, 3)] = a[(k, 2)] * 1e2 + 1e-6 * a[(k, 0)];
+        }
+        let b = DVector::from_element(300, 1.0);
+        assert!(least_squares_gram(&a, &b, 1e8).is_none());
+        // exactly zero column
+        let mut z = tall(50, 3, 1);
+        z.column_mut(1).fill(0.0);
+        assert!(least_squares_gram(&z, &DVector::from_element(50, 1.0), 1e8).is_none());
+        // a moderately conditioned one passes in f64 but not with the f32 guard
+        let mut c = tall(300, 4, 9);
+        for k in 0..300 {
+            c[(k, 3)] = c[(k, 2)] * 1e2 + 1e-1 * c[(k, 3)];
+        }
+        let g = c.transpose() * &c;
+        let sc = scaled_cholesky(&g, 1e8).expect("κ below 1e8");
+        assert!(sc.condition > 1e3, "κ = {}", sc.condition);
+        assert!(scaled_cholesky(&g.map(|v| v as f32), max_condition::<f32>()).is_none());
+    }
+}
