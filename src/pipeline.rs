@@ -2,11 +2,11 @@
 //! [`estimate`] that composes any criterion with any solver that accepts its problem.
 
 use crate::Real;
+use crate::criterion::MlProblem;
 use crate::criterion::{Criterion, Levy, MaximumLikelihood, NoiseWeighting, SanathananKoerner};
 use crate::data::FrequencyData;
 use crate::error::Result;
 use crate::fit::{Fit, Stage};
-use crate::criterion::MlProblem;
 use crate::model::{EquationError, ModelStructure};
 use crate::solver::{
     FixedPoint, GramLevenbergMarquardt, LevenbergMarquardt, LinearLeastSquares, Solution, Solver,
