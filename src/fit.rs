@@ -164,6 +164,14 @@ impl<T: Real, M: ModelStructure<T>> Fit<T, M> {
     ) -> Result<Self> {
         let (n, p) = (data.len(), model.n_params());
         let cost = r.iter().fold(T::zero(), |s, v| s + *v * *v);
+        if !Float::is_finite(cost) {
+            return Err(crate::FdidError::Numerical {
+                what: format!(
+                    "the fit's cost is not finite ({}): the data are too large for this precision; scale them",
+                    cost.to_f64_lossless()
+                ),
+            });
+        }
         let nf = T::from_usize_lossy(n);
         let noise_variance = cost / nf;
         let noise_known = level == NoiseLevel::Known;

@@ -818,3 +818,24 @@ fn csv_reader_rejects_each_bad_input() {
         &["/nonexistent/fdid.csv"],
     );
 }
+
+#[test]
+fn fits_of_overflowing_data_are_errors_not_infinite_costs() {
+    // finite values whose squares overflow: the cost of any fit is +inf in f64
+    let base = dt_data();
+    let huge: Vec<Complex<f64>> = base.y().iter().map(|g| g * 1e308).collect();
+    let data = FrequencyData::from_frf(base.omega().to_vec(), huge, Some(1.0)).unwrap();
+    let model = Rational::discrete(1, 1, 1.0).unwrap();
+    for (name, pipeline) in [
+        ("levy", Pipeline::levy()),
+        ("sk", Pipeline::sk()),
+        ("ml", Pipeline::default()),
+    ] {
+        check(
+            &format!("{name} on data of 1e308"),
+            pipeline.fit(&model, &data),
+            is!(FdidError::Numerical { .. }),
+            &[],
+        );
+    }
+}

@@ -357,6 +357,20 @@ impl<T: Real> Rational<T> {
                     basis_poles.push(Complex::new(re, T::zero()));
                 }
             }
+            // a pole of the pair with im < 0 alone (its partner lost to rounding) would
+            // silently lower the order: refuse the relocation instead
+            let order: usize = basis_poles
+                .iter()
+                .map(|q| if q.im > T::zero() { 2 } else { 1 })
+                .sum();
+            if order != self.na {
+                return Err(FdidError::Numerical {
+                    what: format!(
+                        "pole relocation: the estimate's poles give a basis of order {order}, not {}",
+                        self.na
+                    ),
+                });
+            }
             let mut m = Self::partial_fractions(basis_poles, self.nb)?;
             m.transient = self.transient;
             Ok(m)
