@@ -12,7 +12,7 @@ use crate::criterion::MaximumLikelihood;
 use crate::data::FrequencyData;
 use crate::error::{FdidError, Result};
 use crate::fit::{Fit, Stage};
-use crate::model::{Domain, EquationError, Rational};
+use crate::model::{Domain, EquationError, Rational, log_spread_poles, positive_band};
 use crate::pipeline::{Pipeline, estimate};
 use crate::{Complex, Real};
 use nalgebra::{DMatrix, DVector};
@@ -23,35 +23,14 @@ use num_traits::Float;
 /// log-spread over [ω_lo, ω_hi] for ζ = 0.1 and ζ = 0.5 (plus −ω_hi for odd `na`), and
 /// `na` real poles −ω_lo (ω_hi/ω_lo)^((k + ½)/na).
 fn starting_poles<T: Real>(na: usize, omega: &[T]) -> Vec<Vec<Complex<T>>> {
-    let lo = omega
-        .iter()
-        .copied()
-        .filter(|w| *w > T::zero())
-        .fold(T::infinity(), Float::min);
-    let hi = omega.iter().copied().fold(T::zero(), Float::max);
-    if !(hi > T::zero()) {
+    let Some((lo, hi)) = positive_band(omega) else {
         return vec![];
-    }
+    };
     let (llo, lhi) = (Float::ln(lo), Float::ln(hi));
-    let mut out = vec![];
-    let pairs = na / 2;
-    for zeta in [0.1, 0.5] {
-        let mut p: Vec<Complex<T>> = (0..pairs)
-            .map(|k| {
-                let f = if pairs == 1 {
-                    T::lit(0.5)
-                } else {
-                    T::from_usize_lossy(k) / T::from_usize_lossy(pairs - 1)
-                };
-                let w = Float::exp(llo + (lhi - llo) * f);
-                Complex::new(-w * T::lit(zeta), w)
-            })
-            .collect();
-        if na % 2 == 1 {
-            p.push(Complex::new(-hi, T::zero()));
-        }
-        out.push(p);
-    }
+    let mut out: Vec<Vec<Complex<T>>> = [0.1, 0.5]
+        .iter()
+        .map(|zeta| log_spread_poles(na, lo, hi, T::lit(*zeta)))
+        .collect();
     out.push(
         (0..na)
             .map(|k| {

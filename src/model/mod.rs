@@ -16,6 +16,7 @@ pub use modal::{Modal, ModalDomain, ModalOptions, ModalParts, fit_modal};
 pub use noise::{NoiseModel, WithNoiseModel};
 pub use output::Output;
 pub use rational::{Domain, Rational};
+pub(crate) use rational::{log_spread_poles, positive_band};
 
 use crate::data::FrequencyData;
 use crate::error::Result;

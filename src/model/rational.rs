@@ -295,36 +295,15 @@ impl<T: Real> Rational<T> {
     /// 2·`omega.len()` ([`FdidError::TooFewFrequencies`]: no fit on the grid can succeed).
     pub fn partial_fractions_on(na: usize, nb: usize, omega: &[T]) -> Result<Self> {
         crate::error::check_finite("omega", omega)?;
-        let lo = omega
-            .iter()
-            .copied()
-            .filter(|w| *w > T::zero())
-            .fold(T::infinity(), Float::min);
-        let hi = omega.iter().copied().fold(T::zero(), Float::max);
-        if !(hi > T::zero()) {
+        let Some((lo, hi)) = positive_band(omega) else {
             return Err(FdidError::InvalidArgument {
                 name: "omega",
-                value: format!("max {hi}"),
+                value: format!("max {}", omega.iter().copied().fold(T::zero(), Float::max)),
                 reason: "a continuous-time model needs at least one positive frequency".into(),
             });
-        }
+        };
         super::check_degrees_on_grid(na, nb, omega.len())?;
-        let pairs = na / 2;
-        let (llo, lhi) = (Float::ln(lo), Float::ln(hi));
-        let mut poles: Vec<Complex<T>> = (0..pairs)
-            .map(|k| {
-                let f = if pairs == 1 {
-                    T::lit(0.5)
-                } else {
-                    T::from_usize_lossy(k) / T::from_usize_lossy(pairs - 1)
-                };
-                let w = Float::exp(llo + (lhi - llo) * f);
-                Complex::new(-w / T::lit(100.0), w)
-            })
-            .collect();
-        if na % 2 == 1 {
-            poles.push(Complex::new(-hi, T::zero()));
-        }
+        let poles = log_spread_poles(na, lo, hi, T::lit(0.01));
         Self::partial_fractions(poles, nb)
     }
 
@@ -867,4 +846,38 @@ fn check_below_nyquist<T: Real>(ts: T, data: &FrequencyData<T>) -> Result<()> {
 /// Nyquist line of a DFT converted to f32).
 fn nyquist_slack<T: Real>() -> T {
     Float::max(T::lit(1e-9), T::default_epsilon() * T::lit(64.0))
+}
+
+/// The smallest positive and the largest frequency of `omega`, when some is positive.
+pub(crate) fn positive_band<T: Real>(omega: &[T]) -> Option<(T, T)> {
+    let lo = omega
+        .iter()
+        .copied()
+        .filter(|w| *w > T::zero())
+        .fold(T::infinity(), Float::min);
+    let hi = omega.iter().copied().fold(T::zero(), Float::max);
+    (hi > T::zero()).then_some((lo, hi))
+}
+
+/// Starting basis poles of order `na` over [lo, hi] (rad/s): ⌊na/2⌋ poles −ζωₖ + iωₖ (the
+/// upper halves of the pairs) with ωₖ spread log-uniformly from lo to hi (√(lo·hi) for a
+/// single pair), plus the real pole −hi when `na` is odd.
+pub(crate) fn log_spread_poles<T: Real>(na: usize, lo: T, hi: T, zeta: T) -> Vec<Complex<T>> {
+    let pairs = na / 2;
+    let (llo, lhi) = (Float::ln(lo), Float::ln(hi));
+    let mut poles: Vec<Complex<T>> = (0..pairs)
+        .map(|k| {
+            let f = if pairs == 1 {
+                T::lit(0.5)
+            } else {
+                T::from_usize_lossy(k) / T::from_usize_lossy(pairs - 1)
+            };
+            let w = Float::exp(llo + (lhi - llo) * f);
+            Complex::new(-w * zeta, w)
+        })
+        .collect();
+    if na % 2 == 1 {
+        poles.push(Complex::new(-hi, T::zero()));
+    }
+    poles
 }

@@ -209,7 +209,8 @@ impl RandomSystem {
     }
 }
 
-fn log_uniform(rng: &mut StdRng, lo: f64, hi: f64) -> f64 {
+/// 10^U(log₁₀ lo, log₁₀ hi).
+pub fn log_uniform(rng: &mut StdRng, lo: f64, hi: f64) -> f64 {
     10f64.powf(rng.gen_range(lo.log10()..hi.log10()))
 }
 
@@ -265,12 +266,27 @@ pub fn random_ct_system(seed: u64, na: usize, nb: usize) -> RandomSystem {
             poles.push(Complex::new(re, -im));
         }
     }
+    with_random_zeros(&mut rng, poles, na, nb, (w_lo, w_hi), omega)
+}
+
+/// Completes a random continuous-time system from its poles as [`random_ct_system`] does:
+/// `nb` zeros, real (either sign) or complex pairs with ζ ∈ [0.05, 0.7] (either half
+/// plane), |z| log-uniform over [w_lo, w_hi], each at least 0.25 |p| away from every pole
+/// p; and the gain that makes RMS |G| over `omega` equal to 1.
+pub fn with_random_zeros(
+    rng: &mut StdRng,
+    poles: Vec<Complex<f64>>,
+    na: usize,
+    nb: usize,
+    (w_lo, w_hi): (f64, f64),
+    omega: Vec<f64>,
+) -> RandomSystem {
     let far = |z: Complex<f64>, poles: &[Complex<f64>]| {
         poles.iter().all(|p| (z - p).norm() >= 0.25 * p.norm())
     };
     let mut zeros: Vec<Complex<f64>> = vec![];
     while zeros.len() < nb {
-        let w = log_uniform(&mut rng, w_lo, w_hi);
+        let w = log_uniform(rng, w_lo, w_hi);
         let sign = if rng.gen_bool(0.5) { -1.0 } else { 1.0 };
         if nb - zeros.len() >= 2 && rng.gen_bool(0.6) {
             let zeta: f64 = rng.gen_range(0.05..=0.7);

@@ -11,7 +11,10 @@
 
 #![allow(dead_code)]
 
-use crate::common::{Noise, RandomSystem, Zpk, dt_theta, poly_from_roots, random_dt_system};
+use crate::common::{
+    Noise, RandomSystem, dt_theta, log_uniform, poly_from_roots, random_dt_system,
+    with_random_zeros,
+};
 use fdid::prelude::*;
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
@@ -42,10 +45,6 @@ pub struct Case {
 
 /// The noise variance per line: 40 dB below the RMS |G| = 1 of the cases.
 pub const NOISE_VAR: f64 = 1e-4;
-
-fn log_uniform(rng: &mut StdRng, lo: f64, hi: f64) -> f64 {
-    10f64.powf(rng.gen_range(lo.log10()..hi.log10()))
-}
 
 /// A random stable continuous-time system from `seed`:
 /// - na uniform in 1..=10, nb = na − U{0, 1, 2} (≥ 0);
@@ -96,37 +95,7 @@ pub fn ct_system(seed: u64) -> RandomSystem {
             poles.push(Complex::new(re, -im));
         }
     }
-    let far = |z: Complex<f64>, poles: &[Complex<f64>]| {
-        poles.iter().all(|p| (z - p).norm() >= 0.25 * p.norm())
-    };
-    let mut zeros: Vec<Complex<f64>> = vec![];
-    while zeros.len() < nb {
-        let w = log_uniform(&mut rng, w_lo, w_hi);
-        let sign = if rng.gen_bool(0.5) { -1.0 } else { 1.0 };
-        if nb - zeros.len() >= 2 && rng.gen_bool(0.6) {
-            let zeta: f64 = rng.gen_range(0.05..=0.7);
-            let z = Complex::new(sign * zeta * w, w * (1.0 - zeta * zeta).sqrt());
-            if far(z, &poles) {
-                zeros.push(z);
-                zeros.push(z.conj());
-            }
-        } else {
-            let z = Complex::new(sign * w, 0.0);
-            if far(z, &poles) {
-                zeros.push(z);
-            }
-        }
-    }
-    let mut zpk = Zpk {
-        zeros,
-        poles,
-        gain: 1.0,
-        ts: None,
-    };
-    let rms =
-        (zpk.frf(&omega).iter().map(|g| g.norm_sqr()).sum::<f64>() / omega.len() as f64).sqrt();
-    zpk.gain = 1.0 / rms;
-    RandomSystem { zpk, na, nb, omega }
+    with_random_zeros(&mut rng, poles, na, nb, (w_lo, w_hi), omega)
 }
 
 /// A random stable discrete-time system from `seed`: na uniform in 1..=10, nb uniform in
