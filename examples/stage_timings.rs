@@ -1,6 +1,6 @@
 //! Stage timings of the standard chain on the order-10 case (b_ct10, 20 000 lines) and on
 //! a_ct4 against the number of lines: `cargo run --release --example stage_timings`
-//! (`PROBE=full` or `PROBE=fitnew` repeat one part for a profiler, `PROBE=dft` times the
+//! (`PROBE=full`, `PROBE=ct4` or `PROBE=fitnew` repeat one part for a profiler, `PROBE=dft` times the
 //! DFT of 10⁷ samples).
 #[path = "../tests/common/mod.rs"]
 mod common;
@@ -45,6 +45,14 @@ fn main() {
         let rec = fdid::TimeData::new(u, y, 1e-3).unwrap();
         let (t, f) = best(3, || rec.dft());
         println!("dft 1e7: {t:.1} ms ({} lines)", f.len());
+        return;
+    }
+    if std::env::var("PROBE").as_deref() == Ok("ct4") {
+        let (data, _) = simulate(&a_ct4(), 2_000, 11);
+        let model = Rational::continuous(4, 3, data.omega()).unwrap();
+        for _ in 0..2000 {
+            Pipeline::default().fit(&model, &data).unwrap();
+        }
         return;
     }
     let (data, g0) = simulate(&b_ct10(), 20_000, 7);
