@@ -49,7 +49,11 @@ noise variance lambda = V/N, the validation line (V against its expected value u
 noise model with its p-value, and the Ljung-Box whiteness p-value of the normalised
 residuals across frequency), poles (rad/s, or z-plane for z, with natural frequency in
 Hz and damping ratio), zeros, gain, what each estimation stage did, and theta with
-standard deviations. With --json one JSON object:
+standard deviations. A `warning` line names each pole the data do not resolve: with
+s = sigma + i w_p (s = the pole, or ln(z)/Ts), no line lies in its half-power band
+|w - w_p| <= |sigma|, so its damping is not determined (often a spurious resonance
+placed between two lines); the line gives the band and the nearest lines.
+With --json one JSON object:
   {\"domain\":\"s\"|\"z\", \"poles\":[[re,im],..], \"zeros\":[[re,im],..], \"cost\":x,
    \"noise_variance\":x, \"frf\":[[f_hz,re,im],..], \"delay\":x|null,
    \"cost_expected\":x|null, \"cost_p\":x|null, \"whiteness_p\":x|null,
@@ -64,7 +68,8 @@ Further keys: na, nb, criterion, ts, lines, gain, stable, theta, theta_names, th
 frf_std, stages, weighting, noise_known, relative_residual, notes, form (how theta
 parameterises the model), basis_poles, delay_std, delay_samples (tau/Ts, null without a
 sample time), transient (number of transient coefficients, 0 without --transient),
-noise_order, whiteness_lags. theta is [rational part, t1..tn (--transient), tau
+noise_order, whiteness_lags, unresolved_poles ([{\"pole\":[re,im], \"s\":[sigma,w_p],
+\"band_hz\":[lo,hi], \"nearest_lines_hz\":[below,above]},..], [] when none). theta is [rational part, t1..tn (--transient), tau
 (--delay), c1..cN, d1..dN (--noise-order)]. Values that are not finite are written as null.
 
 Model extensions (they combine: --delay --transient --noise-order N all at once works):
@@ -110,7 +115,8 @@ Noise reference (how r_k is normalised):
 The DC line is dropped, so the means of u and y do not matter.
 
 Output: a text report (noise reference, starting model, the table of steps, the final model
-with its delay and poles, whether the residuals are consistent with the noise), or with
+with its delay and poles, a warning for each pole the data do not resolve, whether the
+residuals are consistent with the noise), or with
 --json one JSON object:
   {\"steps\":[{\"effect\":NAME,\"p_value\":x,\"cost_before\":x,\"cost_after\":x,
    \"lr_p\":x,\"detail\":{..}},..], \"effects\":[NAME,..], \"consistent_with_noise\":bool,
@@ -134,10 +140,12 @@ const EVAL_HELP: &str = "\
 The saved file is one JSON object {\"format\":\"fdid-model\", \"version\":1, \"kind\":
 \"rational\"|\"delayed\"|\"noise_model\"|\"delayed_noise_model\", \"domain\", \"ts\", \"source\",
 \"fitted\":{\"model\", \"theta\", \"covariance\", \"noise_variance\", \"noise_known\", \"cost\",
-\"lines\"}}. Numbers are written so that they read back exactly: the response is that of
-the fitted model to the last bit. The output is CSV f,re,im[,std] (a comment line first),
-std the standard deviation of G from the covariance of theta (no column without one);
-with --json one object {\"frf\":[[f,re,im],..], \"frf_std\":[..]|null}.
+\"lines\"}, \"unresolved_poles\":[[re,im],..]} (the poles the data did not resolve; files
+without the key have none). Numbers are written so that they read back exactly: the response is that of
+the fitted model to the last bit. The output is CSV f,re,im[,std] (a comment line first,
+then a `# warning:` line for each unresolved pole), std the standard deviation of G from
+the covariance of theta (no column without one); with --json one object
+{\"frf\":[[f,re,im],..], \"frf_std\":[..]|null, \"unresolved_poles\":[[re,im],..]}.
 
 Examples:
   fdid fit data/eis_battery.csv --domain s --na 6 --nb 6 --band :1000 --save eis.json
