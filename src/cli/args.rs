@@ -17,7 +17,7 @@ Examples:
   fdid fit data/rlc_bandpass.s2p --domain s --na 2 --nb 1 --port 21 --save rlc.json
   fdid eval rlc.json --freq 1e6:1e7:20
 
-Run `fdid fit --help` for the data file formats (CSV, Touchstone .s1p/.s2p) and every
+Run `fdid fit --help` for the data file formats (CSV, Touchstone .s1p/.s2p/.ts) and every
 option, `fdid diagnose --help` for the discrepancy workflow, `fdid eval --help` for saved
 models.";
 
@@ -28,10 +28,16 @@ Data files (CSV, header names the columns, any order, case-insensitive; `#` line
   f,u_re,u_im,y_re,y_im[,var_u,var_y]   input and output spectra U(f), Y(f), f in Hz
   t,u,y                                 time record, uniform t in s (sets Ts)
 Frequencies must be non-negative and strictly increasing; every value finite.
-Touchstone version 1 files (by extension): .s1p (1 port) and .s2p (2 ports, columns
-S11 S21 S12 S22), option line `# Hz|kHz|MHz|GHz S|Y|Z|H|G RI|MA|DB R <ohms>`, `!`
-comments; --port IJ picks the entry X_IJ fitted as an FRF (default 11 for .s1p, 21 for
-.s2p); Y, Z, H, G values are de-normalised by R. Version 2 files are rejected.
+Touchstone files (by extension): .s1p (1 port) and .s2p (2 ports), version 1 or 2.0, and
+.ts (version 2.0); option line `# Hz|kHz|MHz|GHz S|Y|Z|H|G RI|MA|DB R <ohms>`, `!`
+comments; --port IJ picks the entry X_IJ fitted as an FRF (default 11 for 1 port, 21 for
+2 ports). Version 1: 2-port columns S11 S21 S12 S22; Y, Z, H, G values are de-normalised
+by R. Version 2.0: [Version] 2.0, the option line, [Number of Ports] 1|2, then
+[Two-Port Data Order] 12_21|21_12 (2 ports), [Number of Frequencies] N (checked),
+[Reference] r1 r2, [Matrix Format] Full|Lower|Upper, [Number of Noise Frequencies],
+[Begin Information]..[End Information], then [Network Data], rows, [Noise Data]
+(skipped), [End]; values are not normalised (as the specification says).
+[Mixed-Mode Order] and more than 2 ports are rejected.
 
 Time records are transformed by the DFT (or averaged over --periods P periods, which
 also estimates per-line noise variances when P >= 2). The DC line (f = 0) and every
@@ -185,7 +191,8 @@ pub enum Command {
 #[derive(Debug, Args)]
 pub struct CommonArgs {
     /// Data file: CSV (a frequency response, input/output spectra or a time record) or
-    /// Touchstone .s1p/.s2p (the formats are in `fdid fit --help`)
+    /// Touchstone .s1p/.s2p (version 1 or 2.0) or .ts (version 2.0) (the formats are in
+    /// `fdid fit --help`)
     #[arg(value_name = "DATA")]
     pub data: PathBuf,
 
@@ -230,9 +237,9 @@ pub struct CommonArgs {
     #[arg(long)]
     pub transient: bool,
 
-    /// Touchstone files (.s1p, .s2p): the entry X_ij to fit, output port i and input port
-    /// j, written `ij` (`21` is S21). Default 11 for .s1p, 21 (forward transmission) for
-    /// .s2p
+    /// Touchstone files (.s1p, .s2p, .ts): the entry X_ij to fit, output port i and input
+    /// port j, written `ij` (`21` is S21). Default 11 for 1 port, 21 (forward
+    /// transmission) for 2 ports
     #[arg(long, value_name = "IJ")]
     pub port: Option<String>,
 }
