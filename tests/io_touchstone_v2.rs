@@ -190,7 +190,7 @@ fn reference_per_port_over_several_lines() {
 fn information_and_noise_blocks_are_skipped() {
     let text = "[Version] 2.0\n# GHz S RI\n[Number of Ports] 2\n[Two-Port Data Order] 21_12\n\
                 [Number of Frequencies] 2\n[Number of Noise Frequencies] 2\n\
-                [Begin Information]\n[Whatever] 1 2 3\nfree text\n[End Information]\n\
+                [Begin Information]\n[Whatever] 1 2 3\nfree text\n# not an option line\n[End Information]\n\
                 [Network Data]\n1 1 0 2 0 3 0 4 0\n2 1 0 2 0 3 0 4 0\n\
                 [Noise Data]\n1 0.5 0.1 10 0.3\n2 0.6 0.1 20 0.3\n[End]\n";
     let t = parse(text, 2).unwrap();

@@ -551,6 +551,12 @@ fn parse_v2(
                 ),
             ));
         }
+        if section == Section::Information
+            && keyword(content).is_none_or(|(kw, _, _)| kw != "end information")
+        {
+            // the information block is skipped
+            continue;
+        }
         let ports = h.ports.map(|p| p.0);
         if let Some(rest) = content.strip_prefix('#') {
             if section != Section::Version {
@@ -617,7 +623,7 @@ fn parse_v2(
                     }
                     continue;
                 }
-                Section::Noise | Section::Information => continue,
+                Section::Noise => continue,
                 Section::Version => {
                     return Err(perr(
                         line,
@@ -642,10 +648,6 @@ fn parse_v2(
         let kw = kw.as_str();
         // the end of a section that keywords close
         match section {
-            Section::Information if kw != "end information" => {
-                // information keywords are skipped
-                continue;
-            }
             Section::Reference => {
                 return Err(perr(
                     line,
