@@ -7,7 +7,7 @@
 //! `--transient` the transient term of a non-periodic record (eqs. 4–5, 9–10),
 //! `--noise-order N` a noise model H = C/D estimated by maximum likelihood (eq. 26), and
 //! `--criterion eiv` errors-in-variables maximum likelihood (eq. 42). Touchstone `.s1p`/`.s2p`
-//! files are read as the FRF of one entry (`--port`). `--save FILE` writes the fitted model
+//! (version 1 or 2.0) and `.ts` (2.0) files are read as the FRF of one entry (`--port`). `--save FILE` writes the fitted model
 //! as JSON; `fdid eval FILE --freq ...` evaluates it later, without the data.
 
 mod cli;

@@ -173,7 +173,12 @@ fn malformed_touchstone_is_one_error_line_with_its_line_number() {
         "--nb",
         "1",
     ]);
-    assert!(stderr(&o).contains("[Version]"), "{}", stderr(&o));
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(
+        e.starts_with("error:") && e.contains("line 2") && e.contains("[Number of Ports]"),
+        "{e}"
+    );
     let _ = std::fs::remove_dir_all(dir);
 }
 

@@ -17,7 +17,7 @@ Examples:
   fdid fit data/rlc_bandpass.s2p --domain s --na 2 --nb 1 --port 21 --save rlc.json
   fdid eval rlc.json --freq 1e6:1e7:20
 
-Run `fdid fit --help` for the data file formats (CSV, Touchstone .s1p/.s2p) and every
+Run `fdid fit --help` for the data file formats (CSV, Touchstone .s1p/.s2p/.ts) and every
 option, `fdid diagnose --help` for the discrepancy workflow, `fdid eval --help` for saved
 models.";
 
@@ -28,10 +28,16 @@ Data files (CSV, header names the columns, any order, case-insensitive; `#` line
   f,u_re,u_im,y_re,y_im[,var_u,var_y]   input and output spectra U(f), Y(f), f in Hz
   t,u,y                                 time record, uniform t in s (sets Ts)
 Frequencies must be non-negative and strictly increasing; every value finite.
-Touchstone version 1 files (by extension): .s1p (1 port) and .s2p (2 ports, columns
-S11 S21 S12 S22), option line `# Hz|kHz|MHz|GHz S|Y|Z|H|G RI|MA|DB R <ohms>`, `!`
-comments; --port IJ picks the entry X_IJ fitted as an FRF (default 11 for .s1p, 21 for
-.s2p); Y, Z, H, G values are de-normalised by R. Version 2 files are rejected.
+Touchstone files (by extension): .s1p (1 port) and .s2p (2 ports), version 1 or 2.0, and
+.ts (version 2.0); option line `# Hz|kHz|MHz|GHz S|Y|Z|H|G RI|MA|DB R <ohms>`, `!`
+comments; --port IJ picks the entry X_IJ fitted as an FRF (default 11 for 1 port, 21 for
+2 ports). Version 1: 2-port columns S11 S21 S12 S22; Y, Z, H, G values are de-normalised
+by R. Version 2.0: [Version] 2.0, the option line, [Number of Ports] 1|2, then
+[Two-Port Data Order] 12_21|21_12 (2 ports), [Number of Frequencies] N (checked),
+[Reference] r1 r2, [Matrix Format] Full|Lower|Upper, [Number of Noise Frequencies],
+[Begin Information]..[End Information], then [Network Data], rows, [Noise Data]
+(skipped), [End]; values are not normalised (as the specification says).
+[Mixed-Mode Order] and more than 2 ports are rejected.
 
 Time records are transformed by the DFT (or averaged over --periods P periods, which
 also estimates per-line noise variances when P >= 2). The DC line (f = 0) and every
@@ -49,7 +55,11 @@ noise variance lambda = V/N, the validation line (V against its expected value u
 noise model with its p-value, and the Ljung-Box whiteness p-value of the normalised
 residuals across frequency), poles (rad/s, or z-plane for z, with natural frequency in
 Hz and damping ratio), zeros, gain, what each estimation stage did, and theta with
-standard deviations. With --json one JSON object:
+standard deviations. A `warning` line names each pole the data do not resolve: with
+s = sigma + i w_p (s = the pole, or ln(z)/Ts), no line lies in its half-power band
+|w - w_p| <= |sigma|, so its damping is not determined (often a spurious resonance
+placed between two lines); the line gives the band and the nearest lines.
+With --json one JSON object:
   {\"domain\":\"s\"|\"z\", \"poles\":[[re,im],..], \"zeros\":[[re,im],..], \"cost\":x,
    \"noise_variance\":x, \"frf\":[[f_hz,re,im],..], \"delay\":x|null,
    \"cost_expected\":x|null, \"cost_p\":x|null, \"whiteness_p\":x|null,
@@ -64,7 +74,8 @@ Further keys: na, nb, criterion, ts, lines, gain, stable, theta, theta_names, th
 frf_std, stages, weighting, noise_known, relative_residual, notes, form (how theta
 parameterises the model), basis_poles, delay_std, delay_samples (tau/Ts, null without a
 sample time), transient (number of transient coefficients, 0 without --transient),
-noise_order, whiteness_lags. theta is [rational part, t1..tn (--transient), tau
+noise_order, whiteness_lags, unresolved_poles ([{\"pole\":[re,im], \"s\":[sigma,w_p],
+\"band_hz\":[lo,hi], \"nearest_lines_hz\":[below,above]},..], [] when none). theta is [rational part, t1..tn (--transient), tau
 (--delay), c1..cN, d1..dN (--noise-order)]. Values that are not finite are written as null.
 
 Model extensions (they combine: --delay --transient --noise-order N all at once works):
@@ -110,7 +121,8 @@ Noise reference (how r_k is normalised):
 The DC line is dropped, so the means of u and y do not matter.
 
 Output: a text report (noise reference, starting model, the table of steps, the final model
-with its delay and poles, whether the residuals are consistent with the noise), or with
+with its delay and poles, a warning for each pole the data do not resolve, whether the
+residuals are consistent with the noise), or with
 --json one JSON object:
   {\"steps\":[{\"effect\":NAME,\"p_value\":x,\"cost_before\":x,\"cost_after\":x,
    \"lr_p\":x,\"detail\":{..}},..], \"effects\":[NAME,..], \"consistent_with_noise\":bool,
@@ -134,10 +146,12 @@ const EVAL_HELP: &str = "\
 The saved file is one JSON object {\"format\":\"fdid-model\", \"version\":1, \"kind\":
 \"rational\"|\"delayed\"|\"noise_model\"|\"delayed_noise_model\", \"domain\", \"ts\", \"source\",
 \"fitted\":{\"model\", \"theta\", \"covariance\", \"noise_variance\", \"noise_known\", \"cost\",
-\"lines\"}}. Numbers are written so that they read back exactly: the response is that of
-the fitted model to the last bit. The output is CSV f,re,im[,std] (a comment line first),
-std the standard deviation of G from the covariance of theta (no column without one);
-with --json one object {\"frf\":[[f,re,im],..], \"frf_std\":[..]|null}.
+\"lines\"}, \"unresolved_poles\":[[re,im],..]} (the poles the data did not resolve; files
+without the key have none). Numbers are written so that they read back exactly: the response is that of
+the fitted model to the last bit. The output is CSV f,re,im[,std] (a comment line first,
+then a `# warning:` line for each unresolved pole), std the standard deviation of G from
+the covariance of theta (no column without one); with --json one object
+{\"frf\":[[f,re,im],..], \"frf_std\":[..]|null, \"unresolved_poles\":[[re,im],..]}.
 
 Examples:
   fdid fit data/eis_battery.csv --domain s --na 6 --nb 6 --band :1000 --save eis.json
@@ -177,7 +191,8 @@ pub enum Command {
 #[derive(Debug, Args)]
 pub struct CommonArgs {
     /// Data file: CSV (a frequency response, input/output spectra or a time record) or
-    /// Touchstone .s1p/.s2p (the formats are in `fdid fit --help`)
+    /// Touchstone .s1p/.s2p (version 1 or 2.0) or .ts (version 2.0) (the formats are in
+    /// `fdid fit --help`)
     #[arg(value_name = "DATA")]
     pub data: PathBuf,
 
@@ -222,9 +237,9 @@ pub struct CommonArgs {
     #[arg(long)]
     pub transient: bool,
 
-    /// Touchstone files (.s1p, .s2p): the entry X_ij to fit, output port i and input port
-    /// j, written `ij` (`21` is S21). Default 11 for .s1p, 21 (forward transmission) for
-    /// .s2p
+    /// Touchstone files (.s1p, .s2p, .ts): the entry X_ij to fit, output port i and input
+    /// port j, written `ij` (`21` is S21). Default 11 for 1 port, 21 (forward
+    /// transmission) for 2 ports
     #[arg(long, value_name = "IJ")]
     pub port: Option<String>,
 }

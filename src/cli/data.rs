@@ -3,7 +3,7 @@
 use super::Failure;
 use super::args::{CommonArgs, DomainArg, parse_band, parse_port};
 use fdid::criterion::interior_lines;
-use fdid::io::{Measurement, read_csv, read_touchstone, touchstone_ports};
+use fdid::io::{Measurement, TouchstoneVersion, is_touchstone, read_csv, read_touchstone};
 use fdid::prelude::*;
 use std::result::Result;
 
@@ -35,13 +35,15 @@ pub fn prepare(args: &CommonArgs, noise_model: bool) -> Result<Prepared, Failure
         FdidError::Parse { .. } | FdidError::Io(_) => Failure::from(e),
         e => Failure::runtime(format!("{}: {e}", args.data.display())),
     };
-    let (measurement, entry) = match touchstone_ports(&args.data) {
-        Some(ports) => {
+    let (measurement, entry) = match is_touchstone(&args.data) {
+        true => {
             let port = match &args.port {
-                Some(text) => parse_port(text).map_err(Failure::usage)?,
-                None if ports == 1 => (1, 1),
-                None => (2, 1),
+                Some(text) => Some(parse_port(text).map_err(Failure::usage)?),
+                None => None,
             };
+            let file = read_touchstone(&args.data).map_err(name_file)?;
+            let ports = file.ports;
+            let port = port.unwrap_or(if ports == 1 { (1, 1) } else { (2, 1) });
             if port.0 > ports || port.1 > ports {
                 return Err(Failure::usage(format!(
                     "invalid --port {}{}: {} is a {ports}-port file (ports 1..{ports})",
@@ -50,21 +52,28 @@ pub fn prepare(args: &CommonArgs, noise_model: bool) -> Result<Prepared, Failure
                     args.data.display()
                 )));
             }
-            let file = read_touchstone(&args.data).map_err(name_file)?;
             let data = file.frequency_data::<f64>(port).map_err(name_file)?;
+            let version = match file.version {
+                TouchstoneVersion::V1 => "",
+                TouchstoneVersion::V2 => " (version 2.0)",
+            };
+            let reference = match file.references.as_slice() {
+                [r1, r2] if r1 != r2 => format!("references {r1}, {r2} ohm"),
+                [r, ..] => format!("R = {r} ohm"),
+                [] => format!("R = {} ohm", file.reference),
+            };
             let entry = format!(
-                "Touchstone {}{}{} (R = {} ohm)",
+                "Touchstone{version} {}{}{} ({reference})",
                 file.parameter.letter(),
                 port.0,
                 port.1,
-                file.reference
             );
             (Measurement::Frequency(data), Some(entry))
         }
-        None => {
+        false => {
             if let Some(p) = &args.port {
                 return Err(Failure::usage(format!(
-                    "--port {p} applies to Touchstone files (.s1p, .s2p), but {} is not one",
+                    "--port {p} applies to Touchstone files (.s1p, .s2p, .ts), but {} is not one",
                     args.data.display()
                 )));
             }

@@ -654,6 +654,16 @@ impl Diagnosis {
             let _ = writeln!(w, "in time      final model on {segments}");
         }
         let _ = writeln!(w, "verdict      {}", self.verdict());
+        let n = self.last.unresolved().len();
+        if n > 0 {
+            let _ = writeln!(
+                w,
+                "warning      the final model has {n} pole{} the data do not resolve (listed \
+                 above): a consistent residual does not make {} trustworthy",
+                if n == 1 { "" } else { "s" },
+                if n == 1 { "it" } else { "them" }
+            );
+        }
         let fired: Vec<String> = self
             .remaining
             .iter()

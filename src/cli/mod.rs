@@ -190,67 +190,66 @@ pub fn fit_report(spec: &FitSpec, file: &str, prepared: &Prepared) -> Result<Rep
     match (spec.delay, spec.noise_order) {
         (false, None) => {
             let fit = estimate_with(spec.criterion, &model, data)?;
-            let saved = saved::saved(saved::Kind::Rational, spec.domain, prepared.ts, file, &fit)?;
-            Report::new(
-                spec,
-                file,
-                prepared,
-                &fit,
-                method.parts(fit.model(), false, None),
-            )
-            .map(|r| r.with_saved(saved))
+            let unresolved = fit.unresolved_poles()?;
+            let parts = method.parts(fit.model(), false, None, unresolved);
+            finish(saved::Kind::Rational, spec, file, prepared, &fit, parts)
         }
         (true, None) => {
             let fit = fit_with_delay(spec.criterion, &model, data)?;
-            let saved = saved::saved(saved::Kind::Delayed, spec.domain, prepared.ts, file, &fit)?;
-            Report::new(
-                spec,
-                file,
-                prepared,
-                &fit,
-                method.parts(fit.model().inner(), true, None),
-            )
-            .map(|r| r.with_saved(saved))
+            let unresolved = unresolved_of(spec, prepared, &fit)?;
+            let parts = method.parts(fit.model().inner(), true, None, unresolved);
+            finish(saved::Kind::Delayed, spec, file, prepared, &fit, parts)
         }
         (false, Some(n)) => {
             let fit = fit_noise_model(&Pipeline::default(), &model, data, n, n)?;
-            let saved = saved::saved(
-                saved::Kind::NoiseModel,
-                spec.domain,
-                prepared.ts,
-                file,
-                &fit,
-            )?;
+            let unresolved = unresolved_of(spec, prepared, &fit)?;
             let noise = fit.model().noise::<f64>();
-            Report::new(
-                spec,
-                file,
-                prepared,
-                &fit,
-                method.parts(fit.model().system(), false, Some(noise)),
-            )
-            .map(|r| r.with_saved(saved))
+            let parts = method.parts(fit.model().system(), false, Some(noise), unresolved);
+            finish(saved::Kind::NoiseModel, spec, file, prepared, &fit, parts)
         }
         (true, Some(n)) => {
             let fit = fit_delay_noise_model(&model, data, n)?;
-            let saved = saved::saved(
-                saved::Kind::DelayedNoiseModel,
-                spec.domain,
-                prepared.ts,
-                file,
-                &fit,
-            )?;
+            let unresolved = unresolved_of(spec, prepared, &fit)?;
             let noise = fit.model().noise::<f64>();
-            Report::new(
+            let parts = method.parts(fit.model().system().inner(), true, Some(noise), unresolved);
+            finish(
+                saved::Kind::DelayedNoiseModel,
                 spec,
                 file,
                 prepared,
                 &fit,
-                method.parts(fit.model().system().inner(), true, Some(noise)),
+                parts,
             )
-            .map(|r| r.with_saved(saved))
         }
     }
+}
+
+/// The report of `fit` with its saved-model object.
+fn finish<M: ModelStructure<f64> + PolesZeros<f64> + Clone + serde::Serialize>(
+    kind: saved::Kind,
+    spec: &FitSpec,
+    file: &str,
+    prepared: &Prepared,
+    fit: &Fit<f64, M>,
+    parts: Parts<'_>,
+) -> Result<Report, Failure> {
+    let saved = saved::saved(kind, spec.domain, prepared.ts, file, fit, &parts.unresolved)?;
+    Report::new(spec, file, prepared, fit, parts).map(|r| r.with_saved(saved))
+}
+
+/// The poles of a delayed or noise-model fit that the data do not resolve, by the
+/// definition of [`Fit::unresolved_poles`] (which serves the rational fits).
+fn unresolved_of<M: ModelStructure<f64> + PolesZeros<f64>>(
+    spec: &FitSpec,
+    prepared: &Prepared,
+    fit: &Fit<f64, M>,
+) -> Result<Vec<Complex<f64>>, Failure> {
+    Ok(report::unresolved_poles(
+        spec.domain,
+        prepared.ts,
+        fit.omega(),
+        &fit.poles()?,
+    ))
 }
 
 /// Rejects the combinations of flags the estimators do not compose, naming both flags.
@@ -410,8 +409,10 @@ impl Method {
         rational: &'a Rational<f64>,
         delay: bool,
         noise: Option<NoiseModel<f64>>,
+        unresolved: Vec<Complex<f64>>,
     ) -> Parts<'a> {
         Parts {
+            unresolved,
             rational,
             delay,
             noise,

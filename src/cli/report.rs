@@ -60,6 +60,132 @@ pub struct Parts<'a> {
     pub description: String,
     /// How the lines are weighted, when the criterion decides it (else the data's).
     pub weighting: Option<String>,
+    /// The poles the data do not resolve ([`Fit::unresolved_poles`]; one of each
+    /// conjugate pair), in the plane of the poles.
+    pub unresolved: Vec<Complex<f64>>,
+}
+
+/// A pole the data do not resolve, with why: with s = σ + iω_p (s = p, or ln(p)/Ts), no
+/// line lies in its half-power band |ω − ω_p| ≤ |σ|.
+#[derive(Debug, Clone, PartialEq)]
+pub struct UnresolvedPole {
+    /// The pole, in the plane of the poles (s, or z).
+    pub pole: Complex<f64>,
+    /// s = σ + iω_p (rad/s): the pole itself, or ln(z)/Ts.
+    pub s: Complex<f64>,
+    /// The nearest line below the band (rad/s), if any.
+    pub below: Option<f64>,
+    /// The nearest line above the band (rad/s), if any.
+    pub above: Option<f64>,
+}
+
+impl UnresolvedPole {
+    /// The details of `pole` (one [`Fit::unresolved_poles`] flagged) on the lines `omega`
+    /// (rad/s, ascending).
+    pub fn of(domain: DomainArg, ts: Option<f64>, omega: &[f64], pole: Complex<f64>) -> Self {
+        let s = s_of(domain, ts, pole);
+        let (lo, _) = Self::band_of(s);
+        let k = omega.partition_point(|x| *x < lo);
+        Self {
+            pole,
+            s,
+            below: k.checked_sub(1).and_then(|k| omega.get(k)).copied(),
+            above: omega.get(k).copied(),
+        }
+    }
+
+    /// The half-power band ω_p ∓ |σ| (rad/s) of s.
+    fn band_of(s: Complex<f64>) -> (f64, f64) {
+        let (sigma, w) = (s.re.abs(), s.im.abs());
+        (w - sigma, w + sigma)
+    }
+
+    /// The warning line of the text report (without the `warning` label).
+    pub fn text(&self, domain: DomainArg) -> String {
+        let hz = |w: f64| g(w / std::f64::consts::TAU);
+        let plane = match domain {
+            DomainArg::S => "rad/s",
+            DomainArg::Z => "z-plane",
+        };
+        let sign = if self.pole.im == 0.0 { "+" } else { "+/-" };
+        let s = match domain {
+            DomainArg::S => String::new(),
+            DomainArg::Z => format!(
+                "; s = ln(z)/Ts = {} {sign} {}i rad/s",
+                g(self.s.re),
+                g(self.s.im.abs())
+            ),
+        };
+        let nearest: Vec<String> = [self.below, self.above]
+            .into_iter()
+            .flatten()
+            .map(hz)
+            .collect();
+        let (lo, hi) = Self::band_of(self.s);
+        format!(
+            "unresolved pole {} {sign} {}i ({plane}{s}): no line in its half-power band \
+             {} .. {} Hz (|w - w_p| <= |sigma| = {} rad/s; nearest lines {} Hz), so the data \
+             do not determine its damping; it may be spurious (a resonance placed between two \
+             lines)",
+            g(self.pole.re),
+            g(self.pole.im.abs()),
+            hz(lo),
+            hz(hi),
+            g(self.s.re.abs()),
+            nearest.join(" and ")
+        )
+    }
+
+    /// The JSON object: `{"pole":[re,im],"s":[σ,ω_p],"band_hz":[lo,hi],
+    /// "nearest_lines_hz":[below|null,above|null]}`.
+    pub fn json(&self) -> Value {
+        let hz = |w: f64| num(w / std::f64::consts::TAU);
+        let opt = |w: Option<f64>| w.map_or(Value::Null, hz);
+        let (lo, hi) = Self::band_of(self.s);
+        json!({
+            "pole": [num(self.pole.re), num(self.pole.im)],
+            "s": [num(self.s.re), num(self.s.im.abs())],
+            "band_hz": [hz(lo), hz(hi)],
+            "nearest_lines_hz": [opt(self.below), opt(self.above)],
+        })
+    }
+}
+
+/// The poles that [`Fit::unresolved_poles`] flags, by its definition, for a model whose
+/// poles are `poles` (those of its rational part) fitted on the lines `omega` (rad/s,
+/// ascending): for the delayed and noise-model fits, where that method does not apply.
+pub fn unresolved_poles(
+    domain: DomainArg,
+    ts: Option<f64>,
+    omega: &[f64],
+    poles: &[Complex<f64>],
+) -> Vec<Complex<f64>> {
+    let (Some(lo), Some(hi)) = (omega.first().copied(), omega.last().copied()) else {
+        return vec![];
+    };
+    poles
+        .iter()
+        .filter(|p| p.im >= 0.0)
+        .filter(|p| {
+            let s = s_of(domain, ts, **p);
+            let (sigma, w) = (s.re.abs(), s.im.abs());
+            if !(w >= lo && w <= hi) {
+                return false;
+            }
+            let k = omega.partition_point(|x| *x < w - sigma);
+            !omega.get(k).is_some_and(|x| *x <= w + sigma)
+        })
+        .copied()
+        .collect()
+}
+
+/// s of a pole: itself (s), or ln(z)/Ts (z; NaN without a sample time).
+fn s_of(domain: DomainArg, ts: Option<f64>, p: Complex<f64>) -> Complex<f64> {
+    match (domain, ts) {
+        (DomainArg::S, _) => p,
+        (DomainArg::Z, Some(ts)) => p.ln() / ts,
+        (DomainArg::Z, None) => Complex::new(f64::NAN, f64::NAN),
+    }
 }
 
 /// The fitted noise model H = C/D.
@@ -107,6 +233,8 @@ pub struct Report {
     /// τ (s) and its standard deviation.
     delay: Option<(f64, Option<f64>)>,
     noise_model: Option<NoiseRow>,
+    /// The poles the data do not resolve.
+    unresolved: Vec<UnresolvedPole>,
     stages: Vec<StageRow>,
     /// The saved-model object of `fdid fit --save` (see `saved::saved`).
     pub saved: Option<Value>,
@@ -191,6 +319,11 @@ impl Report {
                 })
             }
         };
+        let unresolved = parts
+            .unresolved
+            .iter()
+            .map(|p| UnresolvedPole::of(args.domain, ts, fit.omega(), *p))
+            .collect();
         let covariance = fit.covariance().map(|c| {
             c.row_iter()
                 .map(|r| r.iter().copied().collect())
@@ -235,6 +368,7 @@ impl Report {
             n_transient,
             delay,
             noise_model,
+            unresolved,
             stages,
             saved: None,
         })
@@ -427,8 +561,21 @@ impl Report {
             );
         }
         let _ = writeln!(w, "stable       {}", if self.stable { "yes" } else { "no" });
+        self.unresolved_text(w);
         self.roots_text(w);
         o
+    }
+
+    /// One `warning` line for each pole the data do not resolve.
+    fn unresolved_text(&self, w: &mut String) {
+        for p in &self.unresolved {
+            let _ = writeln!(w, "warning      {}", p.text(self.domain));
+        }
+    }
+
+    /// The poles the data do not resolve.
+    pub fn unresolved(&self) -> &[UnresolvedPole] {
+        &self.unresolved
     }
 
     /// The JSON object (one line).
@@ -522,6 +669,7 @@ impl Report {
             "cost_p": opt(v.cost_p),
             "whiteness_p": opt(v.whiteness_p),
             "whiteness_lags": v.whiteness_lags,
+            "unresolved_poles": Value::Array(self.unresolved.iter().map(UnresolvedPole::json).collect()),
         })
     }
 
@@ -607,6 +755,7 @@ impl Report {
             }
         );
         let _ = writeln!(w, "stable       {}", if self.stable { "yes" } else { "no" });
+        self.unresolved_text(w);
         for n in &self.notes {
             let _ = writeln!(w, "note         {n}");
         }
@@ -777,6 +926,76 @@ mod tests {
         assert_eq!(num(f64::NAN), Value::Null);
         assert_eq!(num(f64::INFINITY), Value::Null);
         assert_eq!(num(2.0), json!(2.0));
+    }
+
+    /// The lines 0.1 .. 100 rad/s without those within 2·10⁻³ of 1 rad/s.
+    fn gap_grid() -> Vec<f64> {
+        (0..600)
+            .map(|k| 10f64.powf(-1.0 + 3.0 * k as f64 / 599.0))
+            .filter(|w| (w - 1.0).abs() > 2e-3)
+            .collect()
+    }
+
+    #[test]
+    fn unresolved_poles_as_the_library_defines_them() {
+        let omega = gap_grid();
+        let poles = [
+            Complex::new(-1e-4, 1.0),
+            Complex::new(-1.0, 19.97),
+            Complex::new(-0.5, 0.0),
+        ];
+        let frf: Vec<Complex<f64>> = omega
+            .iter()
+            .map(|w| {
+                let s = Complex::new(0.0, *w);
+                poles
+                    .iter()
+                    .map(|p| {
+                        if p.im == 0.0 {
+                            Complex::new(1.0, 0.0) / (s - p)
+                        } else {
+                            Complex::new(1.0, 0.0) / ((s - p) * (s - p.conj()))
+                        }
+                    })
+                    .sum()
+            })
+            .collect();
+        let data = FrequencyData::from_frf(omega.clone(), frf, None).unwrap();
+        let model = Rational::continuous(5, 4, data.omega()).unwrap();
+        let fit = Pipeline::default().fit(&model, &data).unwrap();
+        let lib = fit.unresolved_poles().unwrap();
+        assert_eq!(lib.len(), 1, "{lib:?}");
+        let fitted = fit.poles().unwrap();
+        assert_eq!(
+            unresolved_poles(DomainArg::S, None, fit.omega(), &fitted),
+            lib
+        );
+        let u = UnresolvedPole::of(DomainArg::S, None, fit.omega(), lib[0]);
+        assert!(u.below.unwrap() < 1.0 - 2e-3 && u.above.unwrap() > 1.0 + 2e-3);
+        assert!(
+            u.text(DomainArg::S)
+                .starts_with("unresolved pole -1.000000e-4 +/- ")
+        );
+    }
+
+    #[test]
+    fn unresolved_pole_in_z() {
+        let omega = gap_grid();
+        let ts = 0.01;
+        let flagged = (Complex::new(-1e-4, 1.0) * ts).exp();
+        let resolved = (Complex::new(-1.0, 19.97) * ts).exp();
+        let poles = [flagged, flagged.conj(), resolved, resolved.conj()];
+        assert_eq!(
+            unresolved_poles(DomainArg::Z, Some(ts), &omega, &poles),
+            vec![flagged]
+        );
+        let text = UnresolvedPole::of(DomainArg::Z, Some(ts), &omega, flagged).text(DomainArg::Z);
+        assert!(
+            text.contains("(z-plane; s = ln(z)/Ts = -1.000000e-4 +/- 1.000000i rad/s)"),
+            "{text}"
+        );
+        // without lines nothing is flagged
+        assert!(unresolved_poles(DomainArg::Z, Some(ts), &[], &poles).is_empty());
     }
 
     #[test]

@@ -6,8 +6,8 @@ use super::args::{DomainArg, EvalArgs};
 use fdid::fitted::FittedModel;
 use fdid::model::{Delayed, WithNoiseModel};
 use fdid::prelude::*;
-use serde::Serialize;
 use serde::de::DeserializeOwned;
+use serde::{Deserialize, Serialize};
 use serde_json::{Value, json};
 use std::fmt::Write as _;
 use std::result::Result;
@@ -43,13 +43,16 @@ impl Kind {
 
 /// The saved-model JSON object of `fit`:
 /// `{"format":"fdid-model","version":1,"kind":..,"domain":"s"|"z","ts":x|null,
-/// "source":FILE,"fitted":{model,theta,covariance,noise_variance,noise_known,cost,lines}}`.
+/// "source":FILE,"fitted":{model,theta,covariance,noise_variance,noise_known,cost,lines},
+/// "unresolved_poles":[[re,im],..]}` with `unresolved`, the poles the data did not
+/// resolve ([`Fit::unresolved_poles`]; files without the key have none).
 pub fn saved<M: ModelStructure<f64> + Clone + Serialize>(
     kind: Kind,
     domain: DomainArg,
     ts: Option<f64>,
     source: &str,
     fit: &Fit<f64, M>,
+    unresolved: &[Complex<f64>],
 ) -> Result<Value, Failure> {
     let fitted = serde_json::to_value(FittedModel::of_fit(fit))
         .map_err(|e| Failure::runtime(format!("cannot serialise the fitted model: {e}")))?;
@@ -61,7 +64,21 @@ pub fn saved<M: ModelStructure<f64> + Clone + Serialize>(
         "ts": ts,
         "source": source,
         "fitted": fitted,
+        "unresolved_poles": serde_json::to_value(Envelope {
+            unresolved_poles: unresolved.to_vec(),
+        })
+        .map_err(|e| Failure::runtime(format!("cannot serialise the unresolved poles: {e}")))?
+        ["unresolved_poles"],
     }))
+}
+
+/// The keys of a saved-model object read besides `fitted`, each with a default so that
+/// files written before the key existed still read.
+#[derive(Debug, Serialize, Deserialize)]
+struct Envelope {
+    /// The poles the data did not resolve (one of each conjugate pair), `[re, im]` each.
+    #[serde(default)]
+    unresolved_poles: Vec<Complex<f64>>,
 }
 
 /// Writes `value` to `path`.
@@ -94,6 +111,8 @@ pub fn eval(args: &EvalArgs) -> Result<String, Failure> {
             value["version"]
         )));
     }
+    let envelope: Envelope = serde_json::from_value(value.clone())
+        .map_err(|e| Failure::runtime(format!("{name}: bad saved model: {e}")))?;
     let omega: Vec<f64> = f_hz.iter().map(|f| std::f64::consts::TAU * f).collect();
     let fitted = &value["fitted"];
     let (g, std) = match value["kind"].as_str() {
@@ -120,7 +139,18 @@ pub fn eval(args: &EvalArgs) -> Result<String, Failure> {
         let frf_std = std
             .as_ref()
             .map(|s| Value::Array(s.iter().map(|x| finite(*x)).collect()));
-        return Ok(json!({"frf": frf, "frf_std": frf_std}).to_string() + "\n");
+        let unresolved: Vec<Value> = envelope
+            .unresolved_poles
+            .iter()
+            .map(|p| json!([finite(p.re), finite(p.im)]))
+            .collect();
+        return Ok(json!({
+            "frf": frf,
+            "frf_std": frf_std,
+            "unresolved_poles": unresolved,
+        })
+        .to_string()
+            + "\n");
     }
     let mut out = String::new();
     let _ = writeln!(
@@ -129,6 +159,16 @@ pub fn eval(args: &EvalArgs) -> Result<String, Failure> {
         value["kind"].as_str().unwrap_or(""),
         value["source"].as_str().unwrap_or("")
     );
+    for p in &envelope.unresolved_poles {
+        let _ = writeln!(
+            out,
+            "# warning: unresolved pole {} {} {}i: no line of the fitted data lay in its \
+             half-power band, so its damping is not determined by the data",
+            p.re,
+            if p.im == 0.0 { "+" } else { "+/-" },
+            p.im.abs()
+        );
+    }
     let _ = writeln!(out, "f,re,im{}", if std.is_some() { ",std" } else { "" });
     for (k, (f, g)) in f_hz.iter().zip(&g).enumerate() {
         let _ = write!(out, "{f:e},{:e},{:e}", g.re, g.im);

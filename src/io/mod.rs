@@ -2,7 +2,8 @@
 //!
 //! A CSV file holds one [`Measurement`]: frequency-domain data (an FRF or input/output
 //! spectra) or a uniformly sampled time record. See [`parse_csv`] for the format. A
-//! Touchstone `.s1p`/`.s2p` file holds the network parameters of a 1- or 2-port; see
+//! Touchstone `.s1p`/`.s2p` (version 1 or 2.0) or `.ts` (version 2.0) file holds the
+//! network parameters of a 1- or 2-port; see
 //! [`parse_touchstone`], and [`Touchstone::frequency_data`] for one entry as an FRF.
 
 mod csv;
@@ -10,7 +11,8 @@ mod touchstone;
 
 pub use self::csv::{parse_csv, read_csv};
 pub use self::touchstone::{
-    NumberFormat, Parameter, Touchstone, parse_touchstone, read_touchstone, touchstone_ports,
+    NumberFormat, Parameter, Touchstone, TouchstoneVersion, is_touchstone, parse_touchstone,
+    parse_touchstone_v2, read_touchstone, touchstone_ports,
 };
 
 use crate::Real;
