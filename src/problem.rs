@@ -17,6 +17,37 @@ pub trait NonlinearProblem<T: Real> {
     fn residuals_into(&self, theta: &[T], r: &mut [T]) -> bool;
     /// Writes r(θ) and its Jacobian ∂r/∂θ (m × p). Returns false if not finite.
     fn jacobian_into(&self, theta: &[T], r: &mut [T], jac: &mut DMatrix<T>) -> bool;
+
+    /// Writes r(θ), the Gram matrix `gram` = JᵀJ (p × p) and the gradient `grad` = Jᵀr
+    /// (length p) of J = ∂r/∂θ: what a normal-equation step needs. Returns false if not
+    /// finite. The default forms J in `jac` (resized to m × p when its shape differs) by
+    /// [`NonlinearProblem::jacobian_into`]; an implementation may accumulate JᵀJ and Jᵀr
+    /// over blocks of rows instead and leave `jac` untouched.
+    fn normal_equations_into(
+        &self,
+        theta: &[T],
+        r: &mut [T],
+        jac: &mut DMatrix<T>,
+        gram: &mut DMatrix<T>,
+        grad: &mut DVector<T>,
+    ) -> bool {
+        let (m, p) = (self.n_residuals(), self.n_params());
+        if jac.shape() != (m, p) {
+            *jac = DMatrix::zeros(m, p);
+        }
+        if !self.jacobian_into(theta, r, jac) {
+            return false;
+        }
+        if gram.shape() != (p, p) {
+            *gram = DMatrix::zeros(p, p);
+        }
+        if grad.len() != p {
+            *grad = DVector::zeros(p);
+        }
+        crate::solver::gram::gram_into(jac, gram, false);
+        crate::solver::gram::GramWork::tr_mul(jac, r, grad);
+        true
+    }
 }
 
 /// A linear least-squares problem: minimise ‖Aθ − b‖².

@@ -51,22 +51,11 @@ impl<T: Real> GramWork<T> {
     /// of a transposed *view* of J with J, so no m × p copy is made; column dot products
     /// for p ≤ 5, below nalgebra's threshold for the blocked product.
     pub(crate) fn gram(&mut self, jac: &DMatrix<T>) {
-        let (m, p) = jac.shape();
+        let p = jac.ncols();
         if self.g.shape() != (p, p) {
             self.g = DMatrix::zeros(p, p);
         }
-        if p <= 5 || m == 0 {
-            jac.tr_mul_to(jac, &mut self.g);
-            return;
-        }
-        let jt = nalgebra::DMatrixView::<T, Dyn, Dyn>::from_slice_with_strides(
-            jac.as_slice(),
-            p,
-            m,
-            m,
-            1,
-        );
-        self.g.gemm(T::one(), &jt, jac, T::zero());
+        gram_into(jac, &mut self.g, false);
     }
 
     /// Jᵀv (column dot products of J, contiguous in memory).
@@ -74,6 +63,23 @@ impl<T: Real> GramWork<T> {
         let v = nalgebra::DVectorView::from_slice(v, jac.nrows());
         out.gemv_tr(T::one(), jac, &v, T::zero());
     }
+}
+
+/// G = JᵀJ (`accumulate`: G += JᵀJ) into `g` (p × p, p = J's column count): one blocked
+/// matrix product (`matrixmultiply`, through nalgebra's gemm) of a transposed *view* of J
+/// with J, so no copy of J is made; column dot products for p ≤ 5, below nalgebra's
+/// threshold for the blocked product.
+pub(crate) fn gram_into<T: Real>(jac: &DMatrix<T>, g: &mut DMatrix<T>, accumulate: bool) {
+    let (m, p) = jac.shape();
+    debug_assert_eq!(g.shape(), (p, p));
+    let beta = if accumulate { T::one() } else { T::zero() };
+    if p <= 5 || m == 0 {
+        g.gemm_tr(T::one(), jac, jac, beta);
+        return;
+    }
+    let jt =
+        nalgebra::DMatrixView::<T, Dyn, Dyn>::from_slice_with_strides(jac.as_slice(), p, m, m, 1);
+    g.gemm(T::one(), &jt, jac, beta);
 }
 
 /// The equilibrated Gram matrix Gₛ = D⁻¹GD⁻¹ with its Cholesky factor, when well
