@@ -264,21 +264,25 @@ impl Pipeline {
             work.regressor = nalgebra::DMatrix::zeros(data.len(), q);
         }
         model.regressor_into(data, &mut work.regressor);
-        crate::criterion::normalised_into(
+        let weights = work.weights.as_ref().and_then(|w| w.as_deref());
+        let gram = crate::solver::gram::regressor_least_squares_gram(
             &work.regressor,
-            work.weights.as_ref().and_then(|w| w.as_deref()),
+            weights,
             model.normalising_index(),
-            &mut work.a,
-            &mut work.b,
-        );
-        let gram = crate::solver::gram::least_squares_gram(
-            &work.a,
-            &work.b,
             crate::solver::gram::max_condition::<T>(),
         );
         let (theta, cost) = match gram {
             Some(v) => v,
-            None => crate::solver::least_squares(work.a.clone(), work.b.clone(), linear.rcond_eps)?,
+            None => {
+                crate::criterion::normalised_into(
+                    &work.regressor,
+                    weights,
+                    model.normalising_index(),
+                    &mut work.a,
+                    &mut work.b,
+                );
+                crate::solver::least_squares(work.a.clone(), work.b.clone(), linear.rcond_eps)?
+            }
         };
         Ok(Solution {
             theta: theta.as_slice().to_vec(),

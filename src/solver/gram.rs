@@ -173,6 +173,84 @@ pub(crate) fn least_squares_gram<T: Real>(
     Some((theta, r.norm_squared()))
 }
 
+/// Lines per block of [`regressor_least_squares_gram`].
+const BLOCK: usize = 256;
+
+/// [`least_squares_gram`] for the real-stacked, line-weighted system of a complex
+/// regressor R (N × q) with the coefficient `normalising` fixed to one: with
+/// Rᵂ = diag(w) R and c = θ with 1 inserted at `normalising`, minimise
+///
+/// ```text
+/// ‖Rᵂ c‖² = ‖Aθ − b‖²,   A = the real-stacked other columns of Rᵂ, b = −(its normalising column),
+/// ```
+///
+/// without forming A: the full Gram matrix Σ_k Re(R̄ᵂ_k R_kᵂᵀ) (q × q) is accumulated over
+/// blocks of lines, AᵀA is its submatrix without the normalising row and column and
+/// Aᵀb = −(the normalising column without its own entry). The residual norm² is computed
+/// from the residuals w_k R_k c themselves. `None` under the conditions of
+/// [`least_squares_gram`] (then solve the stacked system by QR).
+pub(crate) fn regressor_least_squares_gram<T: Real>(
+    regressor: &DMatrix<crate::Complex<T>>,
+    w: Option<&[T]>,
+    normalising: usize,
+    max_cond: T,
+) -> Option<(DVector<T>, T)> {
+    let (n, q) = regressor.shape();
+    if q < 2 || normalising >= q || 2 * n < q - 1 || w.is_some_and(|w| w.len() != n) {
+        return None;
+    }
+    let p = q - 1;
+    let wk = |k: usize| w.map_or(T::one(), |w| w[k]);
+    let mut full = DMatrix::zeros(q, q);
+    let mut block = DMatrix::<T>::zeros(0, 0);
+    let re = regressor.as_slice();
+    for k0 in (0..n).step_by(BLOCK) {
+        let len = BLOCK.min(n - k0);
+        if block.nrows() != 2 * len {
+            block = DMatrix::zeros(2 * len, q);
+        }
+        // rows 0..len: real parts, len..2len: imaginary parts (the order of rows does not
+        // change the Gram matrix)
+        for (col, src) in block
+            .as_mut_slice()
+            .chunks_exact_mut(2 * len)
+            .zip(re.chunks_exact(n))
+        {
+            let (cr, ci) = col.split_at_mut(len);
+            for (i, v) in src[k0..k0 + len].iter().enumerate() {
+                let x = *v * wk(k0 + i);
+                cr[i] = x.re;
+                ci[i] = x.im;
+            }
+        }
+        gram_into(&block, &mut full, true);
+    }
+    let other = |i: usize| if i < normalising { i } else { i + 1 };
+    let g = DMatrix::from_fn(p, p, |i, j| full[(other(i), other(j))]);
+    let sc = scaled_cholesky(&g, max_cond)?;
+    let atb = DVector::from_fn(p, |i, _| -full[(other(i), normalising)] / sc.d[i]);
+    let y = sc.chol.solve(&atb);
+    let theta = DVector::from_iterator(p, y.iter().zip(&sc.d).map(|(v, d)| *v / *d));
+    if theta.iter().any(|v| !Float::is_finite(*v)) {
+        return None;
+    }
+    let mut c = Vec::with_capacity(q);
+    c.extend_from_slice(&theta.as_slice()[..normalising]);
+    c.push(T::one());
+    c.extend_from_slice(&theta.as_slice()[normalising..]);
+    let mut e = vec![crate::Complex::new(T::zero(), T::zero()); n];
+    for (col, cj) in re.chunks_exact(n).zip(&c) {
+        for (e, v) in e.iter_mut().zip(col) {
+            *e += *v * *cj;
+        }
+    }
+    let cost = e
+        .iter()
+        .enumerate()
+        .fold(T::zero(), |s, (k, v)| s + (*v * wk(k)).norm_sqr());
+    Some((theta, cost))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -222,6 +300,27 @@ mod tests {
         let (x32, _) = least_squares_gram(&a32, &b32, max_condition::<f32>()).expect("f32");
         let e = x32.map(f64::from) - &xq;
         assert!(e.norm() <= 1e-3 * xq.norm(), "f32 error {}", e.norm());
+    }
+
+    #[test]
+    fn regressor_gram_equals_the_stacked_system() {
+        let (n, q) = (700, 8);
+        let mut s = 41;
+        let reg = DMatrix::from_fn(n, q, |_, j| {
+            crate::Complex::new(lcg(&mut s), lcg(&mut s)) * 10f64.powi(j as i32 - 4)
+        });
+        let w: Vec<f64> = (0..n).map(|k| 1.0 + 0.5 * (k as f64).sin()).collect();
+        for (norm, w) in [(0, Some(w.as_slice())), (3, None), (q - 1, Some(w.as_slice()))] {
+            let mut a = DMatrix::zeros(0, 0);
+            let mut b = DVector::zeros(0);
+            crate::criterion::normalised_into(&reg, w, norm, &mut a, &mut b);
+            let (x, r) = least_squares_gram(&a, &b, 1e8).expect("stacked");
+            let (xr, rr) = regressor_least_squares_gram(&reg, w, norm, 1e8).expect("blocks");
+            assert!((&x - &xr).norm() <= 1e-12 * x.norm(), "{x} vs {xr}");
+            assert!((r - rr).abs() <= 1e-12 * r);
+        }
+        assert!(regressor_least_squares_gram(&reg, Some(&w[1..]), 0, 1e8).is_none());
+        assert!(regressor_least_squares_gram(&reg.columns(0, 1).into_owned(), None, 0, 1e8).is_none());
     }
 
     #[test]
