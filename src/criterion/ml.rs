@@ -36,14 +36,13 @@ pub struct MlProblem<'a, T: Real, M: ?Sized> {
     blocks: RefCell<[Block<T>; 2]>,
 }
 
-/// Lines per block of the accumulated normal equations: the block's G, ∂G/∂θ and real
-/// Jacobian rows stay in cache (tens of kB for p ≈ 20).
-const BLOCK: usize = 256;
-
 /// The model output and the real-stacked Jacobian rows of one block of lines.
 struct Block<T: Real> {
     out: Output<T>,
     jac: DMatrix<T>,
+    /// θ of `out` and `jac` when the block holds all the lines and `jac` is unchanged
+    /// since (see [`MlProblem::for_each_block`]).
+    at: Option<Vec<T>>,
 }
 
 impl<T: Real> Block<T> {
@@ -51,6 +50,7 @@ impl<T: Real> Block<T> {
         Self {
             out: Output::new(0, 0),
             jac: DMatrix::zeros(0, 0),
+            at: None,
         }
     }
 }
@@ -127,6 +127,71 @@ impl<'a, T: Real, M: ModelStructure<T> + ?Sized> MlProblem<'a, T, M> {
         )
     }
 
+    /// Evaluates the model output at θ block by block (about 16 384/p lines each, so that
+    /// a block stays in cache) and calls `f(k0, output, jac)` for each block starting at
+    /// line k0, with G, Ŷ and their Jacobians on the block's lines in `output` and the
+    /// block's rows of J = ∂r/∂θ (real-stacked line by line, 2·len × p) in `jac`. Returns
+    /// false, stopping, at the first block with a value that is not finite.
+    ///
+    /// `f` may overwrite `jac` only with `last`: then, when one block holds all the lines
+    /// and the previous call evaluated them at the same θ (and did not have `last`), that
+    /// evaluation is reused.
+    pub(crate) fn for_each_block(
+        &self,
+        theta: &[T],
+        last: bool,
+        mut f: impl FnMut(usize, &Output<T>, &mut DMatrix<T>),
+    ) -> bool {
+        let (n, p) = (self.data.len(), self.model.n_params());
+        let mut blocks = self.blocks.borrow_mut();
+        let (omega, u) = (self.data.omega(), self.data.u());
+        let lines = crate::solver::gram::block_lines(p);
+        for k0 in (0..n).step_by(lines) {
+            let len = lines.min(n - k0);
+            let Block { out, jac, at } = &mut blocks[usize::from(len < lines)];
+            let reuse = last && at.as_deref() == Some(theta);
+            *at = None;
+            if !reuse {
+                let lines = k0..k0 + len;
+                if !out.evaluate_lines(self.model, theta, &omega[lines.clone()], &u[lines], true) {
+                    return false;
+                }
+                if jac.shape() != (2 * len, p) {
+                    *jac = DMatrix::zeros(2 * len, p);
+                }
+                for (col, src) in jac
+                    .as_mut_slice()
+                    .chunks_exact_mut(2 * len)
+                    .zip(out.dyhat.as_slice().chunks_exact(len))
+                {
+                    for (i, (c, d)) in col.chunks_exact_mut(2).zip(src).enumerate() {
+                        let d = -*d * self.w(k0 + i);
+                        c[0] = d.re;
+                        c[1] = d.im;
+                    }
+                }
+                if !all_finite(jac.as_slice()) {
+                    return false;
+                }
+                if len == n && !last {
+                    *at = Some(theta.to_vec());
+                }
+            }
+            f(k0, out, jac);
+        }
+        true
+    }
+
+    /// Writes the residuals r of the lines k0 … k0 + len − 1 from the block's Ŷ.
+    pub(crate) fn block_residuals(&self, k0: usize, out: &Output<T>, r: &mut [T]) {
+        let len = out.yhat.len();
+        for (i, (yhat, y)) in out.yhat.iter().zip(&self.data.y()[k0..k0 + len]).enumerate() {
+            let e = (*y - *yhat) * self.w(k0 + i);
+            r[2 * (k0 + i)] = e.re;
+            r[2 * (k0 + i) + 1] = e.im;
+        }
+    }
+
     fn w(&self, k: usize) -> T {
         self.weight.as_ref().map_or(T::one(), |w| w[k])
     }
@@ -174,7 +239,7 @@ impl<T: Real, M: ModelStructure<T> + ?Sized> NonlinearProblem<T> for MlProblem<'
         finite && all_finite(r) && all_finite(jac.as_slice())
     }
 
-    /// JᵀJ and Jᵀr accumulated over blocks of [`BLOCK`] lines, each block's rows of J
+    /// JᵀJ and Jᵀr accumulated over blocks of lines ([`MlProblem::for_each_block`]), each block's rows of J
     /// formed in a small buffer that stays in cache: no 2N × p matrix is formed, and
     /// `jac` is not used.
     fn normal_equations_into(
@@ -185,7 +250,7 @@ impl<T: Real, M: ModelStructure<T> + ?Sized> NonlinearProblem<T> for MlProblem<'
         gram: &mut DMatrix<T>,
         grad: &mut DVector<T>,
     ) -> bool {
-        let (n, p) = (self.data.len(), self.model.n_params());
+        let p = self.model.n_params();
         if gram.shape() != (p, p) {
             *gram = DMatrix::zeros(p, p);
         }
@@ -194,42 +259,14 @@ impl<T: Real, M: ModelStructure<T> + ?Sized> NonlinearProblem<T> for MlProblem<'
         }
         gram.fill(T::zero());
         grad.fill(T::zero());
-        let mut blocks = self.blocks.borrow_mut();
-        let (omega, u, y) = (self.data.omega(), self.data.u(), self.data.y());
-        for k0 in (0..n).step_by(BLOCK) {
-            let len = BLOCK.min(n - k0);
-            let Block { out, jac } = &mut blocks[usize::from(len < BLOCK)];
-            let lines = k0..k0 + len;
-            if !out.evaluate_lines(self.model, theta, &omega[lines.clone()], &u[lines], true) {
-                return false;
-            }
-            for (i, (yhat, y)) in out.yhat.iter().zip(&y[k0..k0 + len]).enumerate() {
-                let e = (*y - *yhat) * self.w(k0 + i);
-                r[2 * (k0 + i)] = e.re;
-                r[2 * (k0 + i) + 1] = e.im;
-            }
-            if jac.shape() != (2 * len, p) {
-                *jac = DMatrix::zeros(2 * len, p);
-            }
-            let dyhat = out.dyhat.as_slice();
-            for (col, src) in jac
-                .as_mut_slice()
-                .chunks_exact_mut(2 * len)
-                .zip(dyhat.chunks_exact(len))
-            {
-                for (i, (c, d)) in col.chunks_exact_mut(2).zip(src).enumerate() {
-                    let d = -*d * self.w(k0 + i);
-                    c[0] = d.re;
-                    c[1] = d.im;
-                }
-            }
-            if !all_finite(jac.as_slice()) {
-                return false;
-            }
+        self.for_each_block(theta, false, |k0, out, jac| {
+            let len = out.yhat.len();
+            self.block_residuals(k0, out, r);
             crate::solver::gram::gram_into(jac, gram, true);
             let rb = nalgebra::DVectorView::from_slice(&r[2 * k0..2 * (k0 + len)], 2 * len);
             grad.gemv_tr(T::one(), jac, &rb, T::one());
-        }
-        all_finite(r) && all_finite(gram.as_slice()) && all_finite(grad.as_slice())
+        }) && all_finite(r)
+            && all_finite(gram.as_slice())
+            && all_finite(grad.as_slice())
     }
 }

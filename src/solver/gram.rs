@@ -173,8 +173,13 @@ pub(crate) fn least_squares_gram<T: Real>(
     Some((theta, r.norm_squared()))
 }
 
-/// Lines per block of [`regressor_least_squares_gram`].
-const BLOCK: usize = 256;
+/// Lines per block of the accumulated normal equations for `p` columns: about 16 384/p
+/// (at least 256), so that a block's real-stacked rows (2·lines × p) and the complex
+/// values they come from stay within a core's L2 cache, while the blocks stay long
+/// enough for the blocked product to run at full speed.
+pub(crate) fn block_lines(p: usize) -> usize {
+    (16_384 / p.max(1)).max(256)
+}
 
 /// [`least_squares_gram`] for the real-stacked, line-weighted system of a complex
 /// regressor R (N × q) with the coefficient `normalising` fixed to one: with
@@ -184,9 +189,8 @@ const BLOCK: usize = 256;
 /// ‖Rᵂ c‖² = ‖Aθ − b‖²,   A = the real-stacked other columns of Rᵂ, b = −(its normalising column),
 /// ```
 ///
-/// without forming A: the full Gram matrix Σ_k Re(R̄ᵂ_k R_kᵂᵀ) (q × q) is accumulated over
-/// blocks of lines, AᵀA is its submatrix without the normalising row and column and
-/// Aᵀb = −(the normalising column without its own entry). The residual norm² is computed
+/// without forming A: AᵀA and Aᵀb are accumulated over blocks of lines, each block's
+/// stacked rows formed in a small buffer. The residual norm² is computed
 /// from the residuals w_k R_k c themselves. `None` under the conditions of
 /// [`least_squares_gram`] (then solve the stacked system by QR).
 pub(crate) fn regressor_least_squares_gram<T: Real>(
@@ -201,34 +205,45 @@ pub(crate) fn regressor_least_squares_gram<T: Real>(
     }
     let p = q - 1;
     let wk = |k: usize| w.map_or(T::one(), |w| w[k]);
-    let mut full = DMatrix::zeros(q, q);
+    // AᵀA and Aᵀb over blocks of the stacked rows (b apart from A: a q-th column in the
+    // blocked product would cost a whole extra tile of its kernel)
+    let mut g = DMatrix::zeros(p, p);
+    let mut atb = DVector::zeros(p);
     let mut block = DMatrix::<T>::zeros(0, 0);
+    let mut rhs = DVector::<T>::zeros(0);
     let re = regressor.as_slice();
-    for k0 in (0..n).step_by(BLOCK) {
-        let len = BLOCK.min(n - k0);
+    let lines = block_lines(p);
+    for k0 in (0..n).step_by(lines) {
+        let len = lines.min(n - k0);
         if block.nrows() != 2 * len {
-            block = DMatrix::zeros(2 * len, q);
+            block = DMatrix::zeros(2 * len, p);
+            rhs = DVector::zeros(2 * len);
         }
         // rows 0..len: real parts, len..2len: imaginary parts (the order of rows does not
-        // change the Gram matrix)
-        for (col, src) in block
-            .as_mut_slice()
-            .chunks_exact_mut(2 * len)
-            .zip(re.chunks_exact(n))
-        {
+        // change AᵀA and Aᵀb)
+        for (j, src) in re.chunks_exact(n).enumerate() {
+            let col = match j.cmp(&normalising) {
+                std::cmp::Ordering::Less => &mut block.as_mut_slice()[j * 2 * len..(j + 1) * 2 * len],
+                std::cmp::Ordering::Equal => rhs.as_mut_slice(),
+                std::cmp::Ordering::Greater => {
+                    &mut block.as_mut_slice()[(j - 1) * 2 * len..j * 2 * len]
+                }
+            };
+            let sign = if j == normalising { -T::one() } else { T::one() };
             let (cr, ci) = col.split_at_mut(len);
             for (i, v) in src[k0..k0 + len].iter().enumerate() {
-                let x = *v * wk(k0 + i);
+                let x = *v * (wk(k0 + i) * sign);
                 cr[i] = x.re;
                 ci[i] = x.im;
             }
         }
-        gram_into(&block, &mut full, true);
+        gram_into(&block, &mut g, true);
+        atb.gemv_tr(T::one(), &block, &rhs, T::one());
     }
-    let other = |i: usize| if i < normalising { i } else { i + 1 };
-    let g = DMatrix::from_fn(p, p, |i, j| full[(other(i), other(j))]);
     let sc = scaled_cholesky(&g, max_cond)?;
-    let atb = DVector::from_fn(p, |i, _| -full[(other(i), normalising)] / sc.d[i]);
+    for (v, d) in atb.iter_mut().zip(&sc.d) {
+        *v /= *d;
+    }
     let y = sc.chol.solve(&atb);
     let theta = DVector::from_iterator(p, y.iter().zip(&sc.d).map(|(v, d)| *v / *d));
     if theta.iter().any(|v| !Float::is_finite(*v)) {
