@@ -113,9 +113,10 @@ impl<T: Real, M: ModelStructure<T>> Fit<T, M> {
     /// ([`MlProblem::for_each_block`]): r, G and JᵀJ in a first pass; the covariance from
     /// the equilibrated Gram matrix when it is accepted (see [`covariance_factors`]); the
     /// sandwich's JᵀD²J and the response's standard deviations in a second pass (which
-    /// reuses the first when one block holds all the lines). `None` when anything is not finite
-    /// or the Gram matrix is refused: then the caller takes the path of
-    /// [`Fit::from_residuals`] (QR/SVD of the full J, typed errors).
+    /// reuses the first when one block holds all the lines). `None` for small problems
+    /// (N·p ≤ 32 768, whose N × p matrices stay in cache), when anything is not finite or
+    /// when the Gram matrix is refused: then the caller takes the path of
+    /// [`Fit::from_residuals`] (the full J, its QR/SVD when needed, typed errors).
     fn ml_blocks<Mp: ModelStructure<T> + ?Sized>(
         problem: &MlProblem<'_, T, Mp>,
         theta: &[T],
@@ -127,7 +128,7 @@ impl<T: Real, M: ModelStructure<T>> Fit<T, M> {
         } else {
             NoiseLevel::Estimated
         };
-        if p == 0 || 2 * n < p {
+        if p == 0 || 2 * n < p || crate::solver::gram::small_problem(n, p) {
             return None;
         }
         // pass 1: r, G and JᵀJ

@@ -127,7 +127,7 @@ impl<'a, T: Real, M: ModelStructure<T> + ?Sized> MlProblem<'a, T, M> {
         )
     }
 
-    /// Evaluates the model output at θ block by block (about 16 384/p lines each, so that
+    /// Evaluates the model output at θ block by block ([`crate::solver::gram`]'s block size, so that
     /// a block stays in cache) and calls `f(k0, output, jac)` for each block starting at
     /// line k0, with G, Ŷ and their Jacobians on the block's lines in `output` and the
     /// block's rows of J = ∂r/∂θ (real-stacked line by line, 2·len × p) in `jac`. Returns
@@ -239,23 +239,37 @@ impl<T: Real, M: ModelStructure<T> + ?Sized> NonlinearProblem<T> for MlProblem<'
         finite && all_finite(r) && all_finite(jac.as_slice())
     }
 
-    /// JᵀJ and Jᵀr accumulated over blocks of lines ([`MlProblem::for_each_block`]), each block's rows of J
-    /// formed in a small buffer that stays in cache: no 2N × p matrix is formed, and
-    /// `jac` is not used.
+    /// JᵀJ and Jᵀr accumulated over blocks of lines ([`MlProblem::for_each_block`]), each
+    /// block's rows of J formed in a small buffer that stays in cache: no 2N × p matrix is
+    /// formed, and `jac` is not used — except for small problems (N·p ≤ 32 768), whose J
+    /// is formed in `jac` as by the default.
     fn normal_equations_into(
         &self,
         theta: &[T],
         r: &mut [T],
-        _jac: &mut DMatrix<T>,
+        jac: &mut DMatrix<T>,
         gram: &mut DMatrix<T>,
         grad: &mut DVector<T>,
     ) -> bool {
-        let p = self.model.n_params();
+        let (n, p) = (self.data.len(), self.model.n_params());
         if gram.shape() != (p, p) {
             *gram = DMatrix::zeros(p, p);
         }
         if grad.len() != p {
             *grad = DVector::zeros(p);
+        }
+        if crate::solver::gram::small_problem(n, p) {
+            // J itself, in cache
+            let m = 2 * n;
+            if jac.shape() != (m, p) {
+                *jac = DMatrix::zeros(m, p);
+            }
+            if !self.jacobian_into(theta, r, jac) {
+                return false;
+            }
+            crate::solver::gram::gram_into(jac, gram, false);
+            crate::solver::gram::GramWork::tr_mul(jac, r, grad);
+            return true;
         }
         gram.fill(T::zero());
         grad.fill(T::zero());

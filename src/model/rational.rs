@@ -523,15 +523,10 @@ impl<T: Real> Rational<T> {
         Ok(out)
     }
 
-    /// Evaluates A and B at one variable value, with the basis values in `phi`.
+    /// Evaluates A and B at the variable of ω, with the basis values in `phi`.
     #[inline]
-    fn eval_ab(
-        &self,
-        theta: &[T],
-        v: Complex<T>,
-        phi: &mut [Complex<T>],
-    ) -> (Complex<T>, Complex<T>) {
-        self.basis.eval_into(v, phi);
+    fn eval_ab(&self, theta: &[T], omega: T, phi: &mut [Complex<T>]) -> (Complex<T>, Complex<T>) {
+        self.basis.eval_at(omega, phi);
         let zero = Complex::new(T::zero(), T::zero());
         let na = self.na;
         let mut a = zero;
@@ -586,8 +581,8 @@ impl<T: Real> ModelStructure<T> for Rational<T> {
     fn response_into(&self, theta: &[T], omega: &[T], out: &mut [Complex<T>]) {
         let mut phi = self.zero_phi();
         for (w, o) in omega.iter().zip(out.iter_mut()) {
-            let (a, b) = self.eval_ab(theta, self.basis.variable(*w), &mut phi);
-            *o = b / a;
+            let (a, b) = self.eval_ab(theta, *w, &mut phi);
+            *o = b * recip(a);
         }
     }
 
@@ -603,8 +598,8 @@ impl<T: Real> ModelStructure<T> for Rational<T> {
         let na = self.na;
         let off = self.a_offset();
         for (k, w) in omega.iter().enumerate() {
-            let (a, b) = self.eval_ab(theta, self.basis.variable(*w), &mut phi);
-            let inv_a = a.inv();
+            let (a, b) = self.eval_ab(theta, *w, &mut phi);
+            let inv_a = recip(a);
             let gk = b * inv_a;
             g[k] = gk;
             let minus_g_over_a = -gk * inv_a;
@@ -640,9 +635,9 @@ impl<T: Real> ModelStructure<T> for Rational<T> {
         let mut chi = vec![Complex::new(T::zero(), T::zero()); nt];
         let off = self.a_offset();
         for (k, w) in omega.iter().enumerate() {
-            let (a, _) = self.eval_ab(theta, self.basis.variable(*w), &mut phi);
+            let (a, _) = self.eval_ab(theta, *w, &mut phi);
             self.transient_basis(ts, *w, &mut chi);
-            let inv_a = a.inv();
+            let inv_a = recip(a);
             let num = chi
                 .iter()
                 .zip(&theta[first_t..])
@@ -725,7 +720,7 @@ impl<T: Real> EquationError<T> for Rational<T> {
         let mut chi = vec![Complex::new(T::zero(), T::zero()); self.n_transient()];
         let na = self.na;
         for (k, ((w, y), u)) in data.omega().iter().zip(data.y()).zip(data.u()).enumerate() {
-            self.basis.eval_into(self.basis.variable(*w), &mut phi);
+            self.basis.eval_at(*w, &mut phi);
             for j in 0..=na {
                 out[(k, j)] = phi[j] * *y;
             }
@@ -745,7 +740,7 @@ impl<T: Real> EquationError<T> for Rational<T> {
     fn denominator_into(&self, theta: &[T], omega: &[T], out: &mut [Complex<T>]) {
         let mut phi = self.zero_phi();
         for (w, o) in omega.iter().zip(out.iter_mut()) {
-            *o = self.eval_ab(theta, self.basis.variable(*w), &mut phi).0;
+            *o = self.eval_ab(theta, *w, &mut phi).0;
         }
     }
 }
@@ -808,6 +803,13 @@ impl<T: Real> PolesZeros<T> for Rational<T> {
             }
         }
     }
+}
+
+/// 1/z with one real division (z̄/|z|²; the same range as [`Complex::inv`]).
+#[inline]
+fn recip<T: Real>(z: Complex<T>) -> Complex<T> {
+    let r = T::one() / (z.re * z.re + z.im * z.im);
+    Complex::new(z.re * r, -z.im * r)
 }
 
 /// Checks sampled data against the transient's sample time: the same Ts (when the data

@@ -173,12 +173,19 @@ pub(crate) fn least_squares_gram<T: Real>(
     Some((theta, r.norm_squared()))
 }
 
-/// Lines per block of the accumulated normal equations for `p` columns: about 16 384/p
-/// (at least 256), so that a block's real-stacked rows (2·lines × p) and the complex
-/// values they come from stay within a core's L2 cache, while the blocks stay long
-/// enough for the blocked product to run at full speed.
+/// Lines per block of the accumulated normal equations for `p` columns: about 4 096/p
+/// (at least 64), so that a block's real-stacked rows (2·lines × p) and the complex
+/// values they come from (about 64 kB each) stay in cache, while the blocks stay long
+/// enough for the blocked product.
 pub(crate) fn block_lines(p: usize) -> usize {
-    (16_384 / p.max(1)).max(256)
+    (4_096 / p.max(1)).max(64)
+}
+
+/// True for problems of `n` lines and `p` parameters small enough (n·p ≤ 32 768) that their
+/// N × p matrices stay in cache: forming them costs less there than evaluating the model
+/// block by block, twice where a second pass needs the Jacobian again.
+pub(crate) fn small_problem(n: usize, p: usize) -> bool {
+    n.saturating_mul(p) <= 32_768
 }
 
 /// [`least_squares_gram`] for the real-stacked, line-weighted system of a complex
