@@ -274,65 +274,6 @@ impl<T: Real> PolyBasis<T> {
         }
     }
 
-    /// φ₀ … φ_d at the variable of the angular frequency ω ([`PolyBasis::variable`]) into
-    /// `out` (length d + 1): [`PolyBasis::eval_into`] at s = iω or z = e^{iωTs}, to
-    /// rounding, with the arithmetic that the purely imaginary s and the unit-modulus z
-    /// allow (z⁻¹ = cos ωTs − i sin ωTs directly; 1/(iω − q) with one real division).
-    pub(crate) fn eval_at(&self, omega: T, out: &mut [Complex<T>]) {
-        let Some(first) = out.first_mut() else {
-            return;
-        };
-        *first = Complex::new(T::one(), T::zero());
-        match self {
-            Self::Orthonormal { scale, gamma } => {
-                let x = omega / *scale;
-                for k in 1..out.len() {
-                    let prev = out[k - 1];
-                    // (ix)·φ_{k−1}
-                    let mut v = Complex::new(-x * prev.im, x * prev.re);
-                    if k >= 2 {
-                        v += out[k - 2] * gamma[k - 2];
-                    }
-                    out[k] = v / gamma[k - 1];
-                }
-            }
-            Self::DelayPowers { ts } => {
-                let (sin, cos) = Float::sin_cos(omega * *ts);
-                let zinv = Complex::new(cos, -sin);
-                for k in 1..out.len() {
-                    out[k] = out[k - 1] * zinv;
-                }
-            }
-            Self::PartialFractions { poles } => {
-                // 1/(iω − q) = (x − iy)/(x² + y²), x = −Re q, y = ω − Im q
-                let frac = |x: T, y: T| {
-                    let r = T::one() / (x * x + y * y);
-                    Complex::new(x * r, -y * r)
-                };
-                let mut k = 1;
-                for q in poles {
-                    if k >= out.len() {
-                        break;
-                    }
-                    let t1 = frac(-q.re, omega - q.im);
-                    if q.im == T::zero() {
-                        out[k] = t1;
-                        k += 1;
-                    } else {
-                        let t2 = frac(-q.re, omega + q.im);
-                        out[k] = t1 + t2;
-                        if k + 1 < out.len() {
-                            // (t1 − t2)·i
-                            let d = t1 - t2;
-                            out[k + 1] = Complex::new(-d.im, d.re);
-                        }
-                        k += 2;
-                    }
-                }
-            }
-        }
-    }
-
     /// Coefficients of degree ≤ `n` in this basis of the polynomial with roots `r`, normalised
     /// like a denominator (constant coefficient one in z⁻¹ and for partial fractions, leading
     /// coefficient one for the orthonormal basis); for partial fractions the "polynomial" is
@@ -709,32 +650,6 @@ mod tests {
         }
         assert!(PolyBasis::partial_fractions(vec![Complex::new(0.0, 1.0)]).is_err());
         assert!(PolyBasis::partial_fractions(vec![Complex::new(-1.0, -1.0)]).is_err());
-    }
-
-    #[test]
-    fn eval_at_equals_eval_into_at_the_variable() {
-        let omega: Vec<f64> = (1..60).map(|k| 0.37 * k as f64).collect();
-        let bases = [
-            PolyBasis::orthonormal(&omega, 7).unwrap(),
-            PolyBasis::delay_powers(0.05).unwrap(),
-            PolyBasis::partial_fractions(vec![
-                Complex::new(-0.3, 2.0),
-                Complex::new(-1.5, 0.0),
-                Complex::new(-0.1, 7.0),
-            ])
-            .unwrap(),
-        ];
-        for b in &bases {
-            let mut x = vec![Complex::new(0.0, 0.0); 6];
-            let mut y = x.clone();
-            for w in &omega {
-                b.eval_into(b.variable(*w), &mut x);
-                b.eval_at(*w, &mut y);
-                for (u, v) in x.iter().zip(&y) {
-                    assert!((u - v).norm() <= 1e-14 * u.norm().max(1.0), "{b:?} at {w}: {u} vs {v}");
-                }
-            }
-        }
     }
 
     #[test]

@@ -145,14 +145,15 @@ impl<T: Real, M: ModelStructure<T>> Fit<T, M> {
         }
         let head = Head::new(n, p, r, level).ok()?;
         let sc = scaled_cholesky(&g, max_condition::<T>())?;
-        let linv = sc.chol.l().solve_lower_triangular(&DMatrix::identity(p, p))?;
+        let linv = sc
+            .chol
+            .l()
+            .solve_lower_triangular(&DMatrix::identity(p, p))?;
         let f0 = DMatrix::from_fn(p, p, |i, k| linv[(k, i)] / sc.d[i]);
         if !f0.iter().all(|v| Float::is_finite(*v)) {
             return None;
         }
-        let factor = head
-            .lambda
-            .map(|l| &f0 * Float::sqrt(l / T::lit(2.0)));
+        let factor = head.lambda.map(|l| &f0 * Float::sqrt(l / T::lit(2.0)));
         // pass 2 (the blocks of pass 1 again when one block holds all the lines): the
         // sandwich's Q = (DJ)ᵀ(DJ) and the response's standard deviations
         let d: Vec<T> = local_half_power(&head.residuals)
@@ -591,7 +592,13 @@ impl<T: Real> ResponseStdBlocks<T> {
     }
 
     /// [`ResponseStdBlocks::push`] for at most [`RESPONSE_BLOCK`] lines.
-    fn push_block(&mut self, dg: &DMatrix<Complex<T>>, k0: usize, g: &[Complex<T>], f: &DMatrix<T>) {
+    fn push_block(
+        &mut self,
+        dg: &DMatrix<Complex<T>>,
+        k0: usize,
+        g: &[Complex<T>],
+        f: &DMatrix<T>,
+    ) {
         let (len, p) = (g.len(), f.ncols());
         for m in [&mut self.bre, &mut self.bim, &mut self.are, &mut self.aim] {
             if m.shape() != (len, p) {

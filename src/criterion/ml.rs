@@ -185,7 +185,12 @@ impl<'a, T: Real, M: ModelStructure<T> + ?Sized> MlProblem<'a, T, M> {
     /// Writes the residuals r of the lines k0 … k0 + len − 1 from the block's Ŷ.
     pub(crate) fn block_residuals(&self, k0: usize, out: &Output<T>, r: &mut [T]) {
         let len = out.yhat.len();
-        for (i, (yhat, y)) in out.yhat.iter().zip(&self.data.y()[k0..k0 + len]).enumerate() {
+        for (i, (yhat, y)) in out
+            .yhat
+            .iter()
+            .zip(&self.data.y()[k0..k0 + len])
+            .enumerate()
+        {
             let e = (*y - *yhat) * self.w(k0 + i);
             r[2 * (k0 + i)] = e.re;
             r[2 * (k0 + i) + 1] = e.im;

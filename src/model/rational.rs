@@ -526,7 +526,7 @@ impl<T: Real> Rational<T> {
     /// Evaluates A and B at the variable of ω, with the basis values in `phi`.
     #[inline]
     fn eval_ab(&self, theta: &[T], omega: T, phi: &mut [Complex<T>]) -> (Complex<T>, Complex<T>) {
-        self.basis.eval_at(omega, phi);
+        self.basis.eval_into(self.basis.variable(omega), phi);
         let zero = Complex::new(T::zero(), T::zero());
         let na = self.na;
         let mut a = zero;
@@ -582,7 +582,7 @@ impl<T: Real> ModelStructure<T> for Rational<T> {
         let mut phi = self.zero_phi();
         for (w, o) in omega.iter().zip(out.iter_mut()) {
             let (a, b) = self.eval_ab(theta, *w, &mut phi);
-            *o = b * recip(a);
+            *o = b / a;
         }
     }
 
@@ -599,7 +599,7 @@ impl<T: Real> ModelStructure<T> for Rational<T> {
         let off = self.a_offset();
         for (k, w) in omega.iter().enumerate() {
             let (a, b) = self.eval_ab(theta, *w, &mut phi);
-            let inv_a = recip(a);
+            let inv_a = a.inv();
             let gk = b * inv_a;
             g[k] = gk;
             let minus_g_over_a = -gk * inv_a;
@@ -637,7 +637,7 @@ impl<T: Real> ModelStructure<T> for Rational<T> {
         for (k, w) in omega.iter().enumerate() {
             let (a, _) = self.eval_ab(theta, *w, &mut phi);
             self.transient_basis(ts, *w, &mut chi);
-            let inv_a = recip(a);
+            let inv_a = a.inv();
             let num = chi
                 .iter()
                 .zip(&theta[first_t..])
@@ -720,7 +720,7 @@ impl<T: Real> EquationError<T> for Rational<T> {
         let mut chi = vec![Complex::new(T::zero(), T::zero()); self.n_transient()];
         let na = self.na;
         for (k, ((w, y), u)) in data.omega().iter().zip(data.y()).zip(data.u()).enumerate() {
-            self.basis.eval_at(*w, &mut phi);
+            self.basis.eval_into(self.basis.variable(*w), &mut phi);
             for j in 0..=na {
                 out[(k, j)] = phi[j] * *y;
             }
@@ -803,13 +803,6 @@ impl<T: Real> PolesZeros<T> for Rational<T> {
             }
         }
     }
-}
-
-/// 1/z with one real division (z̄/|z|²; the same range as [`Complex::inv`]).
-#[inline]
-fn recip<T: Real>(z: Complex<T>) -> Complex<T> {
-    let r = T::one() / (z.re * z.re + z.im * z.im);
-    Complex::new(z.re * r, -z.im * r)
 }
 
 /// Checks sampled data against the transient's sample time: the same Ts (when the data

@@ -230,13 +230,19 @@ pub(crate) fn regressor_least_squares_gram<T: Real>(
         // change AᵀA and Aᵀb)
         for (j, src) in re.chunks_exact(n).enumerate() {
             let col = match j.cmp(&normalising) {
-                std::cmp::Ordering::Less => &mut block.as_mut_slice()[j * 2 * len..(j + 1) * 2 * len],
+                std::cmp::Ordering::Less => {
+                    &mut block.as_mut_slice()[j * 2 * len..(j + 1) * 2 * len]
+                }
                 std::cmp::Ordering::Equal => rhs.as_mut_slice(),
                 std::cmp::Ordering::Greater => {
                     &mut block.as_mut_slice()[(j - 1) * 2 * len..j * 2 * len]
                 }
             };
-            let sign = if j == normalising { -T::one() } else { T::one() };
+            let sign = if j == normalising {
+                -T::one()
+            } else {
+                T::one()
+            };
             let (cr, ci) = col.split_at_mut(len);
             for (i, v) in src[k0..k0 + len].iter().enumerate() {
                 let x = *v * (wk(k0 + i) * sign);
@@ -332,7 +338,11 @@ mod tests {
             crate::Complex::new(lcg(&mut s), lcg(&mut s)) * 10f64.powi(j as i32 - 4)
         });
         let w: Vec<f64> = (0..n).map(|k| 1.0 + 0.5 * (k as f64).sin()).collect();
-        for (norm, w) in [(0, Some(w.as_slice())), (3, None), (q - 1, Some(w.as_slice()))] {
+        for (norm, w) in [
+            (0, Some(w.as_slice())),
+            (3, None),
+            (q - 1, Some(w.as_slice())),
+        ] {
             let mut a = DMatrix::zeros(0, 0);
             let mut b = DVector::zeros(0);
             crate::criterion::normalised_into(&reg, w, norm, &mut a, &mut b);
@@ -342,7 +352,9 @@ mod tests {
             assert!((r - rr).abs() <= 1e-12 * r);
         }
         assert!(regressor_least_squares_gram(&reg, Some(&w[1..]), 0, 1e8).is_none());
-        assert!(regressor_least_squares_gram(&reg.columns(0, 1).into_owned(), None, 0, 1e8).is_none());
+        assert!(
+            regressor_least_squares_gram(&reg.columns(0, 1).into_owned(), None, 0, 1e8).is_none()
+        );
     }
 
     #[test]

@@ -151,8 +151,7 @@ impl<T: Real, P: NonlinearProblem<T> + ?Sized> Solver<T, P> for GramLevenbergMar
                         return done(x, cost, evaluations, Termination::Converged);
                     }
                     evaluations += 1;
-                    if !problem.normal_equations_into(&x, &mut r, &mut jac, &mut gram, &mut grad)
-                    {
+                    if !problem.normal_equations_into(&x, &mut r, &mut jac, &mut gram, &mut grad) {
                         return Err(FdidError::Numerical {
                             what: "Jacobian at an accepted Levenberg–Marquardt step".into(),
                         });
