@@ -34,8 +34,11 @@ pub struct SkProblem<'a, T: Real, M: ?Sized> {
     noise_weight: Option<Vec<T>>,
     /// The responses G(θ) of the last two estimates whose cost was evaluated: the
     /// convergence test compares each estimate with the previous one.
-    responses: RefCell<Vec<(Vec<T>, Vec<Complex<T>>)>>,
+    responses: RefCell<Vec<Evaluated<T>>>,
 }
+
+/// An estimate θ with its response G(θ) on the data lines.
+type Evaluated<T> = (Vec<T>, Vec<Complex<T>>);
 
 impl<T: Real, M: EquationError<T> + ?Sized> SkProblem<'_, T, M> {
     /// G(θ) on the data lines, from the cache when θ is one of its two estimates.
