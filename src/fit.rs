@@ -79,9 +79,17 @@ impl<T: Real, M: ModelStructure<T>> Fit<T, M> {
         stages: Vec<Stage<T>>,
     ) -> Result<Self> {
         let problem = MlProblem::new(&model, data, weighting)?;
-        let (r, jac, level, response) = Self::ml_statistics_input(&problem, &theta)?;
+        let parts = Self::ml_blocks(&problem, &theta);
         drop(problem);
-        Self::from_residuals(model, data, theta, r, jac, level, stages, response)
+        match parts {
+            Some(parts) => Ok(Self::assemble(model, data, theta, parts, stages)),
+            None => {
+                let problem = MlProblem::new(&model, data, weighting)?;
+                let (r, jac, level, response) = Self::ml_statistics_input(&problem, &theta)?;
+                drop(problem);
+                Self::from_residuals(model, data, theta, r, jac, level, stages, response)
+            }
+        }
     }
 
     /// [`Fit::new`] with the [`MlProblem`] the estimate was solved with (its work space,
@@ -94,8 +102,131 @@ impl<T: Real, M: ModelStructure<T>> Fit<T, M> {
         problem: &MlProblem<'_, T, Mp>,
         stages: Vec<Stage<T>>,
     ) -> Result<Self> {
+        if let Some(parts) = Self::ml_blocks(problem, &theta) {
+            return Ok(Self::assemble(model, data, theta, parts, stages));
+        }
         let (r, jac, level, response) = Self::ml_statistics_input(problem, &theta)?;
         Self::from_residuals(model, data, theta, r, jac, level, stages, response)
+    }
+
+    /// The statistics of an ML problem at θ without any N × p matrix, over blocks of lines
+    /// ([`MlProblem::for_each_block`]): r, G and JᵀJ in a first pass; the covariance from
+    /// the equilibrated Gram matrix when it is accepted (see [`covariance_factors`]); the
+    /// sandwich's JᵀD²J and the response's standard deviations in a second pass (which
+    /// reuses the first when one block holds all the lines). `None` for small problems
+    /// (N·p ≤ 32 768, whose N × p matrices stay in cache), when anything is not finite or
+    /// when the Gram matrix is refused: then the caller takes the path of
+    /// [`Fit::from_residuals`] (the full J, its QR/SVD when needed, typed errors).
+    fn ml_blocks<Mp: ModelStructure<T> + ?Sized>(
+        problem: &MlProblem<'_, T, Mp>,
+        theta: &[T],
+    ) -> Option<Parts<T>> {
+        use crate::solver::gram::{gram_into, max_condition, scaled_cholesky};
+        let (n, p) = (problem.data().len(), problem.n_params());
+        let level = if problem.weights().is_some() {
+            NoiseLevel::Known
+        } else {
+            NoiseLevel::Estimated
+        };
+        if p == 0 || 2 * n < p || crate::solver::gram::small_problem(n, p) {
+            return None;
+        }
+        // pass 1: r, G and JᵀJ
+        let mut r = vec![T::zero(); 2 * n];
+        let mut response = Vec::with_capacity(n);
+        let mut g = DMatrix::zeros(p, p);
+        let finite = problem.for_each_block(theta, false, |k0, out, jac| {
+            problem.block_residuals(k0, out, &mut r);
+            response.extend_from_slice(&out.g);
+            gram_into(jac, &mut g, true);
+        });
+        if !finite || !r.iter().all(|v| Float::is_finite(*v)) {
+            return None;
+        }
+        let head = Head::new(n, p, r, level).ok()?;
+        let sc = scaled_cholesky(&g, max_condition::<T>())?;
+        let linv = sc
+            .chol
+            .l()
+            .solve_lower_triangular(&DMatrix::identity(p, p))?;
+        let f0 = DMatrix::from_fn(p, p, |i, k| linv[(k, i)] / sc.d[i]);
+        if !f0.iter().all(|v| Float::is_finite(*v)) {
+            return None;
+        }
+        let factor = head.lambda.map(|l| &f0 * Float::sqrt(l / T::lit(2.0)));
+        // pass 2 (the blocks of pass 1 again when one block holds all the lines): the
+        // sandwich's Q = (DJ)ᵀ(DJ) and the response's standard deviations
+        let d: Vec<T> = local_half_power(&head.residuals)
+            .into_iter()
+            .map(Float::sqrt)
+            .collect();
+        let mut q = DMatrix::zeros(p, p);
+        let mut blocks = factor.as_ref().map(|_| ResponseStdBlocks::new(n, p));
+        let finite = problem.for_each_block(theta, true, |k0, out, jac| {
+            if let (Some(b), Some(f)) = (blocks.as_mut(), factor.as_ref()) {
+                b.push(&out.dg, 0, &out.g, f);
+            }
+            let len = jac.nrows() / 2;
+            for col in jac.as_mut_slice().chunks_exact_mut(2 * len) {
+                for (c, dk) in col.chunks_exact_mut(2).zip(&d[k0..k0 + len]) {
+                    c[0] *= *dk;
+                    c[1] *= *dk;
+                }
+            }
+            gram_into(jac, &mut q, true);
+        });
+        if !finite {
+            return None;
+        }
+        let c0 = &f0 * f0.transpose();
+        let robust = &c0 * &q * &c0;
+        let covariance = factor.as_ref().map(|f| f * f.transpose());
+        let response_std = blocks.map(|b| b.out);
+        Some(Parts {
+            head,
+            covariance,
+            robust_covariance: Some(robust),
+            response,
+            response_std,
+        })
+    }
+
+    /// The fit from its statistics.
+    fn assemble(
+        model: M,
+        data: &FrequencyData<T>,
+        theta: Vec<T>,
+        parts: Parts<T>,
+        stages: Vec<Stage<T>>,
+    ) -> Self {
+        let Parts {
+            head,
+            covariance,
+            robust_covariance,
+            response,
+            response_std,
+        } = parts;
+        let validation = Validation::new(
+            &head.residuals,
+            model.n_params(),
+            head.noise_known,
+            data.variance_dof(),
+        );
+        Self {
+            model,
+            theta,
+            omega: data.omega().to_vec(),
+            response,
+            cost: head.cost,
+            noise_variance: head.noise_variance,
+            noise_known: head.noise_known,
+            covariance,
+            robust_covariance,
+            response_std,
+            residuals: head.residuals,
+            validation,
+            stages,
+        }
     }
 
     /// r, J, the noise level and (G, ∂G/∂θ) of an ML problem at θ.
@@ -163,55 +294,28 @@ impl<T: Real, M: ModelStructure<T>> Fit<T, M> {
         response: Option<ResponseJacobian<T>>,
     ) -> Result<Self> {
         let (n, p) = (data.len(), model.n_params());
-        let cost = r.iter().fold(T::zero(), |s, v| s + *v * *v);
-        if !Float::is_finite(cost) {
-            return Err(crate::FdidError::Numerical {
-                what: format!(
-                    "the fit's cost is not finite ({}): the data are too large for this precision; scale them",
-                    cost.to_f64_lossless()
-                ),
-            });
-        }
-        let nf = T::from_usize_lossy(n);
-        let noise_variance = cost / nf;
-        let noise_known = level == NoiseLevel::Known;
-        let dof = nf - T::from_usize_lossy(p) / T::lit(2.0);
-        let lambda = if noise_known {
-            Some(T::one())
-        } else if dof > T::zero() {
-            Some(cost / dof)
-        } else {
-            None
-        };
-        let residuals: Vec<Complex<T>> = r.chunks(2).map(|c| Complex::new(c[0], c[1])).collect();
-        let validation = Validation::new(&residuals, p, noise_known, data.variance_dof());
+        let head = Head::new(n, p, r, level)?;
         // (JᵀJ)⁻¹ = F₀F₀ᵀ from the QR/SVD of J; Cov = (λ/2)(JᵀJ)⁻¹ = F Fᵀ, F = √(λ/2) F₀
-        let (base, robust_covariance) = covariance_factors(jac, &residuals);
-        let factor = lambda.and_then(|l| base.map(|f| f * Float::sqrt(l / T::lit(2.0))));
+        let (base, robust_covariance) = covariance_factors(jac, &head.residuals);
+        let factor = head
+            .lambda
+            .and_then(|l| base.map(|f| f * Float::sqrt(l / T::lit(2.0))));
         let covariance = factor.as_ref().map(|f| f * f.transpose());
-        let omega = data.omega().to_vec();
         let (response, dg) = response.unwrap_or_else(|| {
             let mut response = vec![Complex::new(T::zero(), T::zero()); n];
             let mut dg = DMatrix::zeros(n, p);
-            model.jacobian_into(&theta, &omega, &mut response, &mut dg);
+            model.jacobian_into(&theta, data.omega(), &mut response, &mut dg);
             (response, dg)
         });
         let response_std = factor.map(|f| ResponseStd::new(&dg, &f, &response));
-        Ok(Self {
-            model,
-            theta,
-            omega,
-            response,
-            cost,
-            noise_variance,
-            noise_known,
+        let parts = Parts {
+            head,
             covariance,
             robust_covariance,
+            response,
             response_std,
-            residuals,
-            validation,
-            stages,
-        })
+        };
+        Ok(Self::assemble(model, data, theta, parts, stages))
     }
 
     /// The model structure.
@@ -362,6 +466,61 @@ impl<T: Real, M: ModelStructure<T> + PolesZeros<T>> Fit<T, M> {
     }
 }
 
+/// The cost and noise level of a fit from its real-stacked residuals.
+struct Head<T: Real> {
+    cost: T,
+    noise_variance: T,
+    noise_known: bool,
+    /// λ of the covariance (`None`: no degrees of freedom).
+    lambda: Option<T>,
+    residuals: Vec<Complex<T>>,
+}
+
+impl<T: Real> Head<T> {
+    /// V = ‖r‖², λ̂ = V/N, and λ = 1 (noise known) or V/(N − p/2) for `n` lines and `p`
+    /// parameters.
+    ///
+    /// # Errors
+    /// A cost that is not finite.
+    fn new(n: usize, p: usize, r: Vec<T>, level: NoiseLevel) -> Result<Self> {
+        let cost = r.iter().fold(T::zero(), |s, v| s + *v * *v);
+        if !Float::is_finite(cost) {
+            return Err(crate::FdidError::Numerical {
+                what: format!(
+                    "the fit's cost is not finite ({}): the data are too large for this precision; scale them",
+                    cost.to_f64_lossless()
+                ),
+            });
+        }
+        let nf = T::from_usize_lossy(n);
+        let noise_known = level == NoiseLevel::Known;
+        let dof = nf - T::from_usize_lossy(p) / T::lit(2.0);
+        let lambda = if noise_known {
+            Some(T::one())
+        } else if dof > T::zero() {
+            Some(cost / dof)
+        } else {
+            None
+        };
+        Ok(Self {
+            cost,
+            noise_variance: cost / nf,
+            noise_known,
+            lambda,
+            residuals: r.chunks(2).map(|c| Complex::new(c[0], c[1])).collect(),
+        })
+    }
+}
+
+/// Everything of a [`Fit`] but the model, θ and the stages.
+struct Parts<T: Real> {
+    head: Head<T>,
+    covariance: Option<DMatrix<T>>,
+    robust_covariance: Option<DMatrix<T>>,
+    response: Vec<Complex<T>>,
+    response_std: Option<ResponseStd<T>>,
+}
+
 /// Pointwise confidence bounds of one line (see [`Fit::bounds`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
@@ -387,54 +546,95 @@ impl<T: Real> ResponseStd<T> {
     /// Blocks of lines go through two real products (the real gemm is much faster than the
     /// complex one) in small reused buffers.
     fn new(dg: &DMatrix<Complex<T>>, f: &DMatrix<T>, g: &[Complex<T>]) -> Self {
-        const BLOCK: usize = 256;
-        let (n, p) = (g.len(), f.ncols());
-        let mut out = Self {
-            complex: Vec::with_capacity(n),
-            magnitude: Vec::with_capacity(n),
-            phase: Vec::with_capacity(n),
-        };
-        let (mut bre, mut bim) = (DMatrix::zeros(BLOCK, p), DMatrix::zeros(BLOCK, p));
-        let (mut are, mut aim) = (DMatrix::zeros(BLOCK, p), DMatrix::zeros(BLOCK, p));
-        for k0 in (0..n).step_by(BLOCK) {
-            let len = BLOCK.min(n - k0);
-            if len < BLOCK {
-                for m in [&mut bre, &mut bim, &mut are, &mut aim] {
-                    *m = DMatrix::zeros(len, p);
-                }
-            }
-            for j in 0..p {
-                for i in 0..len {
-                    let v = dg[(k0 + i, j)];
-                    bre[(i, j)] = v.re;
-                    bim[(i, j)] = v.im;
-                }
-            }
-            are.gemm(T::one(), &bre, f, T::zero());
-            aim.gemm(T::one(), &bim, f, T::zero());
-            for i in 0..len {
-                let gk = g[k0 + i];
-                let (mut c, mut m, mut ph) = (T::zero(), T::zero(), T::zero());
-                let mag2 = gk.norm_sqr();
-                for j in 0..p {
-                    let (x, y) = (are[(i, j)], aim[(i, j)]);
-                    c += x * x + y * y;
-                    let dm = gk.re * x + gk.im * y;
-                    let dp = gk.re * y - gk.im * x;
-                    m += dm * dm;
-                    ph += dp * dp;
-                }
-                out.complex.push(Float::sqrt(c));
-                if mag2 > T::zero() {
-                    out.magnitude.push(Float::sqrt(m / mag2));
-                    out.phase.push(Float::sqrt(ph) / mag2);
-                } else {
-                    out.magnitude.push(Float::sqrt(c));
-                    out.phase.push(T::infinity());
-                }
+        let n = g.len();
+        let mut blocks = ResponseStdBlocks::new(n, f.ncols());
+        blocks.push(dg, 0, g, f);
+        blocks.out
+    }
+}
+
+/// Lines per block of [`ResponseStd::new`].
+const RESPONSE_BLOCK: usize = 256;
+
+/// [`ResponseStd`] built block of lines by block of lines, with the buffers of the two
+/// real products.
+struct ResponseStdBlocks<T: Real> {
+    out: ResponseStd<T>,
+    bre: DMatrix<T>,
+    bim: DMatrix<T>,
+    are: DMatrix<T>,
+    aim: DMatrix<T>,
+}
+
+impl<T: Real> ResponseStdBlocks<T> {
+    fn new(lines: usize, p: usize) -> Self {
+        let z = || DMatrix::zeros(0, p);
+        Self {
+            out: ResponseStd {
+                complex: Vec::with_capacity(lines),
+                magnitude: Vec::with_capacity(lines),
+                phase: Vec::with_capacity(lines),
+            },
+            bre: z(),
+            bim: z(),
+            are: z(),
+            aim: z(),
+        }
+    }
+
+    /// Appends the lines of `g` (G on them), whose ∂G/∂θ are the rows k0 … k0 + g.len() − 1
+    /// of `dg`.
+    fn push(&mut self, dg: &DMatrix<Complex<T>>, k0: usize, g: &[Complex<T>], f: &DMatrix<T>) {
+        for i0 in (0..g.len()).step_by(RESPONSE_BLOCK) {
+            let len = RESPONSE_BLOCK.min(g.len() - i0);
+            self.push_block(dg, k0 + i0, &g[i0..i0 + len], f);
+        }
+    }
+
+    /// [`ResponseStdBlocks::push`] for at most [`RESPONSE_BLOCK`] lines.
+    fn push_block(
+        &mut self,
+        dg: &DMatrix<Complex<T>>,
+        k0: usize,
+        g: &[Complex<T>],
+        f: &DMatrix<T>,
+    ) {
+        let (len, p) = (g.len(), f.ncols());
+        for m in [&mut self.bre, &mut self.bim, &mut self.are, &mut self.aim] {
+            if m.shape() != (len, p) {
+                *m = DMatrix::zeros(len, p);
             }
         }
-        out
+        for j in 0..p {
+            for i in 0..len {
+                let v = dg[(k0 + i, j)];
+                self.bre[(i, j)] = v.re;
+                self.bim[(i, j)] = v.im;
+            }
+        }
+        self.are.gemm(T::one(), &self.bre, f, T::zero());
+        self.aim.gemm(T::one(), &self.bim, f, T::zero());
+        let out = &mut self.out;
+        for (i, gk) in g.iter().enumerate() {
+            let (mut c, mut m, mut ph) = (T::zero(), T::zero(), T::zero());
+            let mag2 = gk.norm_sqr();
+            for j in 0..p {
+                let (x, y) = (self.are[(i, j)], self.aim[(i, j)]);
+                c += x * x + y * y;
+                let dm = gk.re * x + gk.im * y;
+                let dp = gk.re * y - gk.im * x;
+                m += dm * dm;
+                ph += dp * dp;
+            }
+            out.complex.push(Float::sqrt(c));
+            if mag2 > T::zero() {
+                out.magnitude.push(Float::sqrt(m / mag2));
+                out.phase.push(Float::sqrt(ph) / mag2);
+            } else {
+                out.magnitude.push(Float::sqrt(c));
+                out.phase.push(T::infinity());
+            }
+        }
     }
 }
 

@@ -264,21 +264,39 @@ impl Pipeline {
             work.regressor = nalgebra::DMatrix::zeros(data.len(), q);
         }
         model.regressor_into(data, &mut work.regressor);
-        crate::criterion::normalised_into(
-            &work.regressor,
-            work.weights.as_ref().and_then(|w| w.as_deref()),
-            model.normalising_index(),
-            &mut work.a,
-            &mut work.b,
-        );
-        let gram = crate::solver::gram::least_squares_gram(
-            &work.a,
-            &work.b,
-            crate::solver::gram::max_condition::<T>(),
-        );
+        let weights = work.weights.as_ref().and_then(|w| w.as_deref());
+        let max_cond = crate::solver::gram::max_condition::<T>();
+        let stack = |work: &mut LevyWork<T>| {
+            crate::criterion::normalised_into(
+                &work.regressor,
+                work.weights.as_ref().and_then(|w| w.as_deref()),
+                model.normalising_index(),
+                &mut work.a,
+                &mut work.b,
+            );
+        };
+        // small systems stay in cache stacked; large ones are accumulated over blocks of
+        // lines from the regressor
+        let small = crate::solver::gram::small_problem(data.len(), q);
+        let gram = if small {
+            stack(work);
+            crate::solver::gram::least_squares_gram(&work.a, &work.b, max_cond)
+        } else {
+            crate::solver::gram::regressor_least_squares_gram(
+                &work.regressor,
+                weights,
+                model.normalising_index(),
+                max_cond,
+            )
+        };
         let (theta, cost) = match gram {
             Some(v) => v,
-            None => crate::solver::least_squares(work.a.clone(), work.b.clone(), linear.rcond_eps)?,
+            None => {
+                if !small {
+                    stack(work);
+                }
+                crate::solver::least_squares(work.a.clone(), work.b.clone(), linear.rcond_eps)?
+            }
         };
         Ok(Solution {
             theta: theta.as_slice().to_vec(),

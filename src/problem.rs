@@ -17,6 +17,37 @@ pub trait NonlinearProblem<T: Real> {
     fn residuals_into(&self, theta: &[T], r: &mut [T]) -> bool;
     /// Writes r(θ) and its Jacobian ∂r/∂θ (m × p). Returns false if not finite.
     fn jacobian_into(&self, theta: &[T], r: &mut [T], jac: &mut DMatrix<T>) -> bool;
+
+    /// Writes r(θ), the Gram matrix `gram` = JᵀJ (p × p) and the gradient `grad` = Jᵀr
+    /// (length p) of J = ∂r/∂θ: what a normal-equation step needs. Returns false if not
+    /// finite. The default forms J in `jac` (resized to m × p when its shape differs) by
+    /// [`NonlinearProblem::jacobian_into`]; an implementation may accumulate JᵀJ and Jᵀr
+    /// over blocks of rows instead and leave `jac` untouched.
+    fn normal_equations_into(
+        &self,
+        theta: &[T],
+        r: &mut [T],
+        jac: &mut DMatrix<T>,
+        gram: &mut DMatrix<T>,
+        grad: &mut DVector<T>,
+    ) -> bool {
+        let (m, p) = (self.n_residuals(), self.n_params());
+        if jac.shape() != (m, p) {
+            *jac = DMatrix::zeros(m, p);
+        }
+        if !self.jacobian_into(theta, r, jac) {
+            return false;
+        }
+        if gram.shape() != (p, p) {
+            *gram = DMatrix::zeros(p, p);
+        }
+        if grad.len() != p {
+            *grad = DVector::zeros(p);
+        }
+        crate::solver::gram::gram_into(jac, gram, false);
+        crate::solver::gram::GramWork::tr_mul(jac, r, grad);
+        true
+    }
 }
 
 /// A linear least-squares problem: minimise ‖Aθ − b‖².
@@ -40,6 +71,17 @@ pub trait ReweightedProblem<T: Real> {
     /// The real-stacked system at iteration m, with weights from θ^(m−1) (`None` for the
     /// first iteration).
     fn system(&self, previous: Option<&[T]>) -> (DMatrix<T>, DVector<T>);
+    /// The minimiser of the system at iteration m and its residual norm², through the
+    /// guarded normal equations of [`crate::solver`]'s `gram` kernels (κ₁ of the
+    /// equilibrated Gram matrix at most 10⁸ in f64, 10³ in f32); `None` when they are
+    /// refused, and the caller then solves [`ReweightedProblem::system`] by QR/SVD. The
+    /// default forms the system; an implementation may accumulate the Gram matrix without
+    /// it.
+    fn solve_normal_equations(&self, previous: Option<&[T]>) -> Option<(Vec<T>, T)> {
+        let (a, b) = self.system(previous);
+        crate::solver::gram::least_squares_gram(&a, &b, crate::solver::gram::max_condition::<T>())
+            .map(|(theta, cost)| (theta.as_slice().to_vec(), cost))
+    }
     /// A scale-free measure of the change between two estimates (e.g. relative change of
     /// the model response), used for the convergence test.
     fn change(&self, old: &[T], new: &[T]) -> T;

@@ -43,8 +43,13 @@ impl<T: Real> EquationErrorSystem<T> {
         &self.regressor
     }
 
+    /// Index of the coefficient fixed to one by the normalisation.
+    pub(crate) fn normalising(&self) -> usize {
+        self.normalising
+    }
+
     /// Per-line weights √W_k = extra_k · w_k, with w_k the noise weight.
-    fn line_weights(&self, extra: Option<&[T]>) -> Option<Vec<T>> {
+    pub(crate) fn line_weights(&self, extra: Option<&[T]>) -> Option<Vec<T>> {
         match (extra, &self.noise_weight) {
             (None, None) => None,
             (Some(e), None) => Some(e.to_vec()),

@@ -6,7 +6,7 @@ use crate::data::FrequencyData;
 use crate::error::Result;
 use crate::model::{ModelStructure, Output};
 use crate::problem::NonlinearProblem;
-use nalgebra::DMatrix;
+use nalgebra::{DMatrix, DVector};
 use std::cell::RefCell;
 
 /// Maximum likelihood with a fixed noise model: minimise
@@ -32,6 +32,27 @@ pub struct MlProblem<'a, T: Real, M: ?Sized> {
     data: &'a FrequencyData<T>,
     weight: Option<Vec<T>>,
     scratch: RefCell<Output<T>>,
+    /// Work space of [`NonlinearProblem::normal_equations_into`]: full blocks, last block.
+    blocks: RefCell<[Block<T>; 2]>,
+}
+
+/// The model output and the real-stacked Jacobian rows of one block of lines.
+struct Block<T: Real> {
+    out: Output<T>,
+    jac: DMatrix<T>,
+    /// θ of `out` and `jac` when the block holds all the lines and `jac` is unchanged
+    /// since (see [`MlProblem::for_each_block`]).
+    at: Option<Vec<T>>,
+}
+
+impl<T: Real> Block<T> {
+    fn new() -> Self {
+        Self {
+            out: Output::new(0, 0),
+            jac: DMatrix::zeros(0, 0),
+            at: None,
+        }
+    }
 }
 
 impl<T: Real, M: ModelStructure<T> + ?Sized> Criterion<T, M> for MaximumLikelihood {
@@ -68,6 +89,7 @@ impl<'a, T: Real, M: ModelStructure<T> + ?Sized> MlProblem<'a, T, M> {
             data,
             weight,
             scratch: RefCell::new(Output::new(data.len(), model.n_params())),
+            blocks: RefCell::new([Block::new(), Block::new()]),
         })
     }
 
@@ -103,6 +125,76 @@ impl<'a, T: Real, M: ModelStructure<T> + ?Sized> MlProblem<'a, T, M> {
             std::mem::take(&mut out.g),
             std::mem::replace(&mut out.dg, DMatrix::zeros(0, 0)),
         )
+    }
+
+    /// Evaluates the model output at θ block by block ([`crate::solver::gram`]'s block size, so that
+    /// a block stays in cache) and calls `f(k0, output, jac)` for each block starting at
+    /// line k0, with G, Ŷ and their Jacobians on the block's lines in `output` and the
+    /// block's rows of J = ∂r/∂θ (real-stacked line by line, 2·len × p) in `jac`. Returns
+    /// false, stopping, at the first block with a value that is not finite.
+    ///
+    /// `f` may overwrite `jac` only with `last`: then, when one block holds all the lines
+    /// and the previous call evaluated them at the same θ (and did not have `last`), that
+    /// evaluation is reused.
+    pub(crate) fn for_each_block(
+        &self,
+        theta: &[T],
+        last: bool,
+        mut f: impl FnMut(usize, &Output<T>, &mut DMatrix<T>),
+    ) -> bool {
+        let (n, p) = (self.data.len(), self.model.n_params());
+        let mut blocks = self.blocks.borrow_mut();
+        let (omega, u) = (self.data.omega(), self.data.u());
+        let lines = crate::solver::gram::block_lines(p);
+        for k0 in (0..n).step_by(lines) {
+            let len = lines.min(n - k0);
+            let Block { out, jac, at } = &mut blocks[usize::from(len < lines)];
+            let reuse = last && at.as_deref() == Some(theta);
+            *at = None;
+            if !reuse {
+                let lines = k0..k0 + len;
+                if !out.evaluate_lines(self.model, theta, &omega[lines.clone()], &u[lines], true) {
+                    return false;
+                }
+                if jac.shape() != (2 * len, p) {
+                    *jac = DMatrix::zeros(2 * len, p);
+                }
+                for (col, src) in jac
+                    .as_mut_slice()
+                    .chunks_exact_mut(2 * len)
+                    .zip(out.dyhat.as_slice().chunks_exact(len))
+                {
+                    for (i, (c, d)) in col.chunks_exact_mut(2).zip(src).enumerate() {
+                        let d = -*d * self.w(k0 + i);
+                        c[0] = d.re;
+                        c[1] = d.im;
+                    }
+                }
+                if !all_finite(jac.as_slice()) {
+                    return false;
+                }
+                if len == n && !last {
+                    *at = Some(theta.to_vec());
+                }
+            }
+            f(k0, out, jac);
+        }
+        true
+    }
+
+    /// Writes the residuals r of the lines k0 … k0 + len − 1 from the block's Ŷ.
+    pub(crate) fn block_residuals(&self, k0: usize, out: &Output<T>, r: &mut [T]) {
+        let len = out.yhat.len();
+        for (i, (yhat, y)) in out
+            .yhat
+            .iter()
+            .zip(&self.data.y()[k0..k0 + len])
+            .enumerate()
+        {
+            let e = (*y - *yhat) * self.w(k0 + i);
+            r[2 * (k0 + i)] = e.re;
+            r[2 * (k0 + i) + 1] = e.im;
+        }
     }
 
     fn w(&self, k: usize) -> T {
@@ -150,5 +242,50 @@ impl<T: Real, M: ModelStructure<T> + ?Sized> NonlinearProblem<T> for MlProblem<'
             }
         }
         finite && all_finite(r) && all_finite(jac.as_slice())
+    }
+
+    /// JᵀJ and Jᵀr accumulated over blocks of lines (of about 4 096/p lines each), each
+    /// block's rows of J formed in a small buffer that stays in cache: no 2N × p matrix is
+    /// formed, and `jac` is not used — except for small problems (N·p ≤ 32 768), whose J
+    /// is formed in `jac` as by the default.
+    fn normal_equations_into(
+        &self,
+        theta: &[T],
+        r: &mut [T],
+        jac: &mut DMatrix<T>,
+        gram: &mut DMatrix<T>,
+        grad: &mut DVector<T>,
+    ) -> bool {
+        let (n, p) = (self.data.len(), self.model.n_params());
+        if gram.shape() != (p, p) {
+            *gram = DMatrix::zeros(p, p);
+        }
+        if grad.len() != p {
+            *grad = DVector::zeros(p);
+        }
+        if crate::solver::gram::small_problem(n, p) {
+            // J itself, in cache
+            let m = 2 * n;
+            if jac.shape() != (m, p) {
+                *jac = DMatrix::zeros(m, p);
+            }
+            if !self.jacobian_into(theta, r, jac) {
+                return false;
+            }
+            crate::solver::gram::gram_into(jac, gram, false);
+            crate::solver::gram::GramWork::tr_mul(jac, r, grad);
+            return true;
+        }
+        gram.fill(T::zero());
+        grad.fill(T::zero());
+        self.for_each_block(theta, false, |k0, out, jac| {
+            let len = out.yhat.len();
+            self.block_residuals(k0, out, r);
+            crate::solver::gram::gram_into(jac, gram, true);
+            let rb = nalgebra::DVectorView::from_slice(&r[2 * k0..2 * (k0 + len)], 2 * len);
+            grad.gemv_tr(T::one(), jac, &rb, T::one());
+        }) && all_finite(r)
+            && all_finite(gram.as_slice())
+            && all_finite(grad.as_slice())
     }
 }

@@ -7,6 +7,7 @@ use crate::model::EquationError;
 use crate::problem::ReweightedProblem;
 use crate::{Complex, Real};
 use nalgebra::{DMatrix, DVector};
+use std::cell::RefCell;
 
 /// Sanathanan–Koerner: at iteration m minimise
 ///
@@ -31,6 +32,47 @@ pub struct SkProblem<'a, T: Real, M: ?Sized> {
     data: &'a FrequencyData<T>,
     system: EquationErrorSystem<T>,
     noise_weight: Option<Vec<T>>,
+    /// The responses G(θ) of the last two estimates whose cost was evaluated: the
+    /// convergence test compares each estimate with the previous one.
+    responses: RefCell<Vec<Evaluated<T>>>,
+}
+
+/// An estimate θ with its response G(θ) on the data lines.
+type Evaluated<T> = (Vec<T>, Vec<Complex<T>>);
+
+impl<T: Real, M: EquationError<T> + ?Sized> SkProblem<'_, T, M> {
+    /// G(θ) on the data lines, from the cache when θ is one of its two estimates.
+    fn response(&self, theta: &[T]) -> Vec<Complex<T>> {
+        let cached = self.responses.borrow();
+        match cached.iter().find(|(t, _)| t.as_slice() == theta) {
+            Some((_, g)) => g.clone(),
+            None => self.model.response(theta, self.data.omega()),
+        }
+    }
+
+    /// The SK weights 1/|Â^(m−1)(ω_k)| normalised by their RMS (`None`: the first, Levy,
+    /// iteration).
+    fn sk_weights(&self, previous: Option<&[T]>) -> Option<Vec<T>> {
+        match previous {
+            None => None,
+            Some(theta) => {
+                let mut a = vec![Complex::new(T::zero(), T::zero()); self.data.len()];
+                self.model
+                    .denominator_into(theta, self.data.omega(), &mut a);
+                // 1/|A| normalised by its RMS so the weights stay O(1)
+                let mut w: Vec<T> = a.iter().map(|v| T::one() / v.norm()).collect();
+                let rms = num_traits::Float::sqrt(
+                    w.iter().fold(T::zero(), |s, v| s + *v * *v) / T::from_usize_lossy(w.len()),
+                );
+                if rms > T::zero() && num_traits::Float::is_finite(rms) {
+                    for v in w.iter_mut() {
+                        *v /= rms;
+                    }
+                }
+                Some(w)
+            }
+        }
+    }
 }
 
 impl<T: Real, M: EquationError<T> + ?Sized> Criterion<T, M> for SanathananKoerner {
@@ -50,42 +92,49 @@ impl<T: Real, M: EquationError<T> + ?Sized> Criterion<T, M> for SanathananKoerne
             data,
             system: EquationErrorSystem::new(model, data, self.weighting)?,
             noise_weight: self.weighting.weights(data)?,
+            responses: RefCell::new(Vec::with_capacity(2)),
         })
     }
 }
 
 impl<T: Real, M: EquationError<T> + ?Sized> ReweightedProblem<T> for SkProblem<'_, T, M> {
     fn system(&self, previous: Option<&[T]>) -> (DMatrix<T>, DVector<T>) {
-        match previous {
-            None => self.system.normalised(None),
-            Some(theta) => {
-                let mut a = vec![Complex::new(T::zero(), T::zero()); self.data.len()];
-                self.model
-                    .denominator_into(theta, self.data.omega(), &mut a);
-                // 1/|A| normalised by its RMS so the weights stay O(1)
-                let mut w: Vec<T> = a.iter().map(|v| T::one() / v.norm()).collect();
-                let rms = num_traits::Float::sqrt(
-                    w.iter().fold(T::zero(), |s, v| s + *v * *v) / T::from_usize_lossy(w.len()),
-                );
-                if rms > T::zero() && num_traits::Float::is_finite(rms) {
-                    for v in w.iter_mut() {
-                        *v /= rms;
-                    }
-                }
-                self.system.normalised(Some(&w))
-            }
-        }
+        self.system.normalised(self.sk_weights(previous).as_deref())
+    }
+
+    /// Small systems as the default; large ones accumulated over blocks of lines from the
+    /// regressor, without the real-stacked system.
+    fn solve_normal_equations(&self, previous: Option<&[T]>) -> Option<(Vec<T>, T)> {
+        let reg = self.system.regressor();
+        let max_cond = crate::solver::gram::max_condition::<T>();
+        let extra = self.sk_weights(previous);
+        let (theta, cost) = if crate::solver::gram::small_problem(reg.nrows(), reg.ncols()) {
+            let (a, b) = self.system.normalised(extra.as_deref());
+            crate::solver::gram::least_squares_gram(&a, &b, max_cond)?
+        } else {
+            let w = self.system.line_weights(extra.as_deref());
+            crate::solver::gram::regressor_least_squares_gram(
+                reg,
+                w.as_deref(),
+                self.system.normalising(),
+                max_cond,
+            )?
+        };
+        Some((theta.as_slice().to_vec(), cost))
     }
 
     fn change(&self, old: &[T], new: &[T]) -> T {
-        let omega = self.data.omega();
-        super::relative_change(
-            &self.model.response(old, omega),
-            &self.model.response(new, omega),
-        )
+        super::relative_change(&self.response(old), &self.response(new))
     }
 
     fn cost(&self, theta: &[T]) -> T {
-        super::output_error_cost(self.model, theta, self.data, self.noise_weight.as_deref()).0
+        let (cost, g) =
+            super::output_error_cost(self.model, theta, self.data, self.noise_weight.as_deref());
+        let mut cached = self.responses.borrow_mut();
+        if cached.len() == 2 {
+            cached.remove(0);
+        }
+        cached.push((theta.to_vec(), g));
+        cost
     }
 }

@@ -61,9 +61,30 @@ impl<T: Real> Output<T> {
         data: &FrequencyData<T>,
         jacobian: bool,
     ) -> bool {
-        let (n, p) = (data.len(), model.n_params());
-        let omega = data.omega();
-        let u = data.u();
+        self.evaluate_lines(model, theta, data.omega(), data.u(), jacobian)
+    }
+
+    /// [`Output::evaluate`] on the lines with frequencies `omega` and input spectrum `u`
+    /// (of equal lengths; e.g. a block of a data set's lines). The buffers are resized to
+    /// `omega.len()` lines when their sizes differ. Returns false when a value is not
+    /// finite.
+    pub fn evaluate_lines<M: ModelStructure<T> + ?Sized>(
+        &mut self,
+        model: &M,
+        theta: &[T],
+        omega: &[T],
+        u: &[Complex<T>],
+        jacobian: bool,
+    ) -> bool {
+        let (n, p) = (omega.len().min(u.len()), model.n_params());
+        let omega = &omega[..n];
+        let u = &u[..n];
+        let zero = Complex::new(T::zero(), T::zero());
+        for v in [&mut self.g, &mut self.yhat, &mut self.t] {
+            if v.len() != n {
+                v.resize(n, zero);
+            }
+        }
         let has_t = if jacobian {
             for m in [&mut self.dg, &mut self.dyhat] {
                 if m.shape() != (n, p) {

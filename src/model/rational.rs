@@ -523,15 +523,10 @@ impl<T: Real> Rational<T> {
         Ok(out)
     }
 
-    /// Evaluates A and B at one variable value, with the basis values in `phi`.
+    /// Evaluates A and B at the variable of ω, with the basis values in `phi`.
     #[inline]
-    fn eval_ab(
-        &self,
-        theta: &[T],
-        v: Complex<T>,
-        phi: &mut [Complex<T>],
-    ) -> (Complex<T>, Complex<T>) {
-        self.basis.eval_into(v, phi);
+    fn eval_ab(&self, theta: &[T], omega: T, phi: &mut [Complex<T>]) -> (Complex<T>, Complex<T>) {
+        self.basis.eval_into(self.basis.variable(omega), phi);
         let zero = Complex::new(T::zero(), T::zero());
         let na = self.na;
         let mut a = zero;
@@ -586,7 +581,7 @@ impl<T: Real> ModelStructure<T> for Rational<T> {
     fn response_into(&self, theta: &[T], omega: &[T], out: &mut [Complex<T>]) {
         let mut phi = self.zero_phi();
         for (w, o) in omega.iter().zip(out.iter_mut()) {
-            let (a, b) = self.eval_ab(theta, self.basis.variable(*w), &mut phi);
+            let (a, b) = self.eval_ab(theta, *w, &mut phi);
             *o = b / a;
         }
     }
@@ -603,7 +598,7 @@ impl<T: Real> ModelStructure<T> for Rational<T> {
         let na = self.na;
         let off = self.a_offset();
         for (k, w) in omega.iter().enumerate() {
-            let (a, b) = self.eval_ab(theta, self.basis.variable(*w), &mut phi);
+            let (a, b) = self.eval_ab(theta, *w, &mut phi);
             let inv_a = a.inv();
             let gk = b * inv_a;
             g[k] = gk;
@@ -640,7 +635,7 @@ impl<T: Real> ModelStructure<T> for Rational<T> {
         let mut chi = vec![Complex::new(T::zero(), T::zero()); nt];
         let off = self.a_offset();
         for (k, w) in omega.iter().enumerate() {
-            let (a, _) = self.eval_ab(theta, self.basis.variable(*w), &mut phi);
+            let (a, _) = self.eval_ab(theta, *w, &mut phi);
             self.transient_basis(ts, *w, &mut chi);
             let inv_a = a.inv();
             let num = chi
@@ -745,7 +740,7 @@ impl<T: Real> EquationError<T> for Rational<T> {
     fn denominator_into(&self, theta: &[T], omega: &[T], out: &mut [Complex<T>]) {
         let mut phi = self.zero_phi();
         for (w, o) in omega.iter().zip(out.iter_mut()) {
-            *o = self.eval_ab(theta, self.basis.variable(*w), &mut phi).0;
+            *o = self.eval_ab(theta, *w, &mut phi).0;
         }
     }
 }

@@ -70,17 +70,18 @@ impl FixedPoint {
         let mut last_cost: Option<T> = None;
         let ctol = T::lit(self.cost_tolerance);
         for it in 1..=self.max_iterations.max(1) {
-            let (a, b) = problem.system(previous.as_deref());
             let fast = if gram {
-                super::gram::least_squares_gram(&a, &b, super::gram::max_condition::<T>())
+                problem.solve_normal_equations(previous.as_deref())
             } else {
                 None
             };
-            let (theta, _) = match fast {
-                Some(v) => v,
-                None => least_squares(a, b, self.rcond_eps)?,
+            let theta = match fast {
+                Some((theta, _)) => theta,
+                None => {
+                    let (a, b) = problem.system(previous.as_deref());
+                    least_squares(a, b, self.rcond_eps)?.0.as_slice().to_vec()
+                }
             };
-            let theta = theta.as_slice().to_vec();
             let cost = problem.cost(&theta);
             let change = previous.as_deref().map(|old| problem.change(old, &theta));
             if best.as_ref().is_none_or(|(_, c)| cost < *c) {

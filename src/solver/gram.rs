@@ -51,22 +51,11 @@ impl<T: Real> GramWork<T> {
     /// of a transposed *view* of J with J, so no m × p copy is made; column dot products
     /// for p ≤ 5, below nalgebra's threshold for the blocked product.
     pub(crate) fn gram(&mut self, jac: &DMatrix<T>) {
-        let (m, p) = jac.shape();
+        let p = jac.ncols();
         if self.g.shape() != (p, p) {
             self.g = DMatrix::zeros(p, p);
         }
-        if p <= 5 || m == 0 {
-            jac.tr_mul_to(jac, &mut self.g);
-            return;
-        }
-        let jt = nalgebra::DMatrixView::<T, Dyn, Dyn>::from_slice_with_strides(
-            jac.as_slice(),
-            p,
-            m,
-            m,
-            1,
-        );
-        self.g.gemm(T::one(), &jt, jac, T::zero());
+        gram_into(jac, &mut self.g, false);
     }
 
     /// Jᵀv (column dot products of J, contiguous in memory).
@@ -74,6 +63,23 @@ impl<T: Real> GramWork<T> {
         let v = nalgebra::DVectorView::from_slice(v, jac.nrows());
         out.gemv_tr(T::one(), jac, &v, T::zero());
     }
+}
+
+/// G = JᵀJ (`accumulate`: G += JᵀJ) into `g` (p × p, p = J's column count): one blocked
+/// matrix product (`matrixmultiply`, through nalgebra's gemm) of a transposed *view* of J
+/// with J, so no copy of J is made; column dot products for p ≤ 5, below nalgebra's
+/// threshold for the blocked product.
+pub(crate) fn gram_into<T: Real>(jac: &DMatrix<T>, g: &mut DMatrix<T>, accumulate: bool) {
+    let (m, p) = jac.shape();
+    debug_assert_eq!(g.shape(), (p, p));
+    let beta = if accumulate { T::one() } else { T::zero() };
+    if p <= 5 || m == 0 {
+        g.gemm_tr(T::one(), jac, jac, beta);
+        return;
+    }
+    let jt =
+        nalgebra::DMatrixView::<T, Dyn, Dyn>::from_slice_with_strides(jac.as_slice(), p, m, m, 1);
+    g.gemm(T::one(), &jt, jac, beta);
 }
 
 /// The equilibrated Gram matrix Gₛ = D⁻¹GD⁻¹ with its Cholesky factor, when well
@@ -167,6 +173,112 @@ pub(crate) fn least_squares_gram<T: Real>(
     Some((theta, r.norm_squared()))
 }
 
+/// Lines per block of the accumulated normal equations for `p` columns: about 4 096/p
+/// (at least 64), so that a block's real-stacked rows (2·lines × p) and the complex
+/// values they come from (about 64 kB each) stay in cache, while the blocks stay long
+/// enough for the blocked product.
+pub(crate) fn block_lines(p: usize) -> usize {
+    (4_096 / p.max(1)).max(64)
+}
+
+/// True for problems of `n` lines and `p` parameters small enough (n·p ≤ 32 768) that their
+/// N × p matrices stay in cache: forming them costs less there than evaluating the model
+/// block by block, twice where a second pass needs the Jacobian again.
+pub(crate) fn small_problem(n: usize, p: usize) -> bool {
+    n.saturating_mul(p) <= 32_768
+}
+
+/// [`least_squares_gram`] for the real-stacked, line-weighted system of a complex
+/// regressor R (N × q) with the coefficient `normalising` fixed to one: with
+/// Rᵂ = diag(w) R and c = θ with 1 inserted at `normalising`, minimise
+///
+/// ```text
+/// ‖Rᵂ c‖² = ‖Aθ − b‖²,   A = the real-stacked other columns of Rᵂ, b = −(its normalising column),
+/// ```
+///
+/// without forming A: AᵀA and Aᵀb are accumulated over blocks of lines, each block's
+/// stacked rows formed in a small buffer. The residual norm² is computed
+/// from the residuals w_k R_k c themselves. `None` under the conditions of
+/// [`least_squares_gram`] (then solve the stacked system by QR).
+pub(crate) fn regressor_least_squares_gram<T: Real>(
+    regressor: &DMatrix<crate::Complex<T>>,
+    w: Option<&[T]>,
+    normalising: usize,
+    max_cond: T,
+) -> Option<(DVector<T>, T)> {
+    let (n, q) = regressor.shape();
+    if q < 2 || normalising >= q || 2 * n < q - 1 || w.is_some_and(|w| w.len() != n) {
+        return None;
+    }
+    let p = q - 1;
+    let wk = |k: usize| w.map_or(T::one(), |w| w[k]);
+    // AᵀA and Aᵀb over blocks of the stacked rows (b apart from A: a q-th column in the
+    // blocked product would cost a whole extra tile of its kernel)
+    let mut g = DMatrix::zeros(p, p);
+    let mut atb = DVector::zeros(p);
+    let mut block = DMatrix::<T>::zeros(0, 0);
+    let mut rhs = DVector::<T>::zeros(0);
+    let re = regressor.as_slice();
+    let lines = block_lines(p);
+    for k0 in (0..n).step_by(lines) {
+        let len = lines.min(n - k0);
+        if block.nrows() != 2 * len {
+            block = DMatrix::zeros(2 * len, p);
+            rhs = DVector::zeros(2 * len);
+        }
+        // rows 0..len: real parts, len..2len: imaginary parts (the order of rows does not
+        // change AᵀA and Aᵀb)
+        for (j, src) in re.chunks_exact(n).enumerate() {
+            let col = match j.cmp(&normalising) {
+                std::cmp::Ordering::Less => {
+                    &mut block.as_mut_slice()[j * 2 * len..(j + 1) * 2 * len]
+                }
+                std::cmp::Ordering::Equal => rhs.as_mut_slice(),
+                std::cmp::Ordering::Greater => {
+                    &mut block.as_mut_slice()[(j - 1) * 2 * len..j * 2 * len]
+                }
+            };
+            let sign = if j == normalising {
+                -T::one()
+            } else {
+                T::one()
+            };
+            let (cr, ci) = col.split_at_mut(len);
+            for (i, v) in src[k0..k0 + len].iter().enumerate() {
+                let x = *v * (wk(k0 + i) * sign);
+                cr[i] = x.re;
+                ci[i] = x.im;
+            }
+        }
+        gram_into(&block, &mut g, true);
+        atb.gemv_tr(T::one(), &block, &rhs, T::one());
+    }
+    let sc = scaled_cholesky(&g, max_cond)?;
+    for (v, d) in atb.iter_mut().zip(&sc.d) {
+        *v /= *d;
+    }
+    let y = sc.chol.solve(&atb);
+    let theta = DVector::from_iterator(p, y.iter().zip(&sc.d).map(|(v, d)| *v / *d));
+    if theta.iter().any(|v| !Float::is_finite(*v)) {
+        return None;
+    }
+    let mut c = Vec::with_capacity(q);
+    c.extend_from_slice(&theta.as_slice()[..normalising]);
+    c.push(T::one());
+    c.extend_from_slice(&theta.as_slice()[normalising..]);
+    let mut e = vec![crate::Complex::new(T::zero(), T::zero()); n];
+    for (col, cj) in re.chunks_exact(n).zip(&c) {
+        for (e, v) in e.iter_mut().zip(col) {
+            *e += *v * *cj;
+        }
+    }
+    let cost = e
+        .iter()
+        .enumerate()
+        .fold(T::zero(), |s, (k, v)| s + (*v * wk(k)).norm_sqr());
+    Some((theta, cost))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -216,6 +328,33 @@ mod tests {
         let (x32, _) = least_squares_gram(&a32, &b32, max_condition::<f32>()).expect("f32");
         let e = x32.map(f64::from) - &xq;
         assert!(e.norm() <= 1e-3 * xq.norm(), "f32 error {}", e.norm());
+    }
+
+    #[test]
+    fn regressor_gram_equals_the_stacked_system() {
+        let (n, q) = (700, 8);
+        let mut s = 41;
+        let reg = DMatrix::from_fn(n, q, |_, j| {
+            crate::Complex::new(lcg(&mut s), lcg(&mut s)) * 10f64.powi(j as i32 - 4)
+        });
+        let w: Vec<f64> = (0..n).map(|k| 1.0 + 0.5 * (k as f64).sin()).collect();
+        for (norm, w) in [
+            (0, Some(w.as_slice())),
+            (3, None),
+            (q - 1, Some(w.as_slice())),
+        ] {
+            let mut a = DMatrix::zeros(0, 0);
+            let mut b = DVector::zeros(0);
+            crate::criterion::normalised_into(&reg, w, norm, &mut a, &mut b);
+            let (x, r) = least_squares_gram(&a, &b, 1e8).expect("stacked");
+            let (xr, rr) = regressor_least_squares_gram(&reg, w, norm, 1e8).expect("blocks");
+            assert!((&x - &xr).norm() <= 1e-12 * x.norm(), "{x} vs {xr}");
+            assert!((r - rr).abs() <= 1e-12 * r);
+        }
+        assert!(regressor_least_squares_gram(&reg, Some(&w[1..]), 0, 1e8).is_none());
+        assert!(
+            regressor_least_squares_gram(&reg.columns(0, 1).into_owned(), None, 0, 1e8).is_none()
+        );
     }
 
     #[test]

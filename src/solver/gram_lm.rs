@@ -1,6 +1,6 @@
 //! Levenberg–Marquardt with the step from the guarded normal equations.
 
-use super::gram::{GramWork, max_condition, scaled_cholesky};
+use super::gram::{max_condition, scaled_cholesky};
 use super::{LevenbergMarquardt, Solution, Solver, Termination};
 use crate::Real;
 use crate::error::{FdidError, Result};
@@ -61,13 +61,14 @@ impl<T: Real, P: NonlinearProblem<T> + ?Sized> Solver<T, P> for GramLevenbergMar
         let mut r = vec![T::zero(); m];
         let mut r_try = vec![T::zero(); m];
         let mut x_try = vec![T::zero(); p];
-        let mut jac = DMatrix::zeros(m, p);
-        let mut work = GramWork::new(p);
+        // J itself only for problems that do not accumulate JᵀJ and Jᵀr by blocks
+        let mut jac = DMatrix::zeros(0, 0);
+        let mut gram = DMatrix::zeros(p, p);
         let mut grad = DVector::zeros(p);
         let max_cond = max_condition::<T>();
         let budget = self.settings.patience.max(1) * (p + 1);
         let mut evaluations = 1usize;
-        if !problem.jacobian_into(&x, &mut r, &mut jac) {
+        if !problem.normal_equations_into(&x, &mut r, &mut jac, &mut gram, &mut grad) {
             return Err(FdidError::Numerical {
                 what: "residuals or Jacobian at the start of Levenberg–Marquardt".into(),
             });
@@ -87,12 +88,10 @@ impl<T: Real, P: NonlinearProblem<T> + ?Sized> Solver<T, P> for GramLevenbergMar
             if cost == T::zero() {
                 return done(x, cost, evaluations, Termination::Converged);
             }
-            work.gram(&jac);
-            let sc = scaled_cholesky(&work.g, max_cond).ok_or(FdidError::Singular {
+            let sc = scaled_cholesky(&gram, max_cond).ok_or(FdidError::Singular {
                 what: "equilibrated normal equations of the Levenberg–Marquardt step",
                 condition: f64::INFINITY,
             })?;
-            GramWork::tr_mul(&jac, &r, &mut grad);
             let gs: DVector<T> =
                 DVector::from_iterator(p, grad.iter().zip(&sc.d).map(|(g, d)| *g / *d));
             if gs.iter().all(|v| *v == T::zero()) {
@@ -152,7 +151,7 @@ impl<T: Real, P: NonlinearProblem<T> + ?Sized> Solver<T, P> for GramLevenbergMar
                         return done(x, cost, evaluations, Termination::Converged);
                     }
                     evaluations += 1;
-                    if !problem.jacobian_into(&x, &mut r, &mut jac) {
+                    if !problem.normal_equations_into(&x, &mut r, &mut jac, &mut gram, &mut grad) {
                         return Err(FdidError::Numerical {
                             what: "Jacobian at an accepted Levenberg–Marquardt step".into(),
                         });
