@@ -8,6 +8,7 @@
 //! keeps the lowest cost;
 //! [`Fit::unresolved_poles`] names poles whose damping the frequency grid cannot determine.
 
+use crate::basis::PolyBasis;
 use crate::criterion::MaximumLikelihood;
 use crate::data::FrequencyData;
 use crate::error::{FdidError, Result};
@@ -96,9 +97,10 @@ fn reduced_poles<T: Real>(poles: &[Complex<T>]) -> Vec<Vec<Complex<T>>> {
 ///   dropping one pole pair or two real poles of that fit, a Levy solve in the basis of
 ///   the remaining poles and ML from it.
 ///
-/// About ten times the work of one [`Pipeline::fit`]; on random stable systems of order
-/// ≤ 10 at 40 dB SNR it reaches the best optimum found far more often (see the README's
-/// Tests section for the figures).
+/// About ten times the work of one [`Pipeline::fit`], which runs these starts itself only
+/// on evidence of a local minimum (see [`restart`]); on random stable systems of order
+/// ≤ 10 at 40 dB SNR it reaches the best optimum found far more often than the chain from
+/// its automatic start alone (see the README's Tests section for the figures).
 ///
 /// # Errors
 /// `na = 0` or `nb > na`; when every start fails, the error of the first.
@@ -115,52 +117,123 @@ pub fn fit_multistart<T: Real>(
             reason: "multiple starts need a partial-fraction model: na ≥ 1 and nb ≤ na".into(),
         });
     }
-    let mut models = vec![Rational::continuous(na, nb, data.omega())?];
-    for p in starting_poles(na, data.omega()) {
-        models.push(Rational::partial_fractions(p, nb)?);
+    let mut search = Search::default();
+    search.keep(Rational::continuous(na, nb, data.omega()).and_then(|m| pipeline.chain(&m, data)));
+    search.continuous(pipeline, na, nb, data);
+    search.finish()
+}
+
+/// The lowest-cost fit of several starts, and the first error.
+struct Search<T: Real> {
+    best: Option<Fit<T, Rational<T>>>,
+    first_error: Option<FdidError>,
+}
+
+impl<T: Real> Default for Search<T> {
+    fn default() -> Self {
+        Self {
+            best: None,
+            first_error: None,
+        }
     }
-    let mut best: Option<Fit<T, Rational<T>>> = None;
-    let mut first_error = None;
-    let mut keep = |fit: Result<Fit<T, Rational<T>>>, first_error: &mut Option<FdidError>| match fit
-    {
-        Ok(f) => {
-            if best.as_ref().is_none_or(|b| f.cost() < b.cost()) {
-                best = Some(f);
+}
+
+impl<T: Real> Search<T> {
+    fn keep(&mut self, fit: Result<Fit<T, Rational<T>>>) {
+        match fit {
+            Ok(f) => {
+                if self.best.as_ref().is_none_or(|b| f.cost() < b.cost()) {
+                    self.best = Some(f);
+                }
+            }
+            Err(e) => {
+                self.first_error.get_or_insert(e);
             }
         }
-        Err(e) => {
-            first_error.get_or_insert(e);
-        }
-    };
-    for m in &models {
-        keep(pipeline.fit(m, data), &mut first_error);
     }
-    // order reduction: the fit of order na + 2 rarely misses a true pole; each way of
-    // dropping two of its poles is a start (Levy in that basis, then ML)
-    let linear_ml = Pipeline {
-        sk: None,
-        ..*pipeline
-    };
-    if let Ok(big) =
-        Rational::continuous(na + 2, nb + 2, data.omega()).and_then(|m| pipeline.fit(&m, data))
-        && let Ok(poles) = big.poles()
-    {
-        for start in reduced_poles(&poles) {
-            if let Ok(m) = Rational::partial_fractions(start, nb) {
-                keep(linear_ml.fit(&m, data), &mut first_error);
+
+    fn finish(self) -> Result<Fit<T, Rational<T>>> {
+        match (self.best, self.first_error) {
+            (Some(b), _) => Ok(b),
+            (None, Some(e)) => Err(e),
+            (None, None) => Err(FdidError::Numerical {
+                what: "every start of the multistart fit".into(),
+            }),
+        }
+    }
+
+    /// The continuous-time starts of [`fit_multistart`] but the automatic one.
+    fn continuous(&mut self, pipeline: &Pipeline, na: usize, nb: usize, data: &FrequencyData<T>) {
+        for p in starting_poles(na, data.omega()) {
+            self.keep(Rational::partial_fractions(p, nb).and_then(|m| pipeline.chain(&m, data)));
+        }
+        // order reduction: the fit of order na + 2 rarely misses a true pole; each way of
+        // dropping two of its poles is a start (Levy in that basis, then ML)
+        let linear_ml = Pipeline {
+            sk: None,
+            ..*pipeline
+        };
+        if let Ok(big) = Rational::continuous(na + 2, nb + 2, data.omega())
+            .and_then(|m| pipeline.chain(&m, data))
+            && let Ok(poles) = big.poles()
+        {
+            for start in reduced_poles(&poles) {
+                if let Ok(m) = Rational::partial_fractions(start, nb) {
+                    self.keep(linear_ml.chain(&m, data));
+                }
             }
         }
     }
-    match (best, first_error) {
-        (Some(b), _) => Ok(b),
-        (None, Some(e)) => Err(e),
-        (None, None) => unreachable!("at least one start"),
+
+    /// The order-reduction starts of [`fit_multistart_discrete`] for `model`.
+    fn discrete(
+        &mut self,
+        pipeline: &Pipeline,
+        model: &Rational<T>,
+        ts: T,
+        data: &FrequencyData<T>,
+    ) {
+        let (na, nb) = (model.na(), model.nb());
+        let Some(lm) = pipeline.ml else {
+            return;
+        };
+        let Ok(big) = Rational::discrete(na + 2, nb + 2, ts).and_then(|m| pipeline.chain(&m, data))
+        else {
+            return;
+        };
+        let Ok(poles) = big.poles() else {
+            return;
+        };
+        let Ok(weights) = pipeline.weighting.weights(data) else {
+            return;
+        };
+        let ml = MaximumLikelihood {
+            weighting: pipeline.weighting,
+        };
+        for start in reduced_poles_z(&poles) {
+            let Some(theta) = discrete_start(model, &start, data, weights.as_deref()) else {
+                continue;
+            };
+            let Ok(sol) = estimate(model, data, &ml, &lm, Some(&theta)) else {
+                continue;
+            };
+            if self.best.as_ref().is_none_or(|b| sol.cost < b.cost()) {
+                let stages = vec![Stage {
+                    name: "ml-reduced".into(),
+                    solution: sol.clone(),
+                }];
+                if let Ok(f) = Fit::new(model.clone(), data, sol.theta, pipeline.weighting, stages)
+                {
+                    self.best = Some(f);
+                }
+            }
+        }
     }
 }
 
 /// Fits a discrete-time model B(z⁻¹)/A(z⁻¹) of degrees (`na`, `nb`) with sample time
 /// `ts` by `pipeline` from two kinds of start, returning the fit of lowest cost V:
-/// - the automatic one ([`Pipeline::fit`]: Levy → SK → ML);
+/// - the automatic one (Levy → SK → ML);
 /// - order reduction: the chain at degrees (na + 2, nb + 2), then, for every way of
 ///   dropping one pole pair or two real poles of that fit, A = Π(1 − pⱼz⁻¹) over the
 ///   remaining poles, B by weighted linear least squares with A fixed
@@ -184,40 +257,49 @@ pub fn fit_multistart_discrete<T: Real>(
         });
     }
     let model = Rational::discrete(na, nb, ts)?;
-    let first = pipeline.fit(&model, data);
-    let mut best = first.as_ref().ok().cloned();
-    if let (Some(lm), Ok(big)) = (
-        pipeline.ml,
-        Rational::discrete(na + 2, nb + 2, ts).and_then(|m| pipeline.fit(&m, data)),
-    ) && let Ok(poles) = big.poles()
-    {
-        let weights = pipeline.weighting.weights(data)?;
-        let ml = MaximumLikelihood {
-            weighting: pipeline.weighting,
-        };
-        for start in reduced_poles_z(&poles) {
-            let Some(theta) = discrete_start(&model, &start, data, weights.as_deref()) else {
-                continue;
-            };
-            let Ok(sol) = estimate(&model, data, &ml, &lm, Some(&theta)) else {
-                continue;
-            };
-            if best.as_ref().is_none_or(|b| sol.cost < b.cost()) {
-                let stages = vec![Stage {
-                    name: "ml-reduced".into(),
-                    solution: sol.clone(),
-                }];
-                if let Ok(f) = Fit::new(model.clone(), data, sol.theta, pipeline.weighting, stages)
-                {
-                    best = Some(f);
-                }
-            }
+    let mut search = Search::default();
+    search.keep(pipeline.chain(&model, data));
+    search.discrete(pipeline, &model, ts, data);
+    search.finish()
+}
+
+/// [`EquationError::restart`] for [`Rational`]: when `suspicious`, or when `fit` has
+/// poles the data cannot resolve ([`Fit::unresolved_poles`]), the starts of
+/// [`fit_multistart`] (a partial-fraction model) or of [`fit_multistart_discrete`] (a
+/// discrete-time polynomial model) but the automatic one, which gave `fit`; `None`
+/// otherwise (no evidence, a transient term, the orthonormal polynomial basis) or when
+/// every start fails. The caller keeps `fit` unless the returned fit has a lower cost.
+///
+/// [`EquationError::restart`]: crate::model::EquationError::restart
+pub(crate) fn restart<T: Real>(
+    model: &Rational<T>,
+    pipeline: &Pipeline,
+    data: &FrequencyData<T>,
+    fit: &Fit<T, Rational<T>>,
+    suspicious: bool,
+) -> Option<Fit<T, Rational<T>>> {
+    if model.n_transient() > 0 || model.na() == 0 {
+        return None;
+    }
+    if !suspicious && !fit.unresolved_poles().is_ok_and(|u| !u.is_empty()) {
+        return None;
+    }
+    let mut search = Search::default();
+    match model.basis() {
+        PolyBasis::PartialFractions { .. } => {
+            search.continuous(pipeline, model.na(), model.nb(), data);
         }
+        PolyBasis::DelayPowers { ts } => {
+            search.discrete(
+                pipeline,
+                &Rational::discrete(model.na(), model.nb(), *ts).ok()?,
+                *ts,
+                data,
+            );
+        }
+        PolyBasis::Orthonormal { .. } => return None,
     }
-    match best {
-        Some(b) => Ok(b),
-        None => first,
-    }
+    search.best
 }
 
 /// Every way of dropping one conjugate pair or two real poles of a z-plane pole set

@@ -54,6 +54,10 @@ fn ml_solve<T: Real, M: ModelStructure<T> + ?Sized>(
         .or_else(|_| lm.solve(problem, Some(start)))
 }
 
+/// The level of the cost and whiteness tests below which [`Pipeline::fit`] takes a fit
+/// for a possible local minimum.
+const SUSPICIOUS_P: f64 = 0.01;
+
 /// Buffers of the Levy/SK solves of one fit.
 struct LevyWork<T: Real> {
     weights: Option<Option<Vec<T>>>,
@@ -145,6 +149,27 @@ impl Pipeline {
         model: &M,
         data: &FrequencyData<T>,
     ) -> Result<Fit<T, M>> {
+        self.run(model, data, true)
+    }
+
+    /// The chain without the further starts of [`EquationError::restart`] (the starts of
+    /// the multistart fits themselves).
+    pub(crate) fn chain<T: Real, M: EquationError<T> + Clone>(
+        &self,
+        model: &M,
+        data: &FrequencyData<T>,
+    ) -> Result<Fit<T, M>> {
+        self.run(model, data, false)
+    }
+
+    /// The chain, then (`restarts`, ML) the model's further starts on evidence of a local
+    /// minimum.
+    fn run<T: Real, M: EquationError<T> + Clone>(
+        &self,
+        model: &M,
+        data: &FrequencyData<T>,
+        restarts: bool,
+    ) -> Result<Fit<T, M>> {
         let w = self.weighting;
         let mut work = LevyWork::default();
         let levy = self.levy_solve(model, data, &self.linear, &mut work)?;
@@ -190,6 +215,7 @@ impl Pipeline {
             let suspicious = |a: &Solution<T>| sk_capped || !a.converged();
             // the basis the ML estimate belongs to, when it is not `model`'s
             let mut replaced: Option<M> = None;
+            let capped = sk_capped || first.as_ref().is_ok_and(|a| !a.converged());
             let best = match first {
                 Ok(a) if suspicious(&a) && current != levy.theta => {
                     // SK or ML stopped at its cap: typically the relocation traded a
@@ -223,16 +249,31 @@ impl Pipeline {
                 }
                 Err(e) => return Err(e),
             };
+            let capped = capped || !best.converged();
             current = best.theta.clone();
             stages.push(Stage {
                 name: "ml".into(),
                 solution: best,
             });
-            return match replaced {
+            let fit = match replaced {
                 // the statistics from the ML problem's own work space
-                None => Fit::from_ml_problem(model.clone(), data, current, &problem, stages),
-                Some(m) => Fit::new(m, data, current, w, stages),
+                None => Fit::from_ml_problem(model.clone(), data, current, &problem, stages)?,
+                Some(m) => Fit::new(m, data, current, w, stages)?,
             };
+            if !restarts {
+                return Ok(fit);
+            }
+            // evidence of a local minimum: a cap, or residuals the noise does not explain
+            // (cost or whiteness test at the 1 % level; only with known noise variances)
+            let v = fit.validation();
+            let poor = v.cost_p.is_some_and(|p| p < SUSPICIOUS_P)
+                || (fit.noise_known() && v.whiteness_p.is_some_and(|p| p < SUSPICIOUS_P));
+            return Ok(
+                match fit.model().restart(self, data, &fit, capped || poor) {
+                    Some(better) if better.cost() < fit.cost() => better,
+                    _ => fit,
+                },
+            );
         }
         Fit::new(model, data, current, w, stages)
     }
