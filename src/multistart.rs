@@ -120,6 +120,7 @@ pub fn fit_multistart<T: Real>(
     let mut search = Search::default();
     search.keep(Rational::continuous(na, nb, data.omega()).and_then(|m| pipeline.chain(&m, data)));
     search.continuous(pipeline, na, nb, data);
+    search.polish(pipeline, data);
     search.finish()
 }
 
@@ -148,6 +149,46 @@ impl<T: Real> Search<T> {
             }
             Err(e) => {
                 self.first_error.get_or_insert(e);
+            }
+        }
+    }
+
+    /// When the best fit's last stage stopped at its iteration cap, ML again from it (at
+    /// most twice), keeping the result while it lowers the cost.
+    fn polish(&mut self, pipeline: &Pipeline, data: &FrequencyData<T>) {
+        let Some(lm) = pipeline.ml else {
+            return;
+        };
+        let ml = MaximumLikelihood {
+            weighting: pipeline.weighting,
+        };
+        for _ in 0..2 {
+            let Some(b) = self.best.as_ref() else {
+                return;
+            };
+            if b.stages().last().is_none_or(|s| s.solution.converged()) {
+                return;
+            }
+            let Ok(sol) = estimate(b.model(), data, &ml, &lm, Some(b.theta())) else {
+                return;
+            };
+            if !(sol.cost < b.cost()) {
+                return;
+            }
+            let mut stages = b.stages().to_vec();
+            stages.push(Stage {
+                name: "ml-polish".into(),
+                solution: sol.clone(),
+            });
+            match Fit::new(
+                b.model().clone(),
+                data,
+                sol.theta,
+                pipeline.weighting,
+                stages,
+            ) {
+                Ok(f) => self.best = Some(f),
+                Err(_) => return,
             }
         }
     }
@@ -260,6 +301,7 @@ pub fn fit_multistart_discrete<T: Real>(
     let mut search = Search::default();
     search.keep(pipeline.chain(&model, data));
     search.discrete(pipeline, &model, ts, data);
+    search.polish(pipeline, data);
     search.finish()
 }
 
@@ -281,7 +323,8 @@ pub(crate) fn restart<T: Real>(
     if model.n_transient() > 0 || model.na() == 0 {
         return None;
     }
-    if !suspicious && !fit.unresolved_poles().is_ok_and(|u| !u.is_empty()) {
+    let unstable = !model.is_stable(fit.theta()).unwrap_or(true);
+    if !suspicious && !unstable && !fit.unresolved_poles().is_ok_and(|u| !u.is_empty()) {
         return None;
     }
     let mut search = Search::default();
@@ -299,7 +342,9 @@ pub(crate) fn restart<T: Real>(
         }
         PolyBasis::Orthonormal { .. } => return None,
     }
-    search.best
+    search.keep(Ok(fit.clone()));
+    search.polish(pipeline, data);
+    search.best.filter(|b| b.cost() < fit.cost())
 }
 
 /// Every way of dropping one conjugate pair or two real poles of a z-plane pole set

@@ -58,6 +58,11 @@ fn ml_solve<T: Real, M: ModelStructure<T> + ?Sized>(
 /// for a possible local minimum.
 const SUSPICIOUS_P: f64 = 0.01;
 
+/// ML iterations from which [`Pipeline::fit`] takes the path from the start for long
+/// enough to have crossed into another basin of the cost (typically 4–20 iterations from a
+/// good start).
+const LONG_ML: usize = 30;
+
 /// Buffers of the Levy/SK solves of one fit.
 struct LevyWork<T: Real> {
     weights: Option<Option<Vec<T>>>,
@@ -249,7 +254,8 @@ impl Pipeline {
                 }
                 Err(e) => return Err(e),
             };
-            let capped = capped || !best.converged();
+            // a cap, or a long way from the start through a non-convex cost
+            let capped = capped || !best.converged() || best.iterations >= LONG_ML;
             current = best.theta.clone();
             stages.push(Stage {
                 name: "ml".into(),
