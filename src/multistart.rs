@@ -120,6 +120,7 @@ pub fn fit_multistart<T: Real>(
     let mut search = Search::default();
     search.keep(Rational::continuous(na, nb, data.omega()).and_then(|m| pipeline.chain(&m, data)));
     search.continuous(pipeline, na, nb, data);
+    search.replace_spurious(pipeline, data);
     search.polish(pipeline, data);
     search.finish()
 }
@@ -189,6 +190,193 @@ impl<T: Real> Search<T> {
             ) {
                 Ok(f) => self.best = Some(f),
                 Err(_) => return,
+            }
+        }
+    }
+
+    /// Starts that replace the best fit's spurious poles — unstable ones and those the
+    /// data cannot resolve ([`Fit::unresolved_poles`]) — keeping the others (reflected
+    /// into the stable region): with s = p (continuous time) or s = ln(p)/Ts, |s| = ω, a
+    /// spurious pair becomes a pair −ζω ± iω√(1 − ζ²) for ζ = 0.3 and ζ = 0.7, or two
+    /// real poles −ω/2 and −2ω; a spurious real pole becomes −ω. Continuous time: the chain
+    /// (Levy → SK → ML) and Levy → ML in each such basis; discrete time: the start of
+    /// [`discrete_start`], then ML. Repeated (twice at most) while it lowers the cost and
+    /// the best fit has spurious poles.
+    fn replace_spurious(&mut self, pipeline: &Pipeline, data: &FrequencyData<T>) {
+        let Some(lm) = pipeline.ml else {
+            return;
+        };
+        let linear_ml = Pipeline {
+            sk: None,
+            ..*pipeline
+        };
+        let ml = MaximumLikelihood {
+            weighting: pipeline.weighting,
+        };
+        let Ok(weights) = pipeline.weighting.weights(data) else {
+            return;
+        };
+        for _ in 0..2 {
+            let Some(b) = self.best.as_ref() else {
+                return;
+            };
+            let cost = b.cost();
+            let Ok(poles) = b.poles() else {
+                return;
+            };
+            let unresolved = b.unresolved_poles().unwrap_or_default();
+            let domain = b.model().domain();
+            let (na, nb) = (b.model().na(), b.model().nb());
+            let to_s = |p: Complex<T>| match domain {
+                Domain::Continuous => p,
+                Domain::Discrete { ts } => p.ln() / ts,
+            };
+            // one member of each pair and the real poles, with the spurious ones marked
+            let reps: Vec<(Complex<T>, bool)> = poles
+                .iter()
+                .filter(|p| p.im >= T::zero())
+                .map(|p| {
+                    let s = to_s(*p);
+                    (*p, !(s.re < T::zero()) || unresolved.contains(p))
+                })
+                .collect();
+            if !reps.iter().any(|(_, bad)| *bad) {
+                return;
+            }
+            // the s-plane replacement of a spurious pole under variant k
+            let replace = |s: Complex<T>, real: bool, k: usize| -> Vec<Complex<T>> {
+                let w = s.norm();
+                if real {
+                    return vec![Complex::new(-w, T::zero())];
+                }
+                match k {
+                    0 | 1 => {
+                        let zeta = T::lit(if k == 0 { 0.3 } else { 0.7 });
+                        let im = w * Float::sqrt(T::one() - zeta * zeta);
+                        vec![Complex::new(-zeta * w, im)]
+                    }
+                    _ => vec![
+                        Complex::new(-w / T::lit(2.0), T::zero()),
+                        Complex::new(-w * T::lit(2.0), T::zero()),
+                    ],
+                }
+            };
+            // the gaps variants: the spurious poles' frequencies moved into the largest
+            // gaps (in log ω) between the other poles and the band's ends — log-spread in
+            // the largest one, or one per gap in as many of the largest
+            let Some((lo, hi)) = positive_band(data.omega()) else {
+                return;
+            };
+            let mut kept: Vec<T> = reps
+                .iter()
+                .filter(|(_, bad)| !bad)
+                .map(|(p, _)| Float::ln(Float::min(Float::max(to_s(*p).norm(), lo), hi)))
+                .collect();
+            kept.push(Float::ln(lo));
+            kept.push(Float::ln(hi));
+            kept.sort_by(|a, b| a.partial_cmp(b).unwrap_or(std::cmp::Ordering::Equal));
+            let mut gaps: Vec<(T, T)> = kept.windows(2).map(|w| (w[0], w[1])).collect();
+            gaps.sort_by(|a, b| {
+                (b.1 - b.0)
+                    .partial_cmp(&(a.1 - a.0))
+                    .unwrap_or(std::cmp::Ordering::Equal)
+            });
+            let n_bad = reps.iter().filter(|(_, bad)| *bad).count();
+            let moved = |k: usize, j: usize| -> T {
+                // frequency of the j-th spurious pole under gap variant k
+                let (a, b) = if k == 3 {
+                    gaps[0]
+                } else {
+                    gaps[std::cmp::min(j, gaps.len() - 1)]
+                };
+                let f = if k == 3 {
+                    (T::from_usize_lossy(j) + T::one()) / (T::from_usize_lossy(n_bad) + T::one())
+                } else {
+                    T::lit(0.5)
+                };
+                Float::exp(a + (b - a) * f)
+            };
+            let half = T::lit(0.5);
+            let sqrt_half = Float::sqrt(T::lit(0.75));
+            // the s-plane pole of variant k for the j-th spurious pole s
+            let variant = |s: Complex<T>, real: bool, k: usize, j: usize| -> Vec<Complex<T>> {
+                if k < 3 {
+                    return replace(s, real, k);
+                }
+                let w = moved(k, j);
+                if real {
+                    vec![Complex::new(-w, T::zero())]
+                } else {
+                    vec![Complex::new(-half * w, sqrt_half * w)]
+                }
+            };
+            for k in 0..5 {
+                match domain {
+                    Domain::Continuous => {
+                        let mut basis = vec![];
+                        let mut j = 0;
+                        for (p, bad) in &reps {
+                            if *bad {
+                                basis.extend(variant(*p, p.im == T::zero(), k, j));
+                                j += 1;
+                            } else {
+                                basis.push(Complex::new(-Float::abs(p.re), p.im));
+                            }
+                        }
+                        if let Ok(m) = Rational::partial_fractions(basis, nb) {
+                            self.keep(pipeline.chain(&m, data));
+                            self.keep(linear_ml.chain(&m, data));
+                        }
+                    }
+                    Domain::Discrete { ts } => {
+                        let mut set = vec![];
+                        let mut j = 0;
+                        for (p, bad) in &reps {
+                            let new: Vec<Complex<T>> = if *bad {
+                                j += 1;
+                                variant(to_s(*p), p.im == T::zero(), k, j - 1)
+                                    .into_iter()
+                                    .map(|s| (s * ts).exp())
+                                    .collect()
+                            } else if p.norm() > T::one() {
+                                vec![*p / p.norm_sqr()]
+                            } else {
+                                vec![*p]
+                            };
+                            for q in new {
+                                if Float::abs(q.im) > T::zero() {
+                                    set.push(Complex::new(q.re, Float::abs(q.im)));
+                                    set.push(Complex::new(q.re, -Float::abs(q.im)));
+                                } else {
+                                    set.push(q);
+                                }
+                            }
+                        }
+                        let Ok(model) = Rational::discrete(na, nb, ts) else {
+                            return;
+                        };
+                        let Some(theta) = discrete_start(&model, &set, data, weights.as_deref())
+                        else {
+                            continue;
+                        };
+                        if let Ok(sol) = estimate(&model, data, &ml, &lm, Some(&theta))
+                            && self.best.as_ref().is_none_or(|b| sol.cost < b.cost())
+                        {
+                            let stages = vec![Stage {
+                                name: "ml-replaced".into(),
+                                solution: sol.clone(),
+                            }];
+                            if let Ok(f) =
+                                Fit::new(model, data, sol.theta, pipeline.weighting, stages)
+                            {
+                                self.best = Some(f);
+                            }
+                        }
+                    }
+                }
+            }
+            if !self.best.as_ref().is_some_and(|b| b.cost() < cost) {
+                return;
             }
         }
     }
@@ -301,6 +489,7 @@ pub fn fit_multistart_discrete<T: Real>(
     let mut search = Search::default();
     search.keep(pipeline.chain(&model, data));
     search.discrete(pipeline, &model, ts, data);
+    search.replace_spurious(pipeline, data);
     search.polish(pipeline, data);
     search.finish()
 }
@@ -343,6 +532,7 @@ pub(crate) fn restart<T: Real>(
         PolyBasis::Orthonormal { .. } => return None,
     }
     search.keep(Ok(fit.clone()));
+    search.replace_spurious(pipeline, data);
     search.polish(pipeline, data);
     search.best.filter(|b| b.cost() < fit.cost())
 }
