@@ -513,7 +513,11 @@ pub(crate) fn restart<T: Real>(
         return None;
     }
     let unstable = !model.is_stable(fit.theta()).unwrap_or(true);
-    if !suspicious && !unstable && !fit.unresolved_poles().is_ok_and(|u| !u.is_empty()) {
+    if !suspicious
+        && !unstable
+        && !fit.unresolved_poles().is_ok_and(|u| !u.is_empty())
+        && !near_cancellation(fit)
+    {
         return None;
     }
     let mut search = Search::default();
@@ -535,6 +539,30 @@ pub(crate) fn restart<T: Real>(
     search.replace_spurious(pipeline, data);
     search.polish(pipeline, data);
     search.best.filter(|b| b.cost() < fit.cost())
+}
+
+/// Relative distance |s_p − s_z|/|s_p| below which a pole and a zero of a fit nearly
+/// cancel (s = p in continuous time, ln(p)/Ts in discrete time).
+const NEAR_CANCELLATION: f64 = 0.05;
+
+/// Whether a pole and a zero of `fit` nearly cancel ([`NEAR_CANCELLATION`]): an order the
+/// fit spends on almost nothing, typically where a local minimum parks a pole the data
+/// need elsewhere.
+fn near_cancellation<T: Real>(fit: &Fit<T, Rational<T>>) -> bool {
+    let (Ok(poles), Ok(zeros)) = (fit.poles(), fit.zeros()) else {
+        return false;
+    };
+    let to_s = |p: Complex<T>| match fit.model().domain() {
+        Domain::Continuous => p,
+        Domain::Discrete { ts } => p.ln() / ts,
+    };
+    let limit = T::lit(NEAR_CANCELLATION);
+    poles.iter().any(|p| {
+        let s = to_s(*p);
+        zeros
+            .iter()
+            .any(|z| (s - to_s(*z)).norm() < limit * s.norm())
+    })
 }
 
 /// Every way of dropping one conjugate pair or two real poles of a z-plane pole set
