@@ -250,8 +250,12 @@ impl<T: Real> Search<T> {
                     return vec![Complex::new(-w, T::zero())];
                 }
                 match k {
-                    0 | 1 => {
-                        let zeta = T::lit(if k == 0 { 0.3 } else { 0.7 });
+                    0 | 1 | 5 => {
+                        let zeta = T::lit(match k {
+                            0 => 0.3,
+                            1 => 0.7,
+                            _ => 0.05,
+                        });
                         let im = w * Float::sqrt(T::one() - zeta * zeta);
                         vec![Complex::new(-zeta * w, im)]
                     }
@@ -300,7 +304,7 @@ impl<T: Real> Search<T> {
             let sqrt_half = Float::sqrt(T::lit(0.75));
             // the s-plane pole of variant k for the j-th spurious pole s
             let variant = |s: Complex<T>, real: bool, k: usize, j: usize| -> Vec<Complex<T>> {
-                if k < 3 {
+                if !(3..5).contains(&k) {
                     return replace(s, real, k);
                 }
                 let w = moved(k, j);
@@ -310,7 +314,7 @@ impl<T: Real> Search<T> {
                     vec![Complex::new(-half * w, sqrt_half * w)]
                 }
             };
-            for k in 0..5 {
+            for k in 0..6 {
                 match domain {
                     Domain::Continuous => {
                         let mut basis = vec![];
