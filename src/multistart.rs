@@ -1,11 +1,13 @@
-//! Several automatic starts for continuous-time fits, and the poles a fit cannot resolve.
+//! Several automatic starts for rational fits, and the poles a fit cannot resolve.
 //!
 //! The ML cost of a rational model is not convex: from its automatic start (Levy → SK,
-//! with lightly damped starting poles) [`Pipeline::fit`] ends in a local minimum on a
-//! fraction of random high-order systems, typically with a spurious lightly damped (or
-//! unstable) pole pair in place of heavily damped or real poles. [`fit_multistart`] runs
-//! the chain from several starting pole sets and from a reduced higher-order fit, and
-//! keeps the lowest cost;
+//! with lightly damped starting poles) the chain ends in a local minimum on a fraction of
+//! random high-order systems, typically with a spurious lightly damped (or unstable) pole
+//! pair in place of heavily damped or real poles. [`fit_multistart`] runs the chain from
+//! several starting pole sets and from a reduced higher-order fit, replaces the spurious
+//! poles of the best fit, and keeps the lowest cost; [`fit_multistart_discrete`] does the
+//! same in z. [`crate::Pipeline::fit`] runs these starts itself when its fit shows
+//! evidence of a local minimum (see [`crate::Pipeline`]).
 //! [`Fit::unresolved_poles`] names poles whose damping the frequency grid cannot determine.
 
 use crate::basis::PolyBasis;
@@ -95,12 +97,20 @@ fn reduced_poles<T: Real>(poles: &[Complex<T>]) -> Vec<Vec<Complex<T>>> {
 ///   data's band — each followed by the whole chain (Levy → SK → ML);
 /// - order reduction: the chain at orders (na + 2, nb + 2), then, for every way of
 ///   dropping one pole pair or two real poles of that fit, a Levy solve in the basis of
-///   the remaining poles and ML from it.
+///   the remaining poles and ML from it;
+/// - spurious poles: when the best fit so far has unstable poles or poles the data cannot
+///   resolve, starts that replace them — by damped pairs (ζ = 0.05, 0.3, 0.7) at their
+///   frequencies, by two real poles, or by damped pairs moved into the largest gaps
+///   between the other poles — each followed by the chain and by Levy → ML (twice at most,
+///   while the cost falls);
+/// - when the best fit's ML stopped at its cap, ML again from it.
 ///
-/// About ten times the work of one [`Pipeline::fit`], which runs these starts itself only
-/// on evidence of a local minimum (see [`restart`]); on random stable systems of order
-/// ≤ 10 at 40 dB SNR it reaches the best optimum found far more often than the chain from
-/// its automatic start alone (see the README's Tests section for the figures).
+/// About ten times the work of one chain. [`Pipeline::fit`] runs these starts itself (all
+/// but its own automatic one) when its fit shows evidence of a local minimum (see
+/// [`Pipeline`]); here they always run, and the starts use the chain without them. On
+/// random stable systems of order ≤ 10 at 40 dB SNR this reaches the best optimum found
+/// far more often than the chain from its automatic start alone (see the README's Tests
+/// section for the figures).
 ///
 /// # Errors
 /// `na = 0` or `nb > na`; when every start fails, the error of the first.
@@ -470,7 +480,12 @@ impl<T: Real> Search<T> {
 /// - order reduction: the chain at degrees (na + 2, nb + 2), then, for every way of
 ///   dropping one pole pair or two real poles of that fit, A = Π(1 − pⱼz⁻¹) over the
 ///   remaining poles, B by weighted linear least squares with A fixed
-///   (min_b Σ_k w_k² |Y_k − B(z_k)/A(z_k) U_k|²), and ML from (A, B).
+///   (min_b Σ_k w_k² |Y_k − B(z_k)/A(z_k) U_k|²), and ML from (A, B);
+/// - spurious poles and a capped ML as in [`fit_multistart`], with s = ln(z)/Ts (the
+///   replaced poles enter A, the others kept, unstable ones reflected: z ↦ z/|z|²).
+///
+/// [`Pipeline::fit`] runs the starts but the automatic one itself when its fit shows
+/// evidence of a local minimum; here they always run.
 ///
 /// # Errors
 /// `na = 0`, `nb > na + 2` or an invalid `ts`; when every start fails, the error of the

@@ -90,11 +90,29 @@ impl<T: Real> Default for LevyWork<T> {
 /// | `sk` | `Some(FixedPoint::default())` | SK iterations; `None` skips SK |
 /// | `ml` | `Some(LevenbergMarquardt::default())` | ML refinement; `None` stops after SK |
 /// | `linear` | [`LinearLeastSquares::default`] | the Levy solve |
+/// | `restarts` | `true` | further starts on evidence of a local minimum |
 ///
 /// If ML fails from the SK estimate it is retried from the Levy estimate (in the model's
 /// original basis). When SK or ML stops at its iteration cap, two more ML starts are
 /// tried — from the Levy estimate, and (for relocatable bases) from a Levy solve in the
 /// basis of the ML poles with unstable ones reflected — and the lowest cost is kept.
+///
+/// **Further starts.** The ML cost of a rational model is not convex, and from the
+/// automatic start ML ends in a local minimum on a fraction of high-order fits. With
+/// `restarts`, the fit is checked for evidence of one:
+/// - SK or ML stopped at its iteration cap, or ML needed 30 iterations or more (a long
+///   path from the start through a non-convex cost);
+/// - with known noise variances, the cost test (V against ½χ²(2N − p)) or the
+///   whiteness test of [`Fit::validation`] below the 1 % level;
+/// - the model's own checks in [`EquationError::restart`] — for [`crate::Rational`]:
+///   unstable poles, poles the data cannot resolve ([`Fit::unresolved_poles`]), a pole
+///   and a zero within 5 % of each other.
+///
+/// Only then does the model run its further starts (for [`crate::Rational`] those of
+/// [`crate::multistart::fit_multistart`] or
+/// [`crate::multistart::fit_multistart_discrete`], about ten fits' work), and the fit of
+/// lowest cost is returned; a fit without such evidence costs what the chain costs, plus
+/// the roots of its numerator and denominator.
 ///
 /// **Speed.** When ML follows, it is solved first by [`GramLevenbergMarquardt`] (the step
 /// from the guarded normal equations, with the tolerances of `ml`), falling back to the
@@ -114,6 +132,9 @@ pub struct Pipeline {
     pub sk: Option<FixedPoint>,
     /// ML refinement (`None`: skip).
     pub ml: Option<LevenbergMarquardt>,
+    /// After ML, the model's further starts ([`EquationError::restart`]) when the fit
+    /// shows evidence of a local minimum (see [`Pipeline::fit`]).
+    pub restarts: bool,
 }
 
 impl Default for Pipeline {
@@ -123,6 +144,7 @@ impl Default for Pipeline {
             linear: LinearLeastSquares::default(),
             sk: Some(FixedPoint::default()),
             ml: Some(LevenbergMarquardt::default()),
+            restarts: true,
         }
     }
 }
@@ -145,7 +167,8 @@ impl Pipeline {
         }
     }
 
-    /// Runs the chain on `model` and `data`.
+    /// Runs the chain on `model` and `data`, then (with `restarts` and ML) the model's
+    /// further starts when the fit shows evidence of a local minimum (see [`Pipeline`]).
     ///
     /// # Errors
     /// Invalid data for the model, singular linear problems, numerical failure.
@@ -154,7 +177,7 @@ impl Pipeline {
         model: &M,
         data: &FrequencyData<T>,
     ) -> Result<Fit<T, M>> {
-        self.run(model, data, true)
+        self.run(model, data, self.restarts)
     }
 
     /// The chain without the further starts of [`EquationError::restart`] (the starts of
