@@ -440,20 +440,39 @@ impl<T: Real> Search<T> {
         let Some(lm) = pipeline.ml else {
             return;
         };
-        let Ok(big) = Rational::discrete(na + 2, nb + 2, ts).and_then(|m| pipeline.chain(&m, data))
-        else {
-            return;
-        };
-        let Ok(poles) = big.poles() else {
-            return;
-        };
+        // (start, stage name): the reductions of the fit at degrees na + 2, then the
+        // pole sets of `starting_poles` mapped to z = exp(s Ts)
+        let mut starts: Vec<(Vec<Complex<T>>, &str)> = vec![];
+        if let Ok(big) =
+            Rational::discrete(na + 2, nb + 2, ts).and_then(|m| pipeline.chain(&m, data))
+            && let Ok(poles) = big.poles()
+        {
+            starts.extend(
+                reduced_poles_z(&poles)
+                    .into_iter()
+                    .map(|p| (p, "ml-reduced")),
+            );
+        }
+        for set in starting_poles(na, data.omega()) {
+            let mut z = vec![];
+            for s in set {
+                let q = (s * ts).exp();
+                if s.im > T::zero() {
+                    z.push(q);
+                    z.push(q.conj());
+                } else {
+                    z.push(Complex::new(q.re, T::zero()));
+                }
+            }
+            starts.push((z, "ml-spread"));
+        }
         let Ok(weights) = pipeline.weighting.weights(data) else {
             return;
         };
         let ml = MaximumLikelihood {
             weighting: pipeline.weighting,
         };
-        for start in reduced_poles_z(&poles) {
+        for (start, name) in starts {
             let Some(theta) = discrete_start(model, &start, data, weights.as_deref()) else {
                 continue;
             };
@@ -462,7 +481,7 @@ impl<T: Real> Search<T> {
             };
             if self.best.as_ref().is_none_or(|b| sol.cost < b.cost()) {
                 let stages = vec![Stage {
-                    name: "ml-reduced".into(),
+                    name: name.into(),
                     solution: sol.clone(),
                 }];
                 if let Ok(f) = Fit::new(model.clone(), data, sol.theta, pipeline.weighting, stages)
@@ -475,12 +494,14 @@ impl<T: Real> Search<T> {
 }
 
 /// Fits a discrete-time model B(z⁻¹)/A(z⁻¹) of degrees (`na`, `nb`) with sample time
-/// `ts` by `pipeline` from two kinds of start, returning the fit of lowest cost V:
+/// `ts` by `pipeline` from several kinds of start, returning the fit of lowest cost V:
 /// - the automatic one (Levy → SK → ML);
 /// - order reduction: the chain at degrees (na + 2, nb + 2), then, for every way of
 ///   dropping one pole pair or two real poles of that fit, A = Π(1 − pⱼz⁻¹) over the
 ///   remaining poles, B by weighted linear least squares with A fixed
 ///   (min_b Σ_k w_k² |Y_k − B(z_k)/A(z_k) U_k|²), and ML from (A, B);
+/// - the three log-spread pole sets of [`fit_multistart`] (pairs with ζ = 0.1 and 0.5, real
+///   poles) mapped to z = exp(s Ts), each with B as above and ML;
 /// - spurious poles and a capped ML as in [`fit_multistart`], with s = ln(z)/Ts (the
 ///   replaced poles enter A, the others kept, unstable ones reflected: z ↦ z/|z|²).
 ///
@@ -562,7 +583,7 @@ pub(crate) fn restart<T: Real>(
 
 /// Relative distance |s_p − s_z|/|s_p| below which a pole and a zero of a fit nearly
 /// cancel (s = p in continuous time, ln(p)/Ts in discrete time).
-const NEAR_CANCELLATION: f64 = 0.05;
+const NEAR_CANCELLATION: f64 = 0.1;
 
 /// Whether a pole and a zero of `fit` nearly cancel ([`NEAR_CANCELLATION`]): an order the
 /// fit spends on almost nothing, typically where a local minimum parks a pole the data
