@@ -106,7 +106,7 @@ impl<T: Real> Default for LevyWork<T> {
 ///   whiteness test of [`Fit::validation`] below the 1 % level;
 /// - the model's own checks in [`EquationError::restart`] — for [`crate::Rational`]:
 ///   unstable poles, poles the data cannot resolve ([`Fit::unresolved_poles`]), a pole
-///   and a zero within 5 % of each other.
+///   and a zero within 10 % of each other.
 ///
 /// Only then does the model run its further starts (for [`crate::Rational`] those of
 /// [`crate::multistart::fit_multistart`] or

@@ -17,22 +17,21 @@ mod robustness;
 
 use robustness::Outcome;
 
-/// (automatic-start rate, multistart rate)
-fn rates(outcomes: &[Outcome]) -> (f64, f64) {
+/// (automatic-start rate, multistart rate, rate of the chain alone)
+fn rates(outcomes: &[Outcome]) -> (f64, f64, f64) {
     let n = outcomes.len() as f64;
-    let auto = outcomes.iter().filter(|o| o.reached()).count() as f64 / n;
-    let multi = outcomes
-        .iter()
-        .filter(|o| o.multi_reached() == Some(true))
-        .count() as f64
-        / n;
-    (auto, multi)
+    let share = |f: &dyn Fn(&Outcome) -> bool| outcomes.iter().filter(|o| f(o)).count() as f64 / n;
+    (
+        share(&Outcome::reached),
+        share(&|o| o.multi_reached() == Some(true)),
+        share(&Outcome::plain_reached),
+    )
 }
 
 #[test]
 fn forty_systems() {
     let outcomes = robustness::study(0, 40, 2, |_| {});
-    let (auto, multi) = rates(&outcomes);
+    let (auto, multi, plain) = rates(&outcomes);
     let failed = |f: fn(&Outcome) -> bool| {
         outcomes
             .iter()
@@ -40,17 +39,33 @@ fn forty_systems() {
             .map(|o| (o.seed, o.auto.clone(), o.multi.clone(), o.best))
             .collect::<Vec<_>>()
     };
+    // the further starts only ever replace the chain's fit by one of lower cost
+    for o in &outcomes {
+        if let (Ok(a), Ok(p)) = (&o.auto, &o.plain) {
+            assert!(
+                a <= p,
+                "seed {}: Pipeline::fit {a} above the chain alone {p}",
+                o.seed
+            );
+        }
+    }
     // multiple starts: at most one of the 40 systems misses the optimum
     assert!(
         multi >= 39.0 / 40.0,
         "multistart rate {multi}: {:?}",
         failed(|o| o.multi_reached() == Some(true))
     );
-    // the automatic start: the measured level (35 of 40, below the 99 % target), as a guard
+    // the automatic start with its further starts on evidence: 37 of 40 measured (the
+    // three misses are discrete-time fits of order 7–10 without evidence or where no start
+    // finds the optimum), the chain alone 35 of 40
     assert!(
-        auto >= 0.85,
+        auto >= 37.0 / 40.0,
         "Pipeline::fit rate {auto}: {:?}",
         failed(Outcome::reached)
+    );
+    assert!(
+        auto > plain,
+        "the further starts gain nothing: {auto} vs the chain alone {plain}"
     );
 }
 
@@ -58,8 +73,8 @@ fn forty_systems() {
 #[ignore = "500-system study (about 130 s in release); the 99 % target is not met: 84.8 % from the automatic start, 97.2 % with multiple starts"]
 fn five_hundred_systems() {
     let outcomes = robustness::study(1000, 500, 2, |_| {});
-    let (auto, multi) = rates(&outcomes);
-    eprintln!("Pipeline::fit {auto}, multistart {multi}");
+    let (auto, multi, plain) = rates(&outcomes);
+    eprintln!("Pipeline::fit {auto}, multistart {multi}, the chain alone {plain}");
     assert!(multi >= 0.97, "multistart rate {multi}");
     assert!(auto >= 0.84, "Pipeline::fit rate {auto}");
 }
