@@ -4,7 +4,8 @@
 //! ML from the true parameters, the chain from perturbed true poles and the multistart
 //! fits (`fit_multistart`, `fit_multistart_discrete`, also measured), and prints the
 //! rate of fits that reach that optimum (within 10⁻⁶ relative or 10⁻³ absolute) with the
-//! failures' seeds and costs.
+//! failures' seeds and costs, the rate of the chain alone (`Pipeline { restarts: false,
+//! .. }`) against the same references, and the times of both.
 //!
 //! `cargo run --release --example optimisation_robustness -- [count] [first seed] [perturbed starts]`
 //! (defaults 500, 1000, 2; progress on stderr).

@@ -6,10 +6,11 @@
 //! `cargo run --release --example optimisation_robustness` for the full study with the
 //! failures' seeds and costs.
 //!
-//! Measured on the 500 systems of seeds 1000–1499 (README, Tests): `Pipeline::fit`
-//! reaches the optimum on 84.8 % (continuous time 79.6 %, discrete time 90.0 %), below the
-//! 99 % target; the multistart fits (`fit_multistart`, `fit_multistart_discrete`) on
-//! 97.2 % (96.8 % and 97.6 %). These tests guard those levels.
+//! Measured on the 500 systems of seeds 1000–1499 (README, Tests): `Pipeline::fit`, which
+//! runs further starts when its fit shows evidence of a local minimum, reaches the optimum
+//! on 98.0 % (continuous time 98.8 %, discrete time 97.2 %), below the 99 % target; the
+//! chain alone (`restarts: false`) on 84.0 %; the multistart fits (`fit_multistart`,
+//! `fit_multistart_discrete`) on 98.8 %. These tests guard those levels.
 
 mod common;
 #[path = "common/robustness.rs"]
@@ -70,11 +71,11 @@ fn forty_systems() {
 }
 
 #[test]
-#[ignore = "500-system study (about 130 s in release); the 99 % target is not met: 84.8 % from the automatic start, 97.2 % with multiple starts"]
+#[ignore = "500-system study (about 9 min in release on a loaded machine); the 99 % target is not met: 98.0 % from the automatic start with its further starts, 84.0 % for the chain alone, 98.8 % with multiple starts"]
 fn five_hundred_systems() {
     let outcomes = robustness::study(1000, 500, 2, |_| {});
     let (auto, multi, plain) = rates(&outcomes);
     eprintln!("Pipeline::fit {auto}, multistart {multi}, the chain alone {plain}");
-    assert!(multi >= 0.97, "multistart rate {multi}");
-    assert!(auto >= 0.84, "Pipeline::fit rate {auto}");
+    assert!(multi >= 0.985, "multistart rate {multi}");
+    assert!(auto >= 0.975, "Pipeline::fit rate {auto}");
 }
