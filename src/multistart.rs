@@ -127,8 +127,9 @@ pub fn fit_multistart<T: Real>(
             reason: "multiple starts need a partial-fraction model: na ≥ 1 and nb ≤ na".into(),
         });
     }
-    let mut search = Search::default();
-    search.keep(Rational::continuous(na, nb, data.omega()).and_then(|m| pipeline.chain(&m, data)));
+    let model = Rational::continuous(na, nb, data.omega())?;
+    let mut search = Search::new(model.n_params());
+    search.keep(pipeline.chain(&model, data));
     search.continuous(pipeline, na, nb, data);
     search.replace_spurious(pipeline, data);
     search.polish(pipeline, data);
@@ -137,27 +138,39 @@ pub fn fit_multistart<T: Real>(
 
 /// The lowest-cost fit of several starts, and the first error.
 struct Search<T: Real> {
+    /// Number of parameters of the model asked for: a start's fit of another size (a
+    /// basis that lost or gained a pole) is not kept.
+    n_params: usize,
     best: Option<Fit<T, Rational<T>>>,
     first_error: Option<FdidError>,
 }
 
-impl<T: Real> Default for Search<T> {
-    fn default() -> Self {
+impl<T: Real> Search<T> {
+    fn new(n_params: usize) -> Self {
         Self {
+            n_params,
             best: None,
             first_error: None,
         }
     }
-}
 
-impl<T: Real> Search<T> {
+    /// A fit of the size asked for with a finite θ and cost.
+    fn valid(&self, f: &Fit<T, Rational<T>>) -> bool {
+        f.theta().len() == self.n_params
+            && f.theta().iter().all(|v| Float::is_finite(*v))
+            && Float::is_finite(f.cost())
+    }
+
+    /// Replaces the best fit by `f` when `f` is valid and of lower cost.
+    fn offer(&mut self, f: Fit<T, Rational<T>>) {
+        if self.valid(&f) && self.best.as_ref().is_none_or(|b| f.cost() < b.cost()) {
+            self.best = Some(f);
+        }
+    }
+
     fn keep(&mut self, fit: Result<Fit<T, Rational<T>>>) {
         match fit {
-            Ok(f) => {
-                if self.best.as_ref().is_none_or(|b| f.cost() < b.cost()) {
-                    self.best = Some(f);
-                }
-            }
+            Ok(f) => self.offer(f),
             Err(e) => {
                 self.first_error.get_or_insert(e);
             }
@@ -198,8 +211,8 @@ impl<T: Real> Search<T> {
                 pipeline.weighting,
                 stages,
             ) {
-                Ok(f) => self.best = Some(f),
-                Err(_) => return,
+                Ok(f) if self.valid(&f) => self.best = Some(f),
+                _ => return,
             }
         }
     }
@@ -383,7 +396,7 @@ impl<T: Real> Search<T> {
                             if let Ok(f) =
                                 Fit::new(model, data, sol.theta, pipeline.weighting, stages)
                             {
-                                self.best = Some(f);
+                                self.offer(f);
                             }
                         }
                     }
@@ -486,7 +499,7 @@ impl<T: Real> Search<T> {
                 }];
                 if let Ok(f) = Fit::new(model.clone(), data, sol.theta, pipeline.weighting, stages)
                 {
-                    self.best = Some(f);
+                    self.offer(f);
                 }
             }
         }
@@ -526,7 +539,7 @@ pub fn fit_multistart_discrete<T: Real>(
         });
     }
     let model = Rational::discrete(na, nb, ts)?;
-    let mut search = Search::default();
+    let mut search = Search::new(model.n_params());
     search.keep(pipeline.chain(&model, data));
     search.discrete(pipeline, &model, ts, data);
     search.replace_spurious(pipeline, data);
@@ -560,7 +573,7 @@ pub(crate) fn restart<T: Real>(
     {
         return None;
     }
-    let mut search = Search::default();
+    let mut search = Search::new(model.n_params());
     match model.basis() {
         PolyBasis::PartialFractions { .. } => {
             search.continuous(pipeline, model.na(), model.nb(), data);
