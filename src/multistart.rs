@@ -15,7 +15,9 @@ use crate::criterion::MaximumLikelihood;
 use crate::data::FrequencyData;
 use crate::error::{FdidError, Result};
 use crate::fit::{Fit, Stage};
-use crate::model::{Domain, EquationError, Rational, log_spread_poles, positive_band};
+use crate::model::{
+    Domain, EquationError, ModelStructure, Rational, log_spread_poles, positive_band,
+};
 use crate::pipeline::{Pipeline, estimate};
 use crate::{Complex, Real};
 use nalgebra::{DMatrix, DVector};
