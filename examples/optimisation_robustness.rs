@@ -4,7 +4,8 @@
 //! ML from the true parameters, the chain from perturbed true poles and the multistart
 //! fits (`fit_multistart`, `fit_multistart_discrete`, also measured), and prints the
 //! rate of fits that reach that optimum (within 10⁻⁶ relative or 10⁻³ absolute) with the
-//! failures' seeds and costs.
+//! failures' seeds and costs, the rate of the chain alone (`Pipeline { restarts: false,
+//! .. }`) against the same references, and the times of both.
 //!
 //! `cargo run --release --example optimisation_robustness -- [count] [first seed] [perturbed starts]`
 //! (defaults 500, 1000, 2; progress on stderr).
@@ -15,6 +16,12 @@ mod common;
 mod robustness;
 
 use robustness::Kind;
+
+/// Percentage of the outcomes of `kind` for which `f` holds.
+fn rate(outcomes: &[robustness::Outcome], kind: Kind, f: fn(&robustness::Outcome) -> bool) -> f64 {
+    let of: Vec<_> = outcomes.iter().filter(|o| o.kind == kind).collect();
+    100.0 * of.iter().filter(|o| f(o)).count() as f64 / of.len().max(1) as f64
+}
 
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -93,6 +100,27 @@ fn main() {
             100.0 * ok as f64 / of.len().max(1) as f64
         );
     }
+    let ok = outcomes.iter().filter(|o| o.plain_reached()).count();
+    println!(
+        "the chain alone (restarts: false): {ok} of {} reached the optimum ({:.2} %); CT {:.1} %, DT {:.1} %",
+        outcomes.len(),
+        100.0 * ok as f64 / outcomes.len().max(1) as f64,
+        rate(&outcomes, Kind::Ct, robustness::Outcome::plain_reached),
+        rate(&outcomes, Kind::Dt, robustness::Outcome::plain_reached),
+    );
+    let median = |mut t: Vec<f64>| {
+        t.sort_by(f64::total_cmp);
+        t.get(t.len() / 2).copied().unwrap_or(0.0)
+    };
+    let auto_t: Vec<f64> = outcomes.iter().map(|o| o.auto_time).collect();
+    let plain_t: Vec<f64> = outcomes.iter().map(|o| o.plain_time).collect();
+    println!(
+        "time of Pipeline::fit: total {:.2} s, median {:.2} ms; the chain alone: total {:.2} s, median {:.2} ms",
+        auto_t.iter().sum::<f64>(),
+        1e3 * median(auto_t.clone()),
+        plain_t.iter().sum::<f64>(),
+        1e3 * median(plain_t.clone()),
+    );
     let n = outcomes.len();
     println!(
         "all: {} of {n} reached the optimum ({:.2} %), {failed} failed; {:.1} s",

@@ -1,18 +1,23 @@
-//! Several automatic starts for continuous-time fits, and the poles a fit cannot resolve.
+//! Several automatic starts for rational fits, and the poles a fit cannot resolve.
 //!
 //! The ML cost of a rational model is not convex: from its automatic start (Levy → SK,
-//! with lightly damped starting poles) [`Pipeline::fit`] ends in a local minimum on a
-//! fraction of random high-order systems, typically with a spurious lightly damped (or
-//! unstable) pole pair in place of heavily damped or real poles. [`fit_multistart`] runs
-//! the chain from several starting pole sets and from a reduced higher-order fit, and
-//! keeps the lowest cost;
+//! with lightly damped starting poles) the chain ends in a local minimum on a fraction of
+//! random high-order systems, typically with a spurious lightly damped (or unstable) pole
+//! pair in place of heavily damped or real poles. [`fit_multistart`] runs the chain from
+//! several starting pole sets and from a reduced higher-order fit, replaces the spurious
+//! poles of the best fit, and keeps the lowest cost; [`fit_multistart_discrete`] does the
+//! same in z. [`crate::Pipeline::fit`] runs these starts itself when its fit shows
+//! evidence of a local minimum (see [`crate::Pipeline`]).
 //! [`Fit::unresolved_poles`] names poles whose damping the frequency grid cannot determine.
 
+use crate::basis::PolyBasis;
 use crate::criterion::MaximumLikelihood;
 use crate::data::FrequencyData;
 use crate::error::{FdidError, Result};
 use crate::fit::{Fit, Stage};
-use crate::model::{Domain, EquationError, Rational, log_spread_poles, positive_band};
+use crate::model::{
+    Domain, EquationError, ModelStructure, Rational, log_spread_poles, positive_band,
+};
 use crate::pipeline::{Pipeline, estimate};
 use crate::{Complex, Real};
 use nalgebra::{DMatrix, DVector};
@@ -94,11 +99,20 @@ fn reduced_poles<T: Real>(poles: &[Complex<T>]) -> Vec<Vec<Complex<T>>> {
 ///   data's band — each followed by the whole chain (Levy → SK → ML);
 /// - order reduction: the chain at orders (na + 2, nb + 2), then, for every way of
 ///   dropping one pole pair or two real poles of that fit, a Levy solve in the basis of
-///   the remaining poles and ML from it.
+///   the remaining poles and ML from it;
+/// - spurious poles: when the best fit so far has unstable poles or poles the data cannot
+///   resolve, starts that replace them — by damped pairs (ζ = 0.05, 0.3, 0.7) at their
+///   frequencies, by two real poles, or by damped pairs moved into the largest gaps
+///   between the other poles — each followed by the chain and by Levy → ML (twice at most,
+///   while the cost falls);
+/// - when the best fit's ML stopped at its cap, ML again from it.
 ///
-/// About ten times the work of one [`Pipeline::fit`]; on random stable systems of order
-/// ≤ 10 at 40 dB SNR it reaches the best optimum found far more often (see the README's
-/// Tests section for the figures).
+/// About ten times the work of one chain. [`Pipeline::fit`] runs these starts itself (all
+/// but its own automatic one) when its fit shows evidence of a local minimum (see
+/// [`Pipeline`]); here they always run, and the starts use the chain without them. On
+/// random stable systems of order ≤ 10 at 40 dB SNR this reaches the best optimum found
+/// far more often than the chain from its automatic start alone (see the README's Tests
+/// section for the figures).
 ///
 /// # Errors
 /// `na = 0` or `nb > na`; when every start fails, the error of the first.
@@ -115,56 +129,399 @@ pub fn fit_multistart<T: Real>(
             reason: "multiple starts need a partial-fraction model: na ≥ 1 and nb ≤ na".into(),
         });
     }
-    let mut models = vec![Rational::continuous(na, nb, data.omega())?];
-    for p in starting_poles(na, data.omega()) {
-        models.push(Rational::partial_fractions(p, nb)?);
+    let model = Rational::continuous(na, nb, data.omega())?;
+    let mut search = Search::new(model.n_params());
+    search.keep(pipeline.chain(&model, data));
+    search.continuous(pipeline, na, nb, data);
+    search.replace_spurious(pipeline, data);
+    search.polish(pipeline, data);
+    search.finish()
+}
+
+/// The lowest-cost fit of several starts, and the first error.
+struct Search<T: Real> {
+    /// Number of parameters of the model asked for: a start's fit of another size (a
+    /// basis that lost or gained a pole) is not kept.
+    n_params: usize,
+    best: Option<Fit<T, Rational<T>>>,
+    first_error: Option<FdidError>,
+}
+
+impl<T: Real> Search<T> {
+    fn new(n_params: usize) -> Self {
+        Self {
+            n_params,
+            best: None,
+            first_error: None,
+        }
     }
-    let mut best: Option<Fit<T, Rational<T>>> = None;
-    let mut first_error = None;
-    let mut keep = |fit: Result<Fit<T, Rational<T>>>, first_error: &mut Option<FdidError>| match fit
-    {
-        Ok(f) => {
-            if best.as_ref().is_none_or(|b| f.cost() < b.cost()) {
-                best = Some(f);
+
+    /// A fit of the size asked for with a finite θ and cost.
+    fn valid(&self, f: &Fit<T, Rational<T>>) -> bool {
+        f.theta().len() == self.n_params
+            && f.theta().iter().all(|v| Float::is_finite(*v))
+            && Float::is_finite(f.cost())
+    }
+
+    /// Replaces the best fit by `f` when `f` is valid and of lower cost.
+    fn offer(&mut self, f: Fit<T, Rational<T>>) {
+        if self.valid(&f) && self.best.as_ref().is_none_or(|b| f.cost() < b.cost()) {
+            self.best = Some(f);
+        }
+    }
+
+    fn keep(&mut self, fit: Result<Fit<T, Rational<T>>>) {
+        match fit {
+            Ok(f) => self.offer(f),
+            Err(e) => {
+                self.first_error.get_or_insert(e);
             }
         }
-        Err(e) => {
-            first_error.get_or_insert(e);
-        }
-    };
-    for m in &models {
-        keep(pipeline.fit(m, data), &mut first_error);
     }
-    // order reduction: the fit of order na + 2 rarely misses a true pole; each way of
-    // dropping two of its poles is a start (Levy in that basis, then ML)
-    let linear_ml = Pipeline {
-        sk: None,
-        ..*pipeline
-    };
-    if let Ok(big) =
-        Rational::continuous(na + 2, nb + 2, data.omega()).and_then(|m| pipeline.fit(&m, data))
-        && let Ok(poles) = big.poles()
-    {
-        for start in reduced_poles(&poles) {
-            if let Ok(m) = Rational::partial_fractions(start, nb) {
-                keep(linear_ml.fit(&m, data), &mut first_error);
+
+    /// When the best fit's last stage stopped at its iteration cap, ML again from it (at
+    /// most twice), keeping the result while it lowers the cost.
+    fn polish(&mut self, pipeline: &Pipeline, data: &FrequencyData<T>) {
+        let Some(lm) = pipeline.ml else {
+            return;
+        };
+        let ml = MaximumLikelihood {
+            weighting: pipeline.weighting,
+        };
+        for _ in 0..2 {
+            let Some(b) = self.best.as_ref() else {
+                return;
+            };
+            if b.stages().last().is_none_or(|s| s.solution.converged()) {
+                return;
+            }
+            let Ok(sol) = estimate(b.model(), data, &ml, &lm, Some(b.theta())) else {
+                return;
+            };
+            if !(sol.cost < b.cost()) {
+                return;
+            }
+            let mut stages = b.stages().to_vec();
+            stages.push(Stage {
+                name: "ml-polish".into(),
+                solution: sol.clone(),
+            });
+            match Fit::new(
+                b.model().clone(),
+                data,
+                sol.theta,
+                pipeline.weighting,
+                stages,
+            ) {
+                Ok(f) if self.valid(&f) => self.best = Some(f),
+                _ => return,
             }
         }
     }
-    match (best, first_error) {
-        (Some(b), _) => Ok(b),
-        (None, Some(e)) => Err(e),
-        (None, None) => unreachable!("at least one start"),
+
+    /// Starts that replace the best fit's spurious poles — unstable ones and those the
+    /// data cannot resolve ([`Fit::unresolved_poles`]) — keeping the others (reflected
+    /// into the stable region): with s = p (continuous time) or s = ln(p)/Ts, |s| = ω, a
+    /// spurious pair becomes a pair −ζω ± iω√(1 − ζ²) for ζ = 0.3 and ζ = 0.7, or two
+    /// real poles −ω/2 and −2ω; a spurious real pole becomes −ω. Continuous time: the chain
+    /// (Levy → SK → ML) and Levy → ML in each such basis; discrete time: the start of
+    /// [`discrete_start`], then ML. Repeated (twice at most) while it lowers the cost and
+    /// the best fit has spurious poles.
+    fn replace_spurious(&mut self, pipeline: &Pipeline, data: &FrequencyData<T>) {
+        let Some(lm) = pipeline.ml else {
+            return;
+        };
+        let linear_ml = Pipeline {
+            sk: None,
+            ..*pipeline
+        };
+        let ml = MaximumLikelihood {
+            weighting: pipeline.weighting,
+        };
+        let Ok(weights) = pipeline.weighting.weights(data) else {
+            return;
+        };
+        for _ in 0..2 {
+            let Some(b) = self.best.as_ref() else {
+                return;
+            };
+            let cost = b.cost();
+            let Ok(poles) = b.poles() else {
+                return;
+            };
+            let unresolved = b.unresolved_poles().unwrap_or_default();
+            let domain = b.model().domain();
+            let (na, nb) = (b.model().na(), b.model().nb());
+            let to_s = |p: Complex<T>| match domain {
+                Domain::Continuous => p,
+                Domain::Discrete { ts } => p.ln() / ts,
+            };
+            // one member of each pair and the real poles, with the spurious ones marked
+            let reps: Vec<(Complex<T>, bool)> = poles
+                .iter()
+                .filter(|p| p.im >= T::zero())
+                .map(|p| {
+                    let s = to_s(*p);
+                    (*p, !(s.re < T::zero()) || unresolved.contains(p))
+                })
+                .collect();
+            if !reps.iter().any(|(_, bad)| *bad) {
+                return;
+            }
+            // the s-plane replacement of a spurious pole under variant k
+            let replace = |s: Complex<T>, real: bool, k: usize| -> Vec<Complex<T>> {
+                let w = s.norm();
+                if real {
+                    return vec![Complex::new(-w, T::zero())];
+                }
+                match k {
+                    0 | 1 | 5 => {
+                        let zeta = T::lit(match k {
+                            0 => 0.3,
+                            1 => 0.7,
+                            _ => 0.05,
+                        });
+                        let im = w * Float::sqrt(T::one() - zeta * zeta);
+                        vec![Complex::new(-zeta * w, im)]
+                    }
+                    _ => vec![
+                        Complex::new(-w / T::lit(2.0), T::zero()),
+                        Complex::new(-w * T::lit(2.0), T::zero()),
+                    ],
+                }
+            };
+            // the gaps variants: the spurious poles' frequencies moved into the largest
+            // gaps (in log ω) between the other poles and the band's ends — log-spread in
+            // the largest one, or one per gap in as many of the largest
+            let Some((lo, hi)) = positive_band(data.omega()) else {
+                return;
+            };
+            let mut kept: Vec<T> = reps
+                .iter()
+                .filter(|(_, bad)| !bad)
+                .map(|(p, _)| Float::ln(Float::min(Float::max(to_s(*p).norm(), lo), hi)))
+                .collect();
+            kept.push(Float::ln(lo));
+            kept.push(Float::ln(hi));
+            kept.sort_by(|a, b| a.partial_cmp(b).unwrap_or(std::cmp::Ordering::Equal));
+            let mut gaps: Vec<(T, T)> = kept.windows(2).map(|w| (w[0], w[1])).collect();
+            gaps.sort_by(|a, b| {
+                (b.1 - b.0)
+                    .partial_cmp(&(a.1 - a.0))
+                    .unwrap_or(std::cmp::Ordering::Equal)
+            });
+            let n_bad = reps.iter().filter(|(_, bad)| *bad).count();
+            let moved = |k: usize, j: usize| -> T {
+                // frequency of the j-th spurious pole under gap variant k
+                let (a, b) = if k == 3 {
+                    gaps[0]
+                } else {
+                    gaps[std::cmp::min(j, gaps.len() - 1)]
+                };
+                let f = if k == 3 {
+                    (T::from_usize_lossy(j) + T::one()) / (T::from_usize_lossy(n_bad) + T::one())
+                } else {
+                    T::lit(0.5)
+                };
+                Float::exp(a + (b - a) * f)
+            };
+            let half = T::lit(0.5);
+            let sqrt_half = Float::sqrt(T::lit(0.75));
+            // the s-plane pole of variant k for the j-th spurious pole s
+            let variant = |s: Complex<T>, real: bool, k: usize, j: usize| -> Vec<Complex<T>> {
+                if !(3..5).contains(&k) {
+                    return replace(s, real, k);
+                }
+                let w = moved(k, j);
+                if real {
+                    vec![Complex::new(-w, T::zero())]
+                } else {
+                    vec![Complex::new(-half * w, sqrt_half * w)]
+                }
+            };
+            for k in 0..6 {
+                match domain {
+                    Domain::Continuous => {
+                        let mut basis = vec![];
+                        let mut j = 0;
+                        for (p, bad) in &reps {
+                            if *bad {
+                                basis.extend(variant(*p, p.im == T::zero(), k, j));
+                                j += 1;
+                            } else {
+                                basis.push(Complex::new(-Float::abs(p.re), p.im));
+                            }
+                        }
+                        if let Ok(m) = Rational::partial_fractions(basis, nb) {
+                            self.keep(pipeline.chain(&m, data));
+                            self.keep(linear_ml.chain(&m, data));
+                        }
+                    }
+                    Domain::Discrete { ts } => {
+                        let mut set = vec![];
+                        let mut j = 0;
+                        for (p, bad) in &reps {
+                            let new: Vec<Complex<T>> = if *bad {
+                                j += 1;
+                                variant(to_s(*p), p.im == T::zero(), k, j - 1)
+                                    .into_iter()
+                                    .map(|s| (s * ts).exp())
+                                    .collect()
+                            } else if p.norm() > T::one() {
+                                vec![*p / p.norm_sqr()]
+                            } else {
+                                vec![*p]
+                            };
+                            for q in new {
+                                if Float::abs(q.im) > T::zero() {
+                                    set.push(Complex::new(q.re, Float::abs(q.im)));
+                                    set.push(Complex::new(q.re, -Float::abs(q.im)));
+                                } else {
+                                    set.push(q);
+                                }
+                            }
+                        }
+                        let Ok(model) = Rational::discrete(na, nb, ts) else {
+                            return;
+                        };
+                        let Some(theta) = discrete_start(&model, &set, data, weights.as_deref())
+                        else {
+                            continue;
+                        };
+                        if let Ok(sol) = estimate(&model, data, &ml, &lm, Some(&theta))
+                            && self.best.as_ref().is_none_or(|b| sol.cost < b.cost())
+                        {
+                            let stages = vec![Stage {
+                                name: "ml-replaced".into(),
+                                solution: sol.clone(),
+                            }];
+                            if let Ok(f) =
+                                Fit::new(model, data, sol.theta, pipeline.weighting, stages)
+                            {
+                                self.offer(f);
+                            }
+                        }
+                    }
+                }
+            }
+            if !self.best.as_ref().is_some_and(|b| b.cost() < cost) {
+                return;
+            }
+        }
+    }
+
+    fn finish(self) -> Result<Fit<T, Rational<T>>> {
+        match (self.best, self.first_error) {
+            (Some(b), _) => Ok(b),
+            (None, Some(e)) => Err(e),
+            (None, None) => Err(FdidError::Numerical {
+                what: "every start of the multistart fit".into(),
+            }),
+        }
+    }
+
+    /// The continuous-time starts of [`fit_multistart`] but the automatic one.
+    fn continuous(&mut self, pipeline: &Pipeline, na: usize, nb: usize, data: &FrequencyData<T>) {
+        for p in starting_poles(na, data.omega()) {
+            self.keep(Rational::partial_fractions(p, nb).and_then(|m| pipeline.chain(&m, data)));
+        }
+        // order reduction: the fit of order na + 2 rarely misses a true pole; each way of
+        // dropping two of its poles is a start (Levy in that basis, then ML)
+        let linear_ml = Pipeline {
+            sk: None,
+            ..*pipeline
+        };
+        if let Ok(big) = Rational::continuous(na + 2, nb + 2, data.omega())
+            .and_then(|m| pipeline.chain(&m, data))
+            && let Ok(poles) = big.poles()
+        {
+            for start in reduced_poles(&poles) {
+                if let Ok(m) = Rational::partial_fractions(start, nb) {
+                    self.keep(linear_ml.chain(&m, data));
+                }
+            }
+        }
+    }
+
+    /// The order-reduction starts of [`fit_multistart_discrete`] for `model`.
+    fn discrete(
+        &mut self,
+        pipeline: &Pipeline,
+        model: &Rational<T>,
+        ts: T,
+        data: &FrequencyData<T>,
+    ) {
+        let (na, nb) = (model.na(), model.nb());
+        let Some(lm) = pipeline.ml else {
+            return;
+        };
+        // (start, stage name): the reductions of the fit at degrees na + 2, then the
+        // pole sets of `starting_poles` mapped to z = exp(s Ts)
+        let mut starts: Vec<(Vec<Complex<T>>, &str)> = vec![];
+        if let Ok(big) =
+            Rational::discrete(na + 2, nb + 2, ts).and_then(|m| pipeline.chain(&m, data))
+            && let Ok(poles) = big.poles()
+        {
+            starts.extend(
+                reduced_poles_z(&poles)
+                    .into_iter()
+                    .map(|p| (p, "ml-reduced")),
+            );
+        }
+        for set in starting_poles(na, data.omega()) {
+            let mut z = vec![];
+            for s in set {
+                let q = (s * ts).exp();
+                if s.im > T::zero() {
+                    z.push(q);
+                    z.push(q.conj());
+                } else {
+                    z.push(Complex::new(q.re, T::zero()));
+                }
+            }
+            starts.push((z, "ml-spread"));
+        }
+        let Ok(weights) = pipeline.weighting.weights(data) else {
+            return;
+        };
+        let ml = MaximumLikelihood {
+            weighting: pipeline.weighting,
+        };
+        for (start, name) in starts {
+            let Some(theta) = discrete_start(model, &start, data, weights.as_deref()) else {
+                continue;
+            };
+            let Ok(sol) = estimate(model, data, &ml, &lm, Some(&theta)) else {
+                continue;
+            };
+            if self.best.as_ref().is_none_or(|b| sol.cost < b.cost()) {
+                let stages = vec![Stage {
+                    name: name.into(),
+                    solution: sol.clone(),
+                }];
+                if let Ok(f) = Fit::new(model.clone(), data, sol.theta, pipeline.weighting, stages)
+                {
+                    self.offer(f);
+                }
+            }
+        }
     }
 }
 
 /// Fits a discrete-time model B(z⁻¹)/A(z⁻¹) of degrees (`na`, `nb`) with sample time
-/// `ts` by `pipeline` from two kinds of start, returning the fit of lowest cost V:
-/// - the automatic one ([`Pipeline::fit`]: Levy → SK → ML);
+/// `ts` by `pipeline` from several kinds of start, returning the fit of lowest cost V:
+/// - the automatic one (Levy → SK → ML);
 /// - order reduction: the chain at degrees (na + 2, nb + 2), then, for every way of
 ///   dropping one pole pair or two real poles of that fit, A = Π(1 − pⱼz⁻¹) over the
 ///   remaining poles, B by weighted linear least squares with A fixed
-///   (min_b Σ_k w_k² |Y_k − B(z_k)/A(z_k) U_k|²), and ML from (A, B).
+///   (min_b Σ_k w_k² |Y_k − B(z_k)/A(z_k) U_k|²), and ML from (A, B);
+/// - the three log-spread pole sets of [`fit_multistart`] (pairs with ζ = 0.1 and 0.5, real
+///   poles) mapped to z = exp(s Ts), each with B as above and ML;
+/// - spurious poles and a capped ML as in [`fit_multistart`], with s = ln(z)/Ts (the
+///   replaced poles enter A, the others kept, unstable ones reflected: z ↦ z/|z|²).
+///
+/// [`Pipeline::fit`] runs the starts but the automatic one itself when its fit shows
+/// evidence of a local minimum; here they always run.
 ///
 /// # Errors
 /// `na = 0`, `nb > na + 2` or an invalid `ts`; when every start fails, the error of the
@@ -184,40 +541,83 @@ pub fn fit_multistart_discrete<T: Real>(
         });
     }
     let model = Rational::discrete(na, nb, ts)?;
-    let first = pipeline.fit(&model, data);
-    let mut best = first.as_ref().ok().cloned();
-    if let (Some(lm), Ok(big)) = (
-        pipeline.ml,
-        Rational::discrete(na + 2, nb + 2, ts).and_then(|m| pipeline.fit(&m, data)),
-    ) && let Ok(poles) = big.poles()
+    let mut search = Search::new(model.n_params());
+    search.keep(pipeline.chain(&model, data));
+    search.discrete(pipeline, &model, ts, data);
+    search.replace_spurious(pipeline, data);
+    search.polish(pipeline, data);
+    search.finish()
+}
+
+/// [`EquationError::restart`] for [`Rational`]: when `suspicious`, or when `fit` has
+/// poles the data cannot resolve ([`Fit::unresolved_poles`]), the starts of
+/// [`fit_multistart`] (a partial-fraction model) or of [`fit_multistart_discrete`] (a
+/// discrete-time polynomial model) but the automatic one, which gave `fit`; `None`
+/// otherwise (no evidence, a transient term, the orthonormal polynomial basis) or when
+/// every start fails. The caller keeps `fit` unless the returned fit has a lower cost.
+///
+/// [`EquationError::restart`]: crate::model::EquationError::restart
+pub(crate) fn restart<T: Real>(
+    model: &Rational<T>,
+    pipeline: &Pipeline,
+    data: &FrequencyData<T>,
+    fit: &Fit<T, Rational<T>>,
+    suspicious: bool,
+) -> Option<Fit<T, Rational<T>>> {
+    if model.n_transient() > 0 || model.na() == 0 {
+        return None;
+    }
+    let unstable = !model.is_stable(fit.theta()).unwrap_or(true);
+    if !suspicious
+        && !unstable
+        && !fit.unresolved_poles().is_ok_and(|u| !u.is_empty())
+        && !near_cancellation(fit)
     {
-        let weights = pipeline.weighting.weights(data)?;
-        let ml = MaximumLikelihood {
-            weighting: pipeline.weighting,
-        };
-        for start in reduced_poles_z(&poles) {
-            let Some(theta) = discrete_start(&model, &start, data, weights.as_deref()) else {
-                continue;
-            };
-            let Ok(sol) = estimate(&model, data, &ml, &lm, Some(&theta)) else {
-                continue;
-            };
-            if best.as_ref().is_none_or(|b| sol.cost < b.cost()) {
-                let stages = vec![Stage {
-                    name: "ml-reduced".into(),
-                    solution: sol.clone(),
-                }];
-                if let Ok(f) = Fit::new(model.clone(), data, sol.theta, pipeline.weighting, stages)
-                {
-                    best = Some(f);
-                }
-            }
+        return None;
+    }
+    let mut search = Search::new(model.n_params());
+    match model.basis() {
+        PolyBasis::PartialFractions { .. } => {
+            search.continuous(pipeline, model.na(), model.nb(), data);
         }
+        PolyBasis::DelayPowers { ts } => {
+            search.discrete(
+                pipeline,
+                &Rational::discrete(model.na(), model.nb(), *ts).ok()?,
+                *ts,
+                data,
+            );
+        }
+        PolyBasis::Orthonormal { .. } => return None,
     }
-    match best {
-        Some(b) => Ok(b),
-        None => first,
-    }
+    search.keep(Ok(fit.clone()));
+    search.replace_spurious(pipeline, data);
+    search.polish(pipeline, data);
+    search.best.filter(|b| b.cost() < fit.cost())
+}
+
+/// Relative distance |s_p − s_z|/|s_p| below which a pole and a zero of a fit nearly
+/// cancel (s = p in continuous time, ln(p)/Ts in discrete time).
+const NEAR_CANCELLATION: f64 = 0.1;
+
+/// Whether a pole and a zero of `fit` nearly cancel ([`NEAR_CANCELLATION`]): an order the
+/// fit spends on almost nothing, typically where a local minimum parks a pole the data
+/// need elsewhere.
+fn near_cancellation<T: Real>(fit: &Fit<T, Rational<T>>) -> bool {
+    let (Ok(poles), Ok(zeros)) = (fit.poles(), fit.zeros()) else {
+        return false;
+    };
+    let to_s = |p: Complex<T>| match fit.model().domain() {
+        Domain::Continuous => p,
+        Domain::Discrete { ts } => p.ln() / ts,
+    };
+    let limit = T::lit(NEAR_CANCELLATION);
+    poles.iter().any(|p| {
+        let s = to_s(*p);
+        zeros
+            .iter()
+            .any(|z| (s - to_s(*z)).norm() < limit * s.norm())
+    })
 }
 
 /// Every way of dropping one conjugate pair or two real poles of a z-plane pole set

@@ -54,6 +54,15 @@ fn ml_solve<T: Real, M: ModelStructure<T> + ?Sized>(
         .or_else(|_| lm.solve(problem, Some(start)))
 }
 
+/// The level of the cost and whiteness tests below which [`Pipeline::fit`] takes a fit
+/// for a possible local minimum.
+const SUSPICIOUS_P: f64 = 0.01;
+
+/// ML iterations from which [`Pipeline::fit`] takes the path from the start for long
+/// enough to have crossed into another basin of the cost (typically 4–20 iterations from a
+/// good start).
+const LONG_ML: usize = 30;
+
 /// Buffers of the Levy/SK solves of one fit.
 struct LevyWork<T: Real> {
     weights: Option<Option<Vec<T>>>,
@@ -81,11 +90,29 @@ impl<T: Real> Default for LevyWork<T> {
 /// | `sk` | `Some(FixedPoint::default())` | SK iterations; `None` skips SK |
 /// | `ml` | `Some(LevenbergMarquardt::default())` | ML refinement; `None` stops after SK |
 /// | `linear` | [`LinearLeastSquares::default`] | the Levy solve |
+/// | `restarts` | `true` | further starts on evidence of a local minimum |
 ///
 /// If ML fails from the SK estimate it is retried from the Levy estimate (in the model's
 /// original basis). When SK or ML stops at its iteration cap, two more ML starts are
 /// tried — from the Levy estimate, and (for relocatable bases) from a Levy solve in the
 /// basis of the ML poles with unstable ones reflected — and the lowest cost is kept.
+///
+/// **Further starts.** The ML cost of a rational model is not convex, and from the
+/// automatic start ML ends in a local minimum on a fraction of high-order fits. With
+/// `restarts`, the fit is checked for evidence of one:
+/// - SK or ML stopped at its iteration cap, or ML needed 30 iterations or more (a long
+///   path from the start through a non-convex cost);
+/// - with known noise variances, the cost test (V against ½χ²(2N − p)) or the
+///   whiteness test of [`Fit::validation`] below the 1 % level;
+/// - the model's own checks in [`EquationError::restart`] — for [`crate::Rational`]:
+///   unstable poles, poles the data cannot resolve ([`Fit::unresolved_poles`]), a pole
+///   and a zero within 10 % of each other.
+///
+/// Only then does the model run its further starts (for [`crate::Rational`] those of
+/// [`crate::multistart::fit_multistart`] or
+/// [`crate::multistart::fit_multistart_discrete`], about ten fits' work), and the fit of
+/// lowest cost is returned; a fit without such evidence costs what the chain costs, plus
+/// the roots of its numerator and denominator.
 ///
 /// **Speed.** When ML follows, it is solved first by [`GramLevenbergMarquardt`] (the step
 /// from the guarded normal equations, with the tolerances of `ml`), falling back to the
@@ -105,6 +132,9 @@ pub struct Pipeline {
     pub sk: Option<FixedPoint>,
     /// ML refinement (`None`: skip).
     pub ml: Option<LevenbergMarquardt>,
+    /// After ML, the model's further starts ([`EquationError::restart`]) when the fit
+    /// shows evidence of a local minimum (see [`Pipeline::fit`]).
+    pub restarts: bool,
 }
 
 impl Default for Pipeline {
@@ -114,6 +144,7 @@ impl Default for Pipeline {
             linear: LinearLeastSquares::default(),
             sk: Some(FixedPoint::default()),
             ml: Some(LevenbergMarquardt::default()),
+            restarts: true,
         }
     }
 }
@@ -136,7 +167,8 @@ impl Pipeline {
         }
     }
 
-    /// Runs the chain on `model` and `data`.
+    /// Runs the chain on `model` and `data`, then (with `restarts` and ML) the model's
+    /// further starts when the fit shows evidence of a local minimum (see [`Pipeline`]).
     ///
     /// # Errors
     /// Invalid data for the model, singular linear problems, numerical failure.
@@ -144,6 +176,27 @@ impl Pipeline {
         &self,
         model: &M,
         data: &FrequencyData<T>,
+    ) -> Result<Fit<T, M>> {
+        self.run(model, data, self.restarts)
+    }
+
+    /// The chain without the further starts of [`EquationError::restart`] (the starts of
+    /// the multistart fits themselves).
+    pub(crate) fn chain<T: Real, M: EquationError<T> + Clone>(
+        &self,
+        model: &M,
+        data: &FrequencyData<T>,
+    ) -> Result<Fit<T, M>> {
+        self.run(model, data, false)
+    }
+
+    /// The chain, then (`restarts`, ML) the model's further starts on evidence of a local
+    /// minimum.
+    fn run<T: Real, M: EquationError<T> + Clone>(
+        &self,
+        model: &M,
+        data: &FrequencyData<T>,
+        restarts: bool,
     ) -> Result<Fit<T, M>> {
         let w = self.weighting;
         let mut work = LevyWork::default();
@@ -190,6 +243,7 @@ impl Pipeline {
             let suspicious = |a: &Solution<T>| sk_capped || !a.converged();
             // the basis the ML estimate belongs to, when it is not `model`'s
             let mut replaced: Option<M> = None;
+            let capped = sk_capped || first.as_ref().is_ok_and(|a| !a.converged());
             let best = match first {
                 Ok(a) if suspicious(&a) && current != levy.theta => {
                     // SK or ML stopped at its cap: typically the relocation traded a
@@ -223,16 +277,32 @@ impl Pipeline {
                 }
                 Err(e) => return Err(e),
             };
+            // a cap, or a long way from the start through a non-convex cost
+            let capped = capped || !best.converged() || best.iterations >= LONG_ML;
             current = best.theta.clone();
             stages.push(Stage {
                 name: "ml".into(),
                 solution: best,
             });
-            return match replaced {
+            let fit = match replaced {
                 // the statistics from the ML problem's own work space
-                None => Fit::from_ml_problem(model.clone(), data, current, &problem, stages),
-                Some(m) => Fit::new(m, data, current, w, stages),
+                None => Fit::from_ml_problem(model.clone(), data, current, &problem, stages)?,
+                Some(m) => Fit::new(m, data, current, w, stages)?,
             };
+            if !restarts {
+                return Ok(fit);
+            }
+            // evidence of a local minimum: a cap, or residuals the noise does not explain
+            // (cost or whiteness test at the 1 % level; only with known noise variances)
+            let v = fit.validation();
+            let poor = v.cost_p.is_some_and(|p| p < SUSPICIOUS_P)
+                || (fit.noise_known() && v.whiteness_p.is_some_and(|p| p < SUSPICIOUS_P));
+            return Ok(
+                match fit.model().restart(self, data, &fit, capped || poor) {
+                    Some(better) if better.cost() < fit.cost() => better,
+                    _ => fit,
+                },
+            );
         }
         Fit::new(model, data, current, w, stages)
     }

@@ -6,10 +6,11 @@
 //! `cargo run --release --example optimisation_robustness` for the full study with the
 //! failures' seeds and costs.
 //!
-//! Measured on the 500 systems of seeds 1000–1499 (README, Tests): `Pipeline::fit`
-//! reaches the optimum on 84.8 % (continuous time 79.6 %, discrete time 90.0 %), below the
-//! 99 % target; the multistart fits (`fit_multistart`, `fit_multistart_discrete`) on
-//! 97.2 % (96.8 % and 97.6 %). These tests guard those levels.
+//! Measured on the 500 systems of seeds 1000–1499 (README, Tests): `Pipeline::fit`, which
+//! runs further starts when its fit shows evidence of a local minimum, reaches the optimum
+//! on 98.0 % (continuous time 98.8 %, discrete time 97.2 %), below the 99 % target; the
+//! chain alone (`restarts: false`) on 84.0 %; the multistart fits (`fit_multistart`,
+//! `fit_multistart_discrete`) on 98.8 %. These tests guard those levels.
 
 mod common;
 #[path = "common/robustness.rs"]
@@ -17,22 +18,21 @@ mod robustness;
 
 use robustness::Outcome;
 
-/// (automatic-start rate, multistart rate)
-fn rates(outcomes: &[Outcome]) -> (f64, f64) {
+/// (automatic-start rate, multistart rate, rate of the chain alone)
+fn rates(outcomes: &[Outcome]) -> (f64, f64, f64) {
     let n = outcomes.len() as f64;
-    let auto = outcomes.iter().filter(|o| o.reached()).count() as f64 / n;
-    let multi = outcomes
-        .iter()
-        .filter(|o| o.multi_reached() == Some(true))
-        .count() as f64
-        / n;
-    (auto, multi)
+    let share = |f: &dyn Fn(&Outcome) -> bool| outcomes.iter().filter(|o| f(o)).count() as f64 / n;
+    (
+        share(&Outcome::reached),
+        share(&|o| o.multi_reached() == Some(true)),
+        share(&Outcome::plain_reached),
+    )
 }
 
 #[test]
 fn forty_systems() {
     let outcomes = robustness::study(0, 40, 2, |_| {});
-    let (auto, multi) = rates(&outcomes);
+    let (auto, multi, plain) = rates(&outcomes);
     let failed = |f: fn(&Outcome) -> bool| {
         outcomes
             .iter()
@@ -40,26 +40,42 @@ fn forty_systems() {
             .map(|o| (o.seed, o.auto.clone(), o.multi.clone(), o.best))
             .collect::<Vec<_>>()
     };
+    // the further starts only ever replace the chain's fit by one of lower cost
+    for o in &outcomes {
+        if let (Ok(a), Ok(p)) = (&o.auto, &o.plain) {
+            assert!(
+                a <= p,
+                "seed {}: Pipeline::fit {a} above the chain alone {p}",
+                o.seed
+            );
+        }
+    }
     // multiple starts: at most one of the 40 systems misses the optimum
     assert!(
         multi >= 39.0 / 40.0,
         "multistart rate {multi}: {:?}",
         failed(|o| o.multi_reached() == Some(true))
     );
-    // the automatic start: the measured level (35 of 40, below the 99 % target), as a guard
+    // the automatic start with its further starts on evidence: 37 of 40 measured (the
+    // three misses are discrete-time fits of order 7–10 without evidence or where no start
+    // finds the optimum), the chain alone 35 of 40
     assert!(
-        auto >= 0.85,
+        auto >= 37.0 / 40.0,
         "Pipeline::fit rate {auto}: {:?}",
         failed(Outcome::reached)
+    );
+    assert!(
+        auto > plain,
+        "the further starts gain nothing: {auto} vs the chain alone {plain}"
     );
 }
 
 #[test]
-#[ignore = "500-system study (about 130 s in release); the 99 % target is not met: 84.8 % from the automatic start, 97.2 % with multiple starts"]
+#[ignore = "500-system study (about 9 min in release on a loaded machine); the 99 % target is not met: 98.0 % from the automatic start with its further starts, 84.0 % for the chain alone, 98.8 % with multiple starts"]
 fn five_hundred_systems() {
     let outcomes = robustness::study(1000, 500, 2, |_| {});
-    let (auto, multi) = rates(&outcomes);
-    eprintln!("Pipeline::fit {auto}, multistart {multi}");
-    assert!(multi >= 0.97, "multistart rate {multi}");
-    assert!(auto >= 0.84, "Pipeline::fit rate {auto}");
+    let (auto, multi, plain) = rates(&outcomes);
+    eprintln!("Pipeline::fit {auto}, multistart {multi}, the chain alone {plain}");
+    assert!(multi >= 0.985, "multistart rate {multi}");
+    assert!(auto >= 0.975, "Pipeline::fit rate {auto}");
 }

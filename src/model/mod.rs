@@ -173,6 +173,26 @@ pub trait EquationError<T: Real>: ModelStructure<T> {
         None
     }
 
+    /// Further starts for a fit of this model that [`crate::Pipeline::fit`] reached from
+    /// its automatic start: the lowest-cost fit they reach, or `None` when this structure
+    /// has no further starts or judges `fit` not worth them. `suspicious` carries the
+    /// chain's own evidence that `fit` may be a local minimum (Sanathanan–Koerner or ML at
+    /// its iteration cap, a cost the noise does not explain); the implementation may add
+    /// its own (e.g. poles the data cannot resolve). The default has no further starts.
+    fn restart(
+        &self,
+        pipeline: &crate::pipeline::Pipeline,
+        data: &FrequencyData<T>,
+        fit: &crate::fit::Fit<T, Self>,
+        suspicious: bool,
+    ) -> Option<crate::fit::Fit<T, Self>>
+    where
+        Self: Sized,
+    {
+        let _ = (pipeline, data, fit, suspicious);
+        None
+    }
+
     /// θ from a homogeneous coefficient vector: c divided by its normalising entry, which is
     /// then dropped. `None` when that entry is (numerically) zero.
     fn theta_from_coefficients(&self, c: &[T]) -> Option<Vec<T>> {

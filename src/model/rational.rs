@@ -703,6 +703,19 @@ impl<T: Real> EquationError<T> for Rational<T> {
         self.relocate(theta)
     }
 
+    /// See [`crate::multistart`]: on evidence of a local minimum, the starts of
+    /// [`crate::multistart::fit_multistart`] (continuous time) or
+    /// [`crate::multistart::fit_multistart_discrete`] (discrete time).
+    fn restart(
+        &self,
+        pipeline: &crate::pipeline::Pipeline,
+        data: &FrequencyData<T>,
+        fit: &crate::fit::Fit<T, Self>,
+        suspicious: bool,
+    ) -> Option<crate::fit::Fit<T, Self>> {
+        crate::multistart::restart(self, pipeline, data, fit, suspicious)
+    }
+
     fn normalising_index(&self) -> usize {
         if self.constant_normalised() {
             0
