@@ -553,7 +553,8 @@ pub fn fit_multistart_discrete<T: Real>(
 /// poles the data cannot resolve ([`Fit::unresolved_poles`]), the starts of
 /// [`fit_multistart`] (a partial-fraction model) or of [`fit_multistart_discrete`] (a
 /// discrete-time polynomial model) but the automatic one, which gave `fit`; `None`
-/// otherwise (no evidence, a transient term, the orthonormal polynomial basis) or when
+/// otherwise (no evidence, a transient term, the orthonormal polynomial basis, an order
+/// above [`MAX_RESTART_ORDER`]) or when
 /// every start fails. The caller keeps `fit` unless the returned fit has a lower cost.
 ///
 /// [`EquationError::restart`]: crate::model::EquationError::restart
@@ -564,7 +565,7 @@ pub(crate) fn restart<T: Real>(
     fit: &Fit<T, Rational<T>>,
     suspicious: bool,
 ) -> Option<Fit<T, Rational<T>>> {
-    if model.n_transient() > 0 || model.na() == 0 {
+    if model.n_transient() > 0 || model.na() == 0 || model.na() > MAX_RESTART_ORDER {
         return None;
     }
     let unstable = !model.is_stable(fit.theta()).unwrap_or(true);
@@ -595,6 +596,12 @@ pub(crate) fn restart<T: Real>(
     search.polish(pipeline, data);
     search.best.filter(|b| b.cost() < fit.cost())
 }
+
+/// Highest denominator order for which `Pipeline::fit` runs its further starts: their number grows
+/// with the order (every pole-pair reduction of the order-(na + 2) search is an ML start),
+/// and above this order one search costs minutes. Higher orders get the chain's fit; call
+/// [`fit_multistart`] or [`fit_multistart_discrete`] for the search.
+pub const MAX_RESTART_ORDER: usize = 12;
 
 /// Relative distance |s_p − s_z|/|s_p| below which a pole and a zero of a fit nearly
 /// cancel (s = p in continuous time, ln(p)/Ts in discrete time).

@@ -108,7 +108,8 @@ impl<T: Real> Default for LevyWork<T> {
 ///   unstable poles, poles the data cannot resolve ([`Fit::unresolved_poles`]), a pole
 ///   and a zero within 10 % of each other.
 ///
-/// Only then does the model run its further starts (for [`crate::Rational`] those of
+/// Only then does the model run its further starts (for [`crate::Rational`] of
+/// denominator order up to [`crate::multistart::MAX_RESTART_ORDER`], those of
 /// [`crate::multistart::fit_multistart`] or
 /// [`crate::multistart::fit_multistart_discrete`], about ten fits' work), and the fit of
 /// lowest cost is returned; a fit without such evidence costs what the chain costs, plus
