@@ -603,13 +603,16 @@ pub(crate) fn restart<T: Real>(
 /// [`fit_multistart`] or [`fit_multistart_discrete`] for the search.
 pub const MAX_RESTART_ORDER: usize = 12;
 
-/// Relative distance |s_p − s_z|/|s_p| below which a pole and a zero of a fit nearly
-/// cancel (s = p in continuous time, ln(p)/Ts in discrete time).
+/// Relative distance |s_p − s_z|/|s_p| below which a pole and a zero of a fit may cancel
+/// (s = p in continuous time, ln(p)/Ts in discrete time).
 const NEAR_CANCELLATION: f64 = 0.1;
 
-/// Whether a pole and a zero of `fit` nearly cancel ([`NEAR_CANCELLATION`]): an order the
-/// fit spends on almost nothing, typically where a local minimum parks a pole the data
-/// need elsewhere.
+/// Whether a pole and a zero of `fit` nearly cancel: |s_p − s_z| below both
+/// [`NEAR_CANCELLATION`]·|s_p| and the pole's half-power half-width |Re s_p|, i.e. the
+/// zero lies inside the pole's resonance band and the pair spends an order on almost
+/// nothing, typically where a local minimum parks a pole the data need elsewhere. A zero
+/// beside a lightly damped pole but outside its band (an antiresonance next to a
+/// resonance, as in collocated mechanical systems) does not count.
 fn near_cancellation<T: Real>(fit: &Fit<T, Rational<T>>) -> bool {
     let (Ok(poles), Ok(zeros)) = (fit.poles(), fit.zeros()) else {
         return false;
@@ -621,9 +624,8 @@ fn near_cancellation<T: Real>(fit: &Fit<T, Rational<T>>) -> bool {
     let limit = T::lit(NEAR_CANCELLATION);
     poles.iter().any(|p| {
         let s = to_s(*p);
-        zeros
-            .iter()
-            .any(|z| (s - to_s(*z)).norm() < limit * s.norm())
+        let radius = Float::min(limit * s.norm(), Float::abs(s.re));
+        zeros.iter().any(|z| (s - to_s(*z)).norm() < radius)
     })
 }
 

@@ -105,8 +105,8 @@ impl<T: Real> Default for LevyWork<T> {
 /// - with known noise variances, the cost test (V against ½χ²(2N − p)) or the
 ///   whiteness test of [`Fit::validation`] below the 1 % level;
 /// - the model's own checks in [`EquationError::restart`] — for [`crate::Rational`]:
-///   unstable poles, poles the data cannot resolve ([`Fit::unresolved_poles`]), a pole
-///   and a zero within 10 % of each other.
+///   unstable poles, poles the data cannot resolve ([`Fit::unresolved_poles`]), a zero
+///   within 10 % of a pole and inside its half-power band (|s_p − s_z| < |Re s_p|).
 ///
 /// Only then does the model run its further starts (for [`crate::Rational`] of
 /// denominator order up to [`crate::multistart::MAX_RESTART_ORDER`], those of
