@@ -773,13 +773,7 @@ fn gram_inverse_factor_qr<T: Real>(mut jac: DMatrix<T>) -> Option<DMatrix<T>> {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    fn lcg(state: &mut u64) -> f64 {
-        *state = state
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        ((*state >> 11) as f64) / ((1u64 << 53) as f64) - 0.5
-    }
+    use crate::test_rng::lcg;
 
     /// The Cholesky path of the covariance and of the sandwich equals the QR/SVD path.
     #[test]

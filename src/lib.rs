@@ -84,6 +84,8 @@ pub mod scalar;
 pub mod simulate;
 pub mod solver;
 pub mod stats;
+#[cfg(test)]
+mod test_rng;
 pub mod validation;
 pub mod workflow;
 

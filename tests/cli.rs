@@ -2,73 +2,13 @@
 //! directory.
 #![cfg(feature = "cli")]
 
+#[path = "common/cli.rs"]
+mod cli;
+
+use cli::{Scratch, fdid, json, run, stderr, stdout};
 use serde_json::Value;
 use std::f64::consts::TAU;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
-use std::sync::atomic::{AtomicUsize, Ordering};
-
-/// A scratch directory removed on drop.
-struct Scratch(PathBuf);
-
-impl Scratch {
-    fn new(name: &str) -> Self {
-        static COUNTER: AtomicUsize = AtomicUsize::new(0);
-        let n = COUNTER.fetch_add(1, Ordering::Relaxed);
-        let dir =
-            std::env::temp_dir().join(format!("fdid-cli-test-{}-{n}-{name}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        Self(dir)
-    }
-
-    fn file(&self, name: &str, contents: &str) -> PathBuf {
-        let p = self.0.join(name);
-        std::fs::write(&p, contents).unwrap();
-        p
-    }
-}
-
-impl Drop for Scratch {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.0);
-    }
-}
-
-fn fdid(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_fdid"))
-        .args(args)
-        .output()
-        .expect("run fdid")
-}
-
-fn fdid_path(path: &Path, args: &[&str]) -> Output {
-    let mut all = vec!["fit", path.to_str().unwrap()];
-    all.extend_from_slice(args);
-    fdid(&all)
-}
-
-fn stdout(o: &Output) -> String {
-    String::from_utf8(o.stdout.clone()).unwrap()
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8(o.stderr.clone()).unwrap()
-}
-
-/// Runs `fdid` expecting success and one JSON object on stdout.
-fn json(path: &Path, args: &[&str]) -> Value {
-    let mut a = args.to_vec();
-    a.push("--json");
-    let o = fdid_path(path, &a);
-    assert!(o.status.success(), "fdid failed: {}", stderr(&o));
-    let text = stdout(&o);
-    assert_eq!(
-        text.trim().lines().count(),
-        1,
-        "one JSON line expected: {text}"
-    );
-    serde_json::from_str(&text).expect("valid JSON")
-}
 
 /// `[[re, im], …]` as pairs sorted by imaginary part.
 fn pairs(v: &Value) -> Vec<(f64, f64)> {
@@ -115,7 +55,7 @@ fn ct_frf_json_poles_and_frf() {
     let dir = Scratch::new("ct");
     let (text, rows) = ct_frf_csv();
     let path = dir.file("frf.csv", &text);
-    let v = json(&path, &["--domain", "s", "--na", "2", "--nb", "0"]);
+    let v = json("fit", &path, &["--domain", "s", "--na", "2", "--nb", "0"]);
     assert_eq!(v["domain"], "s");
     let poles = pairs(&v["poles"]);
     assert_eq!(poles.len(), 2);
@@ -158,6 +98,7 @@ fn ct_frf_every_criterion_finds_the_poles() {
     ] {
         for c in ["ml", "levy", "sk", "tls"] {
             let v = json(
+                "fit",
                 &path,
                 &["--domain", "s", "--na", "2", "--nb", nb, "--criterion", c],
             );
@@ -184,6 +125,7 @@ fn band_selects_lines() {
     let (lo, hi) = (0.1, 0.4);
     let inside = rows.iter().filter(|r| r.0 >= lo && r.0 <= hi).count();
     let v = json(
+        "fit",
         &path,
         &[
             "--domain", "s", "--na", "2", "--nb", "0", "--band", "0.1:0.4",
@@ -204,7 +146,7 @@ fn band_selects_lines() {
 fn text_output_reports_poles() {
     let dir = Scratch::new("text");
     let path = dir.file("frf.csv", &ct_frf_csv().0);
-    let o = fdid_path(&path, &["--domain", "s", "--na", "2", "--nb", "0"]);
+    let o = run("fit", &path, &["--domain", "s", "--na", "2", "--nb", "0"]);
     assert!(o.status.success(), "{}", stderr(&o));
     let out = stdout(&o);
     for needle in [
@@ -280,6 +222,7 @@ fn dt_time_record_periods_noise_free() {
     let dir = Scratch::new("dt");
     let path = dir.file("record.csv", &dt_record(256, 4, 0.0));
     let v = json(
+        "fit",
         &path,
         &["--domain", "z", "--na", "2", "--nb", "1", "--periods", "4"],
     );
@@ -305,6 +248,7 @@ fn dt_time_record_periods_with_noise() {
     let dir = Scratch::new("dtn");
     let path = dir.file("record.csv", &dt_record(256, 4, 1e-3));
     let v = json(
+        "fit",
         &path,
         &["--domain", "z", "--na", "2", "--nb", "1", "--periods", "4"],
     );
@@ -323,7 +267,8 @@ fn dt_time_record_periods_with_noise() {
             .all(|s| s.as_f64().unwrap() > 0.0)
     );
     // text output mentions the poles too
-    let o = fdid_path(
+    let o = run(
+        "fit",
         &path,
         &["--domain", "z", "--na", "2", "--nb", "1", "--periods", "4"],
     );
@@ -336,7 +281,7 @@ fn dt_whole_record_dft_and_spectra_file() {
     let dir = Scratch::new("dft");
     // one period: the DFT of the whole record is the same as averaging one period
     let path = dir.file("record.csv", &dt_record(512, 1, 0.0));
-    let v = json(&path, &["--domain", "z", "--na", "2", "--nb", "1"]);
+    let v = json("fit", &path, &["--domain", "z", "--na", "2", "--nb", "1"]);
     for (p, e) in pairs(&v["poles"]).iter().zip(dt_poles()) {
         assert!(close(*p, e, 1e-6), "pole {p:?}, expected {e:?}");
     }
@@ -358,6 +303,7 @@ fn dt_whole_record_dft_and_spectra_file() {
     }
     let path = dir.file("spectra.csv", &text);
     let v = json(
+        "fit",
         &path,
         &["--domain", "z", "--ts", "0.01", "--na", "2", "--nb", "1"],
     );
@@ -390,7 +336,7 @@ fn bad_inputs_give_one_error_line() {
     let dir = Scratch::new("bad");
     let s = |p: &PathBuf| p.to_str().unwrap().to_string();
     let good = s(&dir.file("good.csv", "f,re,im\n1,1,0\n2,0.5,-0.5\n3,0.2,-0.4\n"));
-    let missing = s(&dir.0.join("does-not-exist.csv"));
+    let missing = s(&dir.path("does-not-exist.csv"));
     let no_col = s(&dir.file("nocol.csv", "f,re\n1,1\n2,0.5\n"));
     let nan = s(&dir.file("nan.csv", "f,re,im\n1,1,0\n2,NaN,0\n"));
     let unsorted = s(&dir.file("unsorted.csv", "f,re,im\n2,1,0\n1,0.5,0\n"));
@@ -631,6 +577,7 @@ fn help_is_complete() {
 fn bundled_data_sets_fit() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let v = json(
+        "fit",
         &root.join("data/robot_arm.csv"),
         &["--domain", "z", "--na", "4", "--nb", "4", "--periods", "1"],
     );
@@ -639,6 +586,7 @@ fn bundled_data_sets_fit() {
     assert!(v["relative_residual"].as_f64().unwrap() < 0.1);
     for (order, worst) in [("4", 0.05), ("6", 0.02)] {
         let v = json(
+            "fit",
             &root.join("data/eis_battery.csv"),
             &[
                 "--domain", "s", "--na", order, "--nb", order, "--band", ":1000",
@@ -772,7 +720,7 @@ fn delay_of_two_and_a_half_samples_is_recovered() {
     let dir = Scratch::new("delay");
     let path = dir.file("record.csv", &periodic_record(128, 1, 2.5, 0.0, 0.0));
     let args = ["--domain", "z", "--na", "2", "--nb", "1", "--delay"];
-    let v = json(&path, &args);
+    let v = json("fit", &path, &args);
     let tau = num(&v, "delay");
     assert!((tau - 2.5 * TS).abs() < 1e-9, "delay {tau} s");
     assert!((num(&v, "delay_samples") - 2.5).abs() < 1e-7);
@@ -785,11 +733,11 @@ fn delay_of_two_and_a_half_samples_is_recovered() {
     assert!(close(pairs(&v["zeros"])[0], (-0.5, 0.0), 1e-7));
     assert!(num(&v, "cost") < 1e-20, "cost {}", v["cost"]);
     // without the delay the model cannot follow the phase
-    let plain = json(&path, &["--domain", "z", "--na", "2", "--nb", "1"]);
+    let plain = json("fit", &path, &["--domain", "z", "--na", "2", "--nb", "1"]);
     assert!(plain["delay"].is_null() && plain["delay_samples"].is_null());
     assert!(num(&plain, "cost") > 1e6 * num(&v, "cost").max(1e-24));
     // the text names the delay in seconds and in samples
-    let o = fdid_path(&path, &args);
+    let o = run("fit", &path, &args);
     assert!(o.status.success(), "{}", stderr(&o));
     let out = stdout(&o);
     let line = out
@@ -808,8 +756,8 @@ fn transient_term_fits_a_short_non_periodic_record() {
     let dir = Scratch::new("transient");
     let path = dir.file("record.csv", &transient_record(64, 0.0, 0.0, 0.0));
     let base = ["--domain", "z", "--na", "2", "--nb", "1"];
-    let plain = json(&path, &base);
-    let with = json(&path, &[&base[..], &["--transient"]].concat());
+    let plain = json("fit", &path, &base);
+    let with = json("fit", &path, &[&base[..], &["--transient"]].concat());
     assert_eq!(with["transient"], 2);
     assert_eq!(plain["transient"], 0);
     let names: Vec<&str> = with["theta_names"]
@@ -832,6 +780,7 @@ fn transient_term_fits_a_short_non_periodic_record() {
     // the equation error stays linear: the linear criteria estimate the transient too
     for c in ["levy", "sk", "tls"] {
         let v = json(
+            "fit",
             &path,
             &[&base[..], &["--transient", "--criterion", c]].concat(),
         );
@@ -841,12 +790,13 @@ fn transient_term_fits_a_short_non_periodic_record() {
     }
     // continuous time: the sampled transient of eqs. 9–10, one coefficient per pole
     let s = json(
+        "fit",
         &path,
         &["--domain", "s", "--na", "2", "--nb", "1", "--transient"],
     );
     assert_eq!(s["transient"], 2);
     assert_eq!(s["theta"].as_array().unwrap().len(), 6);
-    let o = fdid_path(&path, &[&base[..], &["--transient"]].concat());
+    let o = run("fit", &path, &[&base[..], &["--transient"]].concat());
     assert!(stdout(&o).contains("Y - G U - T"), "{}", stdout(&o));
 }
 
@@ -866,7 +816,7 @@ fn noise_model_of_coloured_noise() {
         "--noise-order",
         "1",
     ];
-    let v = json(&path, &args);
+    let v = json("fit", &path, &args);
     assert_eq!(v["noise_order"], 1);
     let h = &v["noise_model"];
     let c: Vec<f64> = h["c"]
@@ -910,7 +860,7 @@ fn noise_model_of_coloured_noise() {
     assert_eq!(v["lines"], 1023);
     let names = v["theta_names"].as_array().unwrap();
     assert_eq!(names[names.len() - 2..], ["c1", "d1"]);
-    let o = fdid_path(&path, &args);
+    let o = run("fit", &path, &args);
     let out = stdout(&o);
     assert!(
         out.contains("noise model  H = C/D") && out.contains("poles of H"),
@@ -923,6 +873,7 @@ fn noise_model_with_delay() {
     let dir = Scratch::new("noisedelay");
     let path = dir.file("record.csv", &periodic_record(256, 1, 2.5, 0.0, 0.02));
     let v = json(
+        "fit",
         &path,
         &[
             "--domain",
@@ -959,7 +910,7 @@ fn errors_in_variables_on_a_periodic_record() {
     let dir = Scratch::new("eiv");
     let path = dir.file("record.csv", &periodic_record(256, 4, 0.0, 0.02, 0.02));
     let base = ["--domain", "z", "--na", "2", "--nb", "1", "--periods", "4"];
-    let v = json(&path, &[&base[..], &["--criterion", "eiv"]].concat());
+    let v = json("fit", &path, &[&base[..], &["--criterion", "eiv"]].concat());
     assert_eq!(v["criterion"], "eiv");
     assert_eq!(v["noise_known"], true);
     let stages = v["stages"].as_array().unwrap();
@@ -984,6 +935,7 @@ fn errors_in_variables_on_a_periodic_record() {
     assert!((0.0..=1.0).contains(&p));
     // with the transient term (zero for this periodic record)
     let v = json(
+        "fit",
         &path,
         &[&base[..], &["--criterion", "eiv", "--transient"]].concat(),
     );
@@ -998,6 +950,7 @@ fn errors_in_variables_on_a_periodic_record() {
     // with a delay too: the delayed model under errors-in-variables
     let path = dir.file("delayed.csv", &periodic_record(256, 4, 2.5, 0.02, 0.02));
     let v = json(
+        "fit",
         &path,
         &[&base[..], &["--criterion", "eiv", "--delay"]].concat(),
     );
@@ -1018,6 +971,7 @@ fn json_validation_and_covariance_keys() {
     let dir = Scratch::new("keys");
     let path = dir.file("record.csv", &dt_record(256, 4, 1e-3));
     let v = json(
+        "fit",
         &path,
         &["--domain", "z", "--na", "2", "--nb", "1", "--periods", "4"],
     );
@@ -1056,11 +1010,12 @@ fn json_validation_and_covariance_keys() {
         }
     }
     // flat weighting: the noise level comes from the residuals, no cost test
-    let flat = json(&path, &["--domain", "z", "--na", "2", "--nb", "1"]);
+    let flat = json("fit", &path, &["--domain", "z", "--na", "2", "--nb", "1"]);
     assert!(flat["cost_expected"].is_null() && flat["cost_p"].is_null());
     assert!(flat["whiteness_p"].is_number());
     // the text reports the validation on every fit
-    let o = fdid_path(
+    let o = run(
+        "fit",
         &path,
         &["--domain", "z", "--na", "2", "--nb", "1", "--periods", "4"],
     );
@@ -1219,7 +1174,7 @@ fn errors_in_variables_on_a_spectra_file() {
         "--criterion",
         "eiv",
     ];
-    let v = json(&path, &args);
+    let v = json("fit", &path, &args);
     assert_eq!(v["noise_known"], true);
     for (p, e) in pairs(&v["poles"]).iter().zip(CT_POLES) {
         assert!(close(*p, e, 1e-9), "pole {p:?}, expected {e:?}");
@@ -1246,7 +1201,7 @@ fn errors_in_variables_on_a_spectra_file() {
 #[test]
 fn fit_plot_writes_an_svg() {
     let dir = Scratch::new("plot");
-    let svg = dir.0.join("bode.svg");
+    let svg = dir.path("bode.svg");
     let o = fdid(&[
         "fit",
         "data/robot_arm.csv",
@@ -1268,7 +1223,7 @@ fn fit_plot_writes_an_svg() {
         assert!(text.starts_with("<svg"));
         assert!(text.contains("model +/- 2 sigma_G"));
         assert!(text.contains("residual |Y/U - G|"));
-        let bad = dir.0.join("missing-dir").join("bode.svg");
+        let bad = dir.path("missing-dir").join("bode.svg");
         let o = fdid(&[
             "fit",
             "data/robot_arm.csv",

@@ -1,73 +1,22 @@
 //! Integration tests of `fdid diagnose`: the built binary on simulated time records, on
 //! frequency files and on the bundled dryer data.
 #![cfg(feature = "cli")]
+#[path = "common/cli.rs"]
+mod cli;
 mod common;
 
+use cli::{Scratch, fdid, json, run, stderr, stdout};
 use common::{Noise, lfilter};
 use serde_json::Value;
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
-use std::sync::atomic::{AtomicUsize, Ordering};
 
 /// B(z⁻¹)/A(z⁻¹) of the simulated second-order system (poles 0.6 ± 0.6i).
 const B2: [f64; 3] = [0.2, 0.3, 0.1];
 const A2: [f64; 3] = [1.0, -1.2, 0.72];
 
-/// A scratch directory removed on drop.
-struct Scratch(PathBuf);
-
-impl Scratch {
-    fn new(name: &str) -> Self {
-        static COUNTER: AtomicUsize = AtomicUsize::new(0);
-        let n = COUNTER.fetch_add(1, Ordering::Relaxed);
-        let dir = std::env::temp_dir().join(format!(
-            "fdid-diagnose-test-{}-{n}-{name}",
-            std::process::id()
-        ));
-        std::fs::create_dir_all(&dir).unwrap();
-        Self(dir)
-    }
-
-    fn file(&self, name: &str, contents: &str) -> PathBuf {
-        let p = self.0.join(name);
-        std::fs::write(&p, contents).unwrap();
-        p
-    }
-}
-
-impl Drop for Scratch {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.0);
-    }
-}
-
-fn fdid(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_fdid"))
-        .args(args)
-        .output()
-        .expect("run fdid")
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8(o.stderr.clone()).unwrap()
-}
-
-fn stdout(o: &Output) -> String {
-    String::from_utf8(o.stdout.clone()).unwrap()
-}
-
-/// Runs `fdid SUBCOMMAND PATH ARGS… --json`, expecting success and one JSON object.
-fn json(subcommand: &str, path: &Path, args: &[&str]) -> Value {
-    let mut all = vec![subcommand, path.to_str().unwrap()];
-    all.extend_from_slice(args);
-    all.push("--json");
-    let o = fdid(&all);
-    assert!(o.status.success(), "fdid {all:?} failed: {}", stderr(&o));
-    let text = stdout(&o);
-    assert_eq!(text.trim().lines().count(), 1, "one JSON line: {text}");
-    serde_json::from_str(&text).expect("valid JSON")
-}
+/// The flags of a second-order model of B2/A2.
+const ORDERS: [&str; 6] = ["--domain", "z", "--na", "2", "--nb", "2"];
 
 /// `t,u,y` CSV of a record with sample time 1.
 fn csv(u: &[f64], y: &[f64]) -> String {
@@ -250,21 +199,9 @@ fn final_matches_fit_json() {
 fn report_directory_holds_the_files() {
     let dir = Scratch::new("report");
     let path = dir.file("d.csv", &periodic_record(31, 128, 4, 2, 0.02));
-    let out = dir.0.join("out/nested");
-    let o = fdid(&[
-        "diagnose",
-        path.to_str().unwrap(),
-        "--domain",
-        "z",
-        "--na",
-        "2",
-        "--nb",
-        "2",
-        "--periods",
-        "4",
-        "--report",
-        out.to_str().unwrap(),
-    ]);
+    let out = dir.path("out/nested");
+    let report = ["--periods", "4", "--report", out.to_str().unwrap()];
+    let o = run("diagnose", &path, &[&ORDERS[..], &report].concat());
     assert!(o.status.success(), "{}", stderr(&o));
     let text = stdout(&o);
     for needle in [
@@ -335,17 +272,11 @@ fn bad_usage_exits_2_naming_the_flag() {
     assert!(stderr(&o).contains("--nb"), "{}", stderr(&o));
     // --transient on frequency data
     let frf = dir.file("g.csv", "f,re,im\n0.1,1,0\n0.2,0.9,-0.1\n0.3,0.8,-0.2\n");
-    let o = fdid(&[
+    let o = run(
         "diagnose",
-        frf.to_str().unwrap(),
-        "--domain",
-        "s",
-        "--na",
-        "1",
-        "--nb",
-        "0",
-        "--transient",
-    ]);
+        &frf,
+        &["--domain", "s", "--na", "1", "--nb", "0", "--transient"],
+    );
     assert_eq!(o.status.code(), Some(2));
     assert!(stderr(&o).contains("--transient"), "{}", stderr(&o));
 }
@@ -357,35 +288,16 @@ fn bad_data_and_report_paths_exit_1_naming_the_path() {
     // a report directory under a regular file cannot be created
     let blocker = dir.file("blocker", "x");
     let target = blocker.join("report");
-    let o = fdid(&[
-        "diagnose",
-        path.to_str().unwrap(),
-        "--domain",
-        "z",
-        "--na",
-        "2",
-        "--nb",
-        "2",
-        "--report",
-        target.to_str().unwrap(),
-    ]);
+    let report = ["--report", target.to_str().unwrap()];
+    let o = run("diagnose", &path, &[&ORDERS[..], &report].concat());
     assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
     assert!(
         stderr(&o).contains(target.to_str().unwrap()),
         "{}",
         stderr(&o)
     );
-    let missing = dir.0.join("missing.csv");
-    let o = fdid(&[
-        "diagnose",
-        missing.to_str().unwrap(),
-        "--domain",
-        "z",
-        "--na",
-        "2",
-        "--nb",
-        "2",
-    ]);
+    let missing = dir.path("missing.csv");
+    let o = run("diagnose", &missing, &ORDERS);
     assert_eq!(o.status.code(), Some(1));
     assert!(stderr(&o).contains("missing.csv"), "{}", stderr(&o));
 }
@@ -418,18 +330,7 @@ fn frequency_files_name_their_noise_reference() {
     let v = json("diagnose", &dir.file("without.csv", &without), &args);
     assert_eq!(v["noise_reference"], "estimated");
     assert_eq!(v["final"]["noise_known"], Value::Bool(false));
-    let o = fdid(&[
-        "diagnose",
-        dir.0.join("without.csv").to_str().unwrap(),
-        "--domain",
-        "z",
-        "--ts",
-        "1",
-        "--na",
-        "2",
-        "--nb",
-        "2",
-    ]);
+    let o = run("diagnose", &dir.path("without.csv"), &args);
     assert!(stdout(&o).contains("reduced power"), "{}", stdout(&o));
 }
 
@@ -488,11 +389,7 @@ fn lpm_reference_false_alarm_rate() {
 #[test]
 fn dryer_data_show_the_delay_and_the_transient() {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/dryer.csv");
-    let v = json(
-        "diagnose",
-        &path,
-        &["--domain", "z", "--na", "2", "--nb", "2"],
-    );
+    let v = json("diagnose", &path, &ORDERS);
     assert_eq!(v["noise_reference"], "lpm");
     let e = effects(&v);
     assert!(e.iter().any(|x| x == "time_delay"), "{e:?}");
@@ -512,17 +409,11 @@ fn alpha_behaves(alpha: f64) -> bool {
     let path = ALPHA_FILE.get().expect("file written first");
     // `--alpha=-inf`: a separate `-inf` would parse as flags
     let a = format!("--alpha={alpha}");
-    let o = fdid(&[
+    let o = run(
         "diagnose",
-        path.to_str().unwrap(),
-        "--domain",
-        "z",
-        "--na",
-        "1",
-        "--nb",
-        "1",
-        &a,
-    ]);
+        path,
+        &["--domain", "z", "--na", "1", "--nb", "1", &a],
+    );
     if alpha > 0.0 && alpha < 1.0 {
         o.status.success()
     } else {

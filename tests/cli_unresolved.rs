@@ -3,65 +3,13 @@
 //! named with a warning; the fits of the bundled data sets carry none.
 #![cfg(feature = "cli")]
 
+#[path = "common/cli.rs"]
+mod cli;
+
+use cli::{Scratch, bundled, fdid, json_of, stdout_ok};
 use serde_json::Value;
 use std::f64::consts::TAU;
-use std::path::PathBuf;
-use std::process::{Command, Output};
-use std::sync::atomic::{AtomicUsize, Ordering};
-
-/// A scratch directory removed on drop.
-struct Scratch(PathBuf);
-
-impl Scratch {
-    fn new(name: &str) -> Self {
-        static COUNTER: AtomicUsize = AtomicUsize::new(0);
-        let n = COUNTER.fetch_add(1, Ordering::Relaxed);
-        let dir =
-            std::env::temp_dir().join(format!("fdid-poles-test-{}-{n}-{name}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        Self(dir)
-    }
-
-    fn path(&self, name: &str) -> String {
-        self.0.join(name).to_str().unwrap().to_string()
-    }
-
-    fn file(&self, name: &str, contents: &str) -> String {
-        let p = self.path(name);
-        std::fs::write(&p, contents).unwrap();
-        p
-    }
-}
-
-impl Drop for Scratch {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.0);
-    }
-}
-
-fn fdid(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_fdid"))
-        .args(args)
-        .output()
-        .expect("run fdid")
-}
-
-fn stdout(o: &Output) -> String {
-    assert!(
-        o.status.success(),
-        "fdid failed: {}",
-        String::from_utf8_lossy(&o.stderr)
-    );
-    String::from_utf8(o.stdout.clone()).unwrap()
-}
-
-fn json(o: &Output) -> Value {
-    serde_json::from_str(&stdout(o)).expect("valid JSON")
-}
-
-fn bundled(name: &str) -> String {
-    format!("{}/data/{name}", env!("CARGO_MANIFEST_DIR"))
-}
+use std::path::Path;
 
 /// ζ = 10⁻⁴ at 1 rad/s and ζ = 0.05 at 20 rad/s, unit static gain each.
 fn g(w: f64) -> (f64, f64) {
@@ -98,8 +46,8 @@ fn resonance_csv(line_at_resonance: bool) -> String {
 
 const ORDERS: [&str; 6] = ["--domain", "s", "--na", "4", "--nb", "3"];
 
-fn fit_args<'a>(file: &'a str, extra: &[&'a str]) -> Vec<&'a str> {
-    let mut a = vec!["fit", file];
+fn fit_args<'a>(file: &'a Path, extra: &[&'a str]) -> Vec<&'a str> {
+    let mut a = vec!["fit", file.to_str().unwrap()];
     a.extend_from_slice(&ORDERS);
     a.extend_from_slice(extra);
     a
@@ -145,7 +93,7 @@ fn warning_lines(text: &str) -> Vec<&str> {
 fn a_resonance_between_two_lines_is_named_in_text_and_json() {
     let dir = Scratch::new("gap");
     let file = dir.file("gap.csv", &resonance_csv(false));
-    let text = stdout(&fdid(&fit_args(&file, &[])));
+    let text = stdout_ok(&fdid(&fit_args(&file, &[])));
     let warnings = warning_lines(&text);
     assert_eq!(warnings.len(), 1, "{text}");
     let w = warnings[0];
@@ -158,16 +106,16 @@ fn a_resonance_between_two_lines_is_named_in_text_and_json() {
     ] {
         assert!(w.contains(needle), "`{needle}` missing from: {w}");
     }
-    check_unresolved_json(&json(&fdid(&fit_args(&file, &["--json"]))));
+    check_unresolved_json(&json_of(&fdid(&fit_args(&file, &["--json"]))));
 }
 
 #[test]
 fn a_line_inside_the_band_resolves_the_resonance() {
     let dir = Scratch::new("line");
     let file = dir.file("line.csv", &resonance_csv(true));
-    let text = stdout(&fdid(&fit_args(&file, &[])));
+    let text = stdout_ok(&fdid(&fit_args(&file, &[])));
     assert!(!text.contains("unresolved"), "{text}");
-    let v = json(&fdid(&fit_args(&file, &["--json"])));
+    let v = json_of(&fdid(&fit_args(&file, &["--json"])));
     assert_eq!(v["unresolved_poles"], Value::Array(vec![]));
     // the same poles as without the line: the warning comes from the grid alone
     assert!(
@@ -183,10 +131,10 @@ fn a_line_inside_the_band_resolves_the_resonance() {
 fn a_delayed_fit_names_the_resonance_too() {
     let dir = Scratch::new("delay");
     let file = dir.file("gap.csv", &resonance_csv(false));
-    let text = stdout(&fdid(&fit_args(&file, &["--delay"])));
+    let text = stdout_ok(&fdid(&fit_args(&file, &["--delay"])));
     assert!(text.contains("\ndelay "), "{text}");
     assert_eq!(warning_lines(&text).len(), 1, "{text}");
-    check_unresolved_json(&json(&fdid(&fit_args(&file, &["--delay", "--json"]))));
+    check_unresolved_json(&json_of(&fdid(&fit_args(&file, &["--delay", "--json"]))));
 }
 
 #[test]
@@ -194,13 +142,14 @@ fn saved_model_keeps_the_unresolved_poles_and_eval_warns() {
     let dir = Scratch::new("save");
     let file = dir.file("gap.csv", &resonance_csv(false));
     let model = dir.path("model.json");
-    stdout(&fdid(&fit_args(&file, &["--save", &model])));
-    let saved: Value = serde_json::from_str(&std::fs::read_to_string(&model).unwrap()).unwrap();
+    let model = model.to_str().unwrap();
+    stdout_ok(&fdid(&fit_args(&file, &["--save", model])));
+    let saved: Value = serde_json::from_str(&std::fs::read_to_string(model).unwrap()).unwrap();
     let list = saved["unresolved_poles"].as_array().expect("saved key");
     assert_eq!(list.len(), 1, "{list:?}");
     assert!((list[0][1].as_f64().unwrap() - 1.0).abs() < 1e-6);
     // eval: a comment line in CSV, the key in JSON
-    let csv = stdout(&fdid(&["eval", &model, "--freq", "0.1,0.2"]));
+    let csv = stdout_ok(&fdid(&["eval", model, "--freq", "0.1,0.2"]));
     assert_eq!(
         csv.lines()
             .filter(|l| l.starts_with("# warning: unresolved pole"))
@@ -208,13 +157,18 @@ fn saved_model_keeps_the_unresolved_poles_and_eval_warns() {
         1,
         "{csv}"
     );
-    let ev = json(&fdid(&["eval", &model, "--freq", "0.1,0.2", "--json"]));
+    let ev = json_of(&fdid(&["eval", model, "--freq", "0.1,0.2", "--json"]));
     assert_eq!(ev["unresolved_poles"].as_array().unwrap().len(), 1);
     // a file saved before the key existed still evaluates, with no warning
     let mut old = saved.clone();
     old.as_object_mut().unwrap().remove("unresolved_poles");
     let old_path = dir.file("old.json", &old.to_string());
-    let csv_old = stdout(&fdid(&["eval", &old_path, "--freq", "0.1,0.2"]));
+    let csv_old = stdout_ok(&fdid(&[
+        "eval",
+        old_path.to_str().unwrap(),
+        "--freq",
+        "0.1,0.2",
+    ]));
     assert!(!csv_old.contains("warning"), "{csv_old}");
     let strip = |t: &str| -> Vec<String> {
         t.lines()
@@ -227,7 +181,7 @@ fn saved_model_keeps_the_unresolved_poles_and_eval_warns() {
     let mut bad = saved;
     bad["unresolved_poles"] = Value::String("x".into());
     let bad_path = dir.file("bad.json", &bad.to_string());
-    let o = fdid(&["eval", &bad_path, "--freq", "0.1"]);
+    let o = fdid(&["eval", bad_path.to_str().unwrap(), "--freq", "0.1"]);
     assert_eq!(o.status.code(), Some(1));
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(
@@ -240,16 +194,16 @@ fn saved_model_keeps_the_unresolved_poles_and_eval_warns() {
 fn diagnose_names_the_resonance_of_its_final_model() {
     let dir = Scratch::new("diagnose");
     let file = dir.file("gap.csv", &resonance_csv(false));
-    let mut args = vec!["diagnose", file.as_str()];
+    let mut args = vec!["diagnose", file.to_str().unwrap()];
     args.extend_from_slice(&ORDERS);
-    let text = stdout(&fdid(&args));
+    let text = stdout_ok(&fdid(&args));
     assert!(!warning_lines(&text).is_empty(), "{text}");
     assert!(
         text.contains("the data do not resolve (listed above)"),
         "{text}"
     );
     args.push("--json");
-    let v = json(&fdid(&args));
+    let v = json_of(&fdid(&args));
     check_unresolved_json(&v["initial"]);
     assert!(
         !v["final"]["unresolved_poles"]
@@ -275,17 +229,17 @@ fn bundled_data_sets_have_no_unresolved_poles() {
         let file = bundled(name);
         let mut args = vec!["fit", file.as_str()];
         args.extend_from_slice(flags);
-        let text = stdout(&fdid(&args));
+        let text = stdout_ok(&fdid(&args));
         assert!(!text.contains("unresolved"), "{name}: {text}");
         args.push("--json");
-        let v = json(&fdid(&args));
+        let v = json_of(&fdid(&args));
         assert_eq!(v["unresolved_poles"], Value::Array(vec![]), "{name}");
     }
     let dryer = bundled("dryer.csv");
     let args = [
         "diagnose", &dryer, "--domain", "z", "--ts", "0.08", "--na", "2", "--nb", "2",
     ];
-    let text = stdout(&fdid(&args));
+    let text = stdout_ok(&fdid(&args));
     assert!(!text.contains("unresolved"), "{text}");
 }
 
@@ -307,7 +261,7 @@ fn robot_arm_first_resonance_falls_between_two_lines() {
         "--periods",
         "1",
     ];
-    let text = stdout(&fdid(&args));
+    let text = stdout_ok(&fdid(&args));
     let warnings = warning_lines(&text);
     assert_eq!(warnings.len(), 1, "{text}");
     assert!(
@@ -317,7 +271,7 @@ fn robot_arm_first_resonance_falls_between_two_lines() {
     );
     let mut args = args.to_vec();
     args.push("--json");
-    let v = json(&fdid(&args));
+    let v = json_of(&fdid(&args));
     let list = v["unresolved_poles"].as_array().unwrap();
     assert_eq!(list.len(), 1);
     let (lo, hi) = (

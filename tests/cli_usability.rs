@@ -2,39 +2,11 @@
 //! examples in every help text.
 #![cfg(feature = "cli")]
 
+#[path = "common/cli.rs"]
+mod cli;
+
+use cli::{Scratch, bundled, fdid, json_of, run, stderr, stdout};
 use serde_json::Value;
-use std::path::PathBuf;
-use std::process::{Command, Output};
-
-fn fdid(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_fdid"))
-        .args(args)
-        .output()
-        .expect("run fdid")
-}
-
-fn stdout(o: &Output) -> String {
-    String::from_utf8(o.stdout.clone()).unwrap()
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8(o.stderr.clone()).unwrap()
-}
-
-fn bundled(name: &str) -> String {
-    format!("{}/data/{name}", env!("CARGO_MANIFEST_DIR"))
-}
-
-fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("fdid-usability-{}-{name}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
-
-fn json_of(o: &Output) -> Value {
-    assert!(o.status.success(), "fdid failed: {}", stderr(o));
-    serde_json::from_str(&stdout(o)).expect("valid JSON")
-}
 
 /// The series RLC of data/rlc_bandpass.s2p: S21 = 2 Z0 s C / (L C s² + (R + 2 Z0) C s + 1)
 /// with R = 5, L = 1e-6, C = 1e-9, Z0 = 50.
@@ -142,50 +114,29 @@ fn diagnose_reads_touchstone_and_adds_the_missing_pole() {
 
 #[test]
 fn malformed_touchstone_is_one_error_line_with_its_line_number() {
-    let dir = scratch("bad-ts");
-    let p = dir.join("bad.s1p");
-    std::fs::write(&p, "! x\n# MHz S MA R 50\n1 0.5 10\n2 0.5 oops\n").unwrap();
-    let o = fdid(&[
-        "fit",
-        p.to_str().unwrap(),
-        "--domain",
-        "s",
-        "--na",
-        "1",
-        "--nb",
-        "1",
-    ]);
+    let dir = Scratch::new("bad-ts");
+    let p = dir.file("bad.s1p", "! x\n# MHz S MA R 50\n1 0.5 10\n2 0.5 oops\n");
+    let o = run("fit", &p, &["--domain", "s", "--na", "1", "--nb", "1"]);
     assert_eq!(o.status.code(), Some(1));
     let e = stderr(&o);
     assert!(
         e.starts_with("error:") && e.contains("line 4") && e.contains("oops"),
         "{e}"
     );
-    let p = dir.join("v2.s2p");
-    std::fs::write(&p, "[Version] 2.0\n# GHz S RI\n").unwrap();
-    let o = fdid(&[
-        "fit",
-        p.to_str().unwrap(),
-        "--domain",
-        "s",
-        "--na",
-        "1",
-        "--nb",
-        "1",
-    ]);
+    let p = dir.file("v2.s2p", "[Version] 2.0\n# GHz S RI\n");
+    let o = run("fit", &p, &["--domain", "s", "--na", "1", "--nb", "1"]);
     let e = stderr(&o);
     assert_eq!(o.status.code(), Some(1));
     assert!(
         e.starts_with("error:") && e.contains("line 2") && e.contains("[Number of Ports]"),
         "{e}"
     );
-    let _ = std::fs::remove_dir_all(dir);
 }
 
 #[test]
 fn saved_model_evaluates_to_the_fitted_response() {
-    let dir = scratch("save");
-    let model = dir.join("eis.json");
+    let dir = Scratch::new("save");
+    let model = dir.path("eis.json");
     let m = model.to_str().unwrap();
     let fit = json_of(&fdid(&[
         "fit",
@@ -238,7 +189,6 @@ fn saved_model_evaluates_to_the_fitted_response() {
     let o = fdid(&["eval", &bundled("eis_battery.csv"), "--freq", "1"]);
     assert_eq!(o.status.code(), Some(1));
     assert!(stderr(&o).starts_with("error:"));
-    let _ = std::fs::remove_dir_all(dir);
 }
 
 #[test]

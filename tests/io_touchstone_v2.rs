@@ -2,6 +2,10 @@
 //! inputs as typed errors naming the line and the value.
 #![cfg(feature = "csv")]
 
+#[cfg(feature = "cli")]
+#[path = "common/cli.rs"]
+mod cli;
+
 use fdid::Complex;
 use fdid::error::FdidError;
 use fdid::io::{
@@ -20,9 +24,14 @@ fn parse(text: &str, ports: usize) -> Result<Touchstone, FdidError> {
     parse_touchstone(text.as_bytes(), ports, "t.s2p")
 }
 
-/// The line and message of a parse error.
-fn error_of(text: &str, ports: usize) -> (usize, String) {
-    match parse(text, ports) {
+/// The line and message of a parse error: read as `t.s2p` with `Some(ports)` ports, or as
+/// a `.ts` file with `None`.
+fn error_of(text: &str, ports: Option<usize>) -> (usize, String) {
+    let read = match ports {
+        Some(ports) => parse(text, ports),
+        None => parse_touchstone_v2(text.as_bytes(), "t.ts"),
+    };
+    match read {
         Err(FdidError::Parse { line, message, .. }) => (line, message),
         Err(e) => panic!("{text:?}: not a parse error: {e}"),
         Ok(t) => panic!("{text:?}: read as {t:?}"),
@@ -198,266 +207,239 @@ fn information_and_noise_blocks_are_skipped() {
     assert_eq!(t.values[1][1], Complex::new(3.0, 0.0));
 }
 
+/// A bad file: its text, how it is read (`Some(ports)`: as `t.s2p` with that many ports,
+/// `None`: as a `.ts` file), the line its error names and the needles of its message.
+struct Bad {
+    text: String,
+    ports: Option<usize>,
+    line: usize,
+    needles: &'static [&'static str],
+}
+
+const HEAD1: &str = "[Version] 2.0\n# Hz S RI\n[Number of Ports] 1\n";
+const HEAD2: &str = "[Version] 2.0\n# Hz S RI\n[Number of Ports] 2\n[Two-Port Data Order] 12_21\n";
+
+/// `text` read with `ports` ports.
+fn raw(text: &str, ports: usize, line: usize, needles: &'static [&'static str]) -> Bad {
+    Bad {
+        text: text.to_string(),
+        ports: Some(ports),
+        line,
+        needles,
+    }
+}
+
+/// A 1-port file: [`HEAD1`] and then `body`.
+fn one(body: &str, line: usize, needles: &'static [&'static str]) -> Bad {
+    raw(&format!("{HEAD1}{body}"), 1, line, needles)
+}
+
+/// A 2-port file: [`HEAD2`] and then `body`.
+fn two(body: &str, line: usize, needles: &'static [&'static str]) -> Bad {
+    raw(&format!("{HEAD2}{body}"), 2, line, needles)
+}
+
+/// `text` read as a `.ts` file.
+fn ts(text: &str, line: usize, needles: &'static [&'static str]) -> Bad {
+    Bad {
+        text: text.to_string(),
+        ports: None,
+        line,
+        needles,
+    }
+}
+
 /// Each bad file: the error names the line, and the message holds every needle.
 #[test]
 fn bad_version_2_files_name_the_line_and_value() {
-    let head1 = "[Version] 2.0\n# Hz S RI\n[Number of Ports] 1\n";
-    let head2 = "[Version] 2.0\n# Hz S RI\n[Number of Ports] 2\n[Two-Port Data Order] 12_21\n";
-    let cases: Vec<(String, usize, usize, Vec<&str>)> = vec![
+    let cases = [
         // fewer rows than declared
-        (
-            format!("{head1}[Number of Frequencies] 3\n[Network Data]\n1 0 0\n2 0 0\n[End]\n"),
-            1,
+        one(
+            "[Number of Frequencies] 3\n[Network Data]\n1 0 0\n2 0 0\n[End]\n",
             8,
-            vec!["2 frequencies", "says 3", "line 4"],
+            &["2 frequencies", "says 3", "line 4"],
         ),
         // more rows than declared
-        (
-            format!("{head1}[Number of Frequencies] 1\n[Network Data]\n1 0 0\n2 0 0\n[End]\n"),
-            1,
+        one(
+            "[Number of Frequencies] 1\n[Network Data]\n1 0 0\n2 0 0\n[End]\n",
             7,
-            vec!["more than the 1 frequencies", "`2`"],
+            &["more than the 1 frequencies", "`2`"],
         ),
         // no [Network Data]
-        (
-            format!("{head1}[Number of Frequencies] 1\n"),
-            1,
-            4,
-            vec!["no `[Network Data]`"],
-        ),
-        (
-            format!("{head1}[Number of Frequencies] 1\n[End]\n"),
-            1,
+        one("[Number of Frequencies] 1\n", 4, &["no `[Network Data]`"]),
+        one(
+            "[Number of Frequencies] 1\n[End]\n",
             5,
-            vec!["[End]", "before `[Network Data]`"],
+            &["[End]", "before `[Network Data]`"],
         ),
-        (
-            format!("{head1}[Number of Frequencies] 1\n1 0 0\n"),
-            1,
+        one(
+            "[Number of Frequencies] 1\n1 0 0\n",
             5,
-            vec!["`1 0 0` before `[Network Data]`"],
+            &["`1 0 0` before `[Network Data]`"],
         ),
         // bad numbers
-        (
-            format!("{head1}[Number of Frequencies] 1\n[Network Data]\n1 0 zero\n[End]\n"),
-            1,
+        one(
+            "[Number of Frequencies] 1\n[Network Data]\n1 0 zero\n[End]\n",
             6,
-            vec!["`zero` is not a number"],
+            &["`zero` is not a number"],
         ),
-        (
-            format!("{head1}[Number of Frequencies] 1\n[Network Data]\n1 0 inf\n[End]\n"),
-            1,
+        one(
+            "[Number of Frequencies] 1\n[Network Data]\n1 0 inf\n[End]\n",
             6,
-            vec!["`inf` is not finite"],
+            &["`inf` is not finite"],
         ),
-        (
-            format!("{head1}[Number of Frequencies] 2\n[Network Data]\n2 0 0\n1 0 0\n[End]\n"),
-            1,
+        one(
+            "[Number of Frequencies] 2\n[Network Data]\n2 0 0\n1 0 0\n[End]\n",
             7,
-            vec!["not above the previous one"],
+            &["not above the previous one"],
         ),
         // a row cut short
-        (
-            format!("{head2}[Number of Frequencies] 1\n[Network Data]\n1 0 0 0 0 0\n[End]\n"),
-            2,
+        two(
+            "[Number of Frequencies] 1\n[Network Data]\n1 0 0 0 0 0\n[End]\n",
             7,
-            vec!["ends after 6 of its 9 numbers"],
+            &["ends after 6 of its 9 numbers"],
         ),
         // no [End]
-        (
-            format!("{head1}[Number of Frequencies] 1\n[Network Data]\n1 0 0\n"),
-            1,
+        one(
+            "[Number of Frequencies] 1\n[Network Data]\n1 0 0\n",
             6,
-            vec!["without `[End]`"],
+            &["without `[End]`"],
         ),
-        (
-            format!("{head1}[Number of Frequencies] 1\n[Network Data]\n1 0 0\n[End]\n1 0 0\n"),
-            1,
+        one(
+            "[Number of Frequencies] 1\n[Network Data]\n1 0 0\n[End]\n1 0 0\n",
             8,
-            vec!["after `[End]`"],
+            &["after `[End]`"],
         ),
         // counts
-        (
-            format!("{head1}[Number of Frequencies] 0\n"),
-            1,
+        one(
+            "[Number of Frequencies] 0\n",
             4,
-            vec!["positive whole number", "`0`"],
+            &["positive whole number", "`0`"],
         ),
-        (
-            format!("{head1}[Number of Frequencies] many\n"),
-            1,
+        one("[Number of Frequencies] many\n", 4, &["`many`"]),
+        one(
+            "[Network Data]\n1 0 0\n[End]\n",
             4,
-            vec!["`many`"],
-        ),
-        (
-            format!("{head1}[Network Data]\n1 0 0\n[End]\n"),
-            1,
-            4,
-            vec!["without `[Number of Frequencies]`"],
+            &["without `[Number of Frequencies]`"],
         ),
         // ports
-        (
-            "[Version] 2.0\n# Hz S RI\n[Number of Ports] 4\n".into(),
+        raw(
+            "[Version] 2.0\n# Hz S RI\n[Number of Ports] 4\n",
             2,
             3,
-            vec!["[Number of Ports] 4", "more than 2 ports"],
+            &["[Number of Ports] 4", "more than 2 ports"],
         ),
-        (
-            "[Version] 2.0\n# Hz S RI\n[Number of Ports] 1\n".into(),
+        raw(
+            "[Version] 2.0\n# Hz S RI\n[Number of Ports] 1\n",
             2,
             3,
-            vec!["[Number of Ports] 1", ".s2p names 2 ports"],
+            &["[Number of Ports] 1", ".s2p names 2 ports"],
         ),
-        (
-            "[Version] 2.0\n# Hz S RI\n[Number of Frequencies] 1\n".into(),
+        raw(
+            "[Version] 2.0\n# Hz S RI\n[Number of Frequencies] 1\n",
             1,
             3,
-            vec!["[Number of Ports]` must follow the option line"],
+            &["[Number of Ports]` must follow the option line"],
         ),
-        (
-            "[Version] 2.0\n# Hz H RI\n[Number of Ports] 1\n".into(),
+        raw(
+            "[Version] 2.0\n# Hz H RI\n[Number of Ports] 1\n",
             1,
             3,
-            vec!["H parameters are defined for 2 ports only"],
+            &["H parameters are defined for 2 ports only"],
         ),
         // two-port data order
-        (
+        raw(
             "[Version] 2.0\n# Hz S RI\n[Number of Ports] 2\n[Number of Frequencies] 1\n\
-             [Network Data]\n"
-                .into(),
+             [Network Data]\n",
             2,
             5,
-            vec!["without `[Two-Port Data Order]`"],
+            &["without `[Two-Port Data Order]`"],
         ),
-        (
-            "[Version] 2.0\n# Hz S RI\n[Number of Ports] 2\n[Two-Port Data Order] 12-21\n".into(),
+        raw(
+            "[Version] 2.0\n# Hz S RI\n[Number of Ports] 2\n[Two-Port Data Order] 12-21\n",
             2,
             4,
-            vec!["12_21 or 21_12", "`12-21`"],
+            &["12_21 or 21_12", "`12-21`"],
         ),
-        (
-            format!("{head1}[Two-Port Data Order] 12_21\n"),
-            1,
-            4,
-            vec!["2-port files only"],
-        ),
+        one("[Two-Port Data Order] 12_21\n", 4, &["2-port files only"]),
         // reference
-        (
-            format!("{head2}[Reference] 50\n[Number of Frequencies] 1\n"),
-            2,
+        two(
+            "[Reference] 50\n[Number of Frequencies] 1\n",
             6,
-            vec!["`[Reference]` (line 5) gives 1 of the 2"],
+            &["`[Reference]` (line 5) gives 1 of the 2"],
         ),
-        (
-            format!("{head2}[Reference] 50 -75\n"),
-            2,
-            5,
-            vec!["-75", "port 2", "positive"],
-        ),
-        (
-            format!("{head2}[Reference] 50 75 100\n"),
-            2,
-            5,
-            vec!["`100` is one value more"],
-        ),
-        (
-            format!("{head2}[Reference] 50 ohm\n"),
-            2,
-            5,
-            vec!["`ohm` is not a number"],
-        ),
+        two("[Reference] 50 -75\n", 5, &["-75", "port 2", "positive"]),
+        two("[Reference] 50 75 100\n", 5, &["`100` is one value more"]),
+        two("[Reference] 50 ohm\n", 5, &["`ohm` is not a number"]),
         // matrix format
-        (
-            format!("{head1}[Matrix Format] Diagonal\n"),
-            1,
+        one(
+            "[Matrix Format] Diagonal\n",
             4,
-            vec!["Full, Lower or Upper", "`Diagonal`"],
+            &["Full, Lower or Upper", "`Diagonal`"],
         ),
         // unsupported and unknown keywords
-        (
-            format!("{head2}[Mixed-Mode Order] D1,2\n"),
-            2,
+        two(
+            "[Mixed-Mode Order] D1,2\n",
             5,
-            vec!["[Mixed-Mode Order]", "not supported"],
+            &["[Mixed-Mode Order]", "not supported"],
         ),
-        (
-            format!("{head1}[Frobnicate] 1\n"),
-            1,
+        one(
+            "[Frobnicate] 1\n",
             4,
-            vec!["unknown Touchstone 2.0 keyword `[Frobnicate]`"],
+            &["unknown Touchstone 2.0 keyword `[Frobnicate]`"],
         ),
-        (
-            format!("{head1}[Number of Frequencies] 1\n[Number of Frequencies] 1\n"),
-            1,
+        one(
+            "[Number of Frequencies] 1\n[Number of Frequencies] 1\n",
             5,
-            vec!["repeats the keyword of line 4"],
+            &["repeats the keyword of line 4"],
         ),
         // version and option line
-        (
-            "[Version] 2.1\n# Hz S RI\n".into(),
+        raw(
+            "[Version] 2.1\n# Hz S RI\n",
             1,
             1,
-            vec!["`[Version] 2.1`", "2.0"],
+            &["`[Version] 2.1`", "2.0"],
         ),
-        (
-            "! c\n[Version] 2.0\n[Number of Ports] 1\n".into(),
+        raw(
+            "! c\n[Version] 2.0\n[Number of Ports] 1\n",
             1,
             3,
-            vec!["option line", "must follow `[Version] 2.0`"],
+            &["option line", "must follow `[Version] 2.0`"],
         ),
-        (
-            format!("{head1}# GHz S MA\n"),
-            1,
-            4,
-            vec!["a second option line"],
-        ),
-        (
-            "[Version] 2.0\n# Hz S XY\n".into(),
-            1,
-            2,
-            vec!["unknown field `XY`"],
-        ),
+        one("# GHz S MA\n", 4, &["a second option line"]),
+        raw("[Version] 2.0\n# Hz S XY\n", 1, 2, &["unknown field `XY`"]),
         // noise data
-        (
-            format!(
-                "{head2}[Number of Frequencies] 1\n[Network Data]\n1 0 0 0 0 0 0 0 0\n\
-                 [Noise Data]\n1 0.5 0.1 10 0.3\n[End]\n"
-            ),
-            2,
+        two(
+            "[Number of Frequencies] 1\n[Network Data]\n1 0 0 0 0 0 0 0 0\n\
+             [Noise Data]\n1 0.5 0.1 10 0.3\n[End]\n",
             8,
-            vec!["without `[Number of Noise Frequencies]`"],
+            &["without `[Number of Noise Frequencies]`"],
         ),
-        (
-            format!(
-                "{head2}[Number of Frequencies] 1\n[Number of Noise Frequencies] 1\n\
-                 [Network Data]\n1 0 0 0 0 0 0 0 0\n[End]\n"
-            ),
-            2,
+        two(
+            "[Number of Frequencies] 1\n[Number of Noise Frequencies] 1\n\
+             [Network Data]\n1 0 0 0 0 0 0 0 0\n[End]\n",
             9,
-            vec!["without the `[Noise Data]`", "(line 6)"],
+            &["without the `[Noise Data]`", "(line 6)"],
         ),
-        (
-            format!("{head1}[Number of Noise Frequencies] 1\n"),
-            1,
-            4,
-            vec!["2 ports only"],
-        ),
-        (
-            format!("{head1}[Number of Frequencies] 1\n[Network Data] 1 0 0\n[End]\n"),
-            1,
+        one("[Number of Noise Frequencies] 1\n", 4, &["2 ports only"]),
+        one(
+            "[Number of Frequencies] 1\n[Network Data] 1 0 0\n[End]\n",
             5,
-            vec!["takes no argument", "`1 0 0`"],
+            &["takes no argument", "`1 0 0`"],
         ),
         // information block
-        (
-            format!("{head1}[End Information]\n"),
-            1,
-            4,
-            vec!["without `[Begin Information]`"],
-        ),
+        one("[End Information]\n", 4, &["without `[Begin Information]`"]),
+        // a version 1 file in a .ts file
+        ts("# Hz S RI\n1 0 0\n", 1, &["[Version] 2.0"]),
     ];
     let mut failures = Vec::new();
-    for (text, ports, line, needles) in cases {
+    for Bad {
+        text,
+        ports,
+        line,
+        needles,
+    } in cases
+    {
         let (got, message) = error_of(&text, ports);
         if got != line {
             failures.push(format!("{text:?}: line {got}, expected {line}: {message}"));
@@ -469,14 +451,6 @@ fn bad_version_2_files_name_the_line_and_value() {
         }
     }
     assert!(failures.is_empty(), "{}", failures.join("\n"));
-    // a version 1 file in a .ts file
-    match parse_touchstone_v2("# Hz S RI\n1 0 0\n".as_bytes(), "t.ts") {
-        Err(FdidError::Parse { line, message, .. }) => {
-            assert_eq!(line, 1);
-            assert!(message.contains("[Version] 2.0"), "{message}");
-        }
-        other => panic!("{other:?}"),
-    }
 }
 
 /// Every prefix of a valid version 2 file, and the file with each byte replaced, reads or
@@ -508,62 +482,24 @@ fn damaged_version_2_files_never_panic() {
 #[cfg(feature = "cli")]
 #[test]
 fn cli_fits_the_version_2_file_as_the_version_1_file() {
-    use std::process::Command;
-    let run = |file: &str| -> serde_json::Value {
-        let o = Command::new(env!("CARGO_BIN_EXE_fdid"))
-            .args([
-                "fit",
-                bundled(file).to_str().unwrap(),
-                "--domain",
-                "s",
-                "--na",
-                "2",
-                "--nb",
-                "1",
-                "--port",
-                "21",
-                "--json",
-            ])
-            .output()
-            .unwrap();
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-        serde_json::from_slice(&o.stdout).unwrap()
+    use cli::{json_of, run, stderr, stdout};
+    let orders = ["--domain", "s", "--na", "2", "--nb", "1"];
+    let fit = |file: &str| {
+        json_of(&run(
+            "fit",
+            &bundled(file),
+            &[&orders[..], &["--port", "21", "--json"]].concat(),
+        ))
     };
-    let (v1, v2) = (run("rlc_bandpass.s2p"), run("rlc_bandpass.ts"));
+    let (v1, v2) = (fit("rlc_bandpass.s2p"), fit("rlc_bandpass.ts"));
     assert_eq!(v1["poles"], v2["poles"]);
     assert_eq!(v1["frf"], v2["frf"]);
     // the text names the version
-    let o = Command::new(env!("CARGO_BIN_EXE_fdid"))
-        .args([
-            "fit",
-            bundled("rlc_bandpass.ts").to_str().unwrap(),
-            "--domain",
-            "s",
-            "--na",
-            "2",
-            "--nb",
-            "1",
-        ])
-        .output()
-        .unwrap();
-    let text = String::from_utf8_lossy(&o.stdout);
+    let ts = bundled("rlc_bandpass.ts");
+    let text = stdout(&run("fit", &ts, &orders));
     assert!(text.contains("Touchstone (version 2.0) S21"), "{text}");
     // --port outside the ports of a .ts file is a usage error
-    let o = Command::new(env!("CARGO_BIN_EXE_fdid"))
-        .args([
-            "fit",
-            bundled("rlc_bandpass.ts").to_str().unwrap(),
-            "--domain",
-            "s",
-            "--na",
-            "2",
-            "--nb",
-            "1",
-            "--port",
-            "31",
-        ])
-        .output()
-        .unwrap();
+    let o = run("fit", &ts, &[&orders[..], &["--port", "31"]].concat());
     assert_eq!(o.status.code(), Some(2));
-    assert!(String::from_utf8_lossy(&o.stderr).contains("--port 31"));
+    assert!(stderr(&o).contains("--port 31"));
 }

@@ -282,13 +282,7 @@ pub(crate) fn regressor_least_squares_gram<T: Real>(
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    fn lcg(state: &mut u64) -> f64 {
-        *state = state
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        ((*state >> 11) as f64) / ((1u64 << 53) as f64) - 0.5
-    }
+    use crate::test_rng::lcg;
 
     /// A tall matrix with columns of very different scales (equilibration must absorb them).
     fn tall(m: usize, p: usize, seed: u64) -> DMatrix<f64> {

@@ -1,0 +1,101 @@
+//! Helpers shared by the tests of the `fdid` command (`tests/cli*.rs` and the command test
+//! of `tests/io_touchstone_v2.rs`, each including this file with
+//! `#[path = "common/cli.rs"] mod cli;`): running the built binary, reading what it printed,
+//! scratch files, and the bundled data sets.
+
+#![allow(dead_code)]
+
+use serde_json::Value;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+/// A scratch directory removed on drop.
+pub struct Scratch(PathBuf);
+
+impl Scratch {
+    pub fn new(name: &str) -> Self {
+        static COUNTER: AtomicUsize = AtomicUsize::new(0);
+        let n = COUNTER.fetch_add(1, Ordering::Relaxed);
+        let dir =
+            std::env::temp_dir().join(format!("fdid-cli-test-{}-{n}-{name}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        Self(dir)
+    }
+
+    /// The path of `name` in the directory (not created).
+    pub fn path(&self, name: &str) -> PathBuf {
+        self.0.join(name)
+    }
+
+    /// Writes `contents` to `name` in the directory and returns its path.
+    pub fn file(&self, name: &str, contents: &str) -> PathBuf {
+        let p = self.path(name);
+        std::fs::write(&p, contents).unwrap();
+        p
+    }
+}
+
+impl Drop for Scratch {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}
+
+/// Runs `fdid ARGS…`.
+pub fn fdid(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_fdid"))
+        .args(args)
+        .output()
+        .expect("run fdid")
+}
+
+/// Runs `fdid SUBCOMMAND PATH ARGS…`.
+pub fn run(subcommand: &str, path: &Path, args: &[&str]) -> Output {
+    let mut all = vec![subcommand, path.to_str().unwrap()];
+    all.extend_from_slice(args);
+    fdid(&all)
+}
+
+pub fn stdout(o: &Output) -> String {
+    String::from_utf8(o.stdout.clone()).unwrap()
+}
+
+pub fn stderr(o: &Output) -> String {
+    String::from_utf8(o.stderr.clone()).unwrap()
+}
+
+/// The stdout of a run that must have succeeded.
+pub fn stdout_ok(o: &Output) -> String {
+    assert!(o.status.success(), "fdid failed: {}", stderr(o));
+    stdout(o)
+}
+
+/// The JSON on the stdout of a run that must have succeeded.
+pub fn json_of(o: &Output) -> Value {
+    serde_json::from_str(&stdout_ok(o)).expect("valid JSON")
+}
+
+/// Runs `fdid SUBCOMMAND PATH ARGS… --json`, expecting success and one JSON object.
+pub fn json(subcommand: &str, path: &Path, args: &[&str]) -> Value {
+    let mut all = args.to_vec();
+    all.push("--json");
+    let o = run(subcommand, path, &all);
+    assert!(
+        o.status.success(),
+        "fdid {subcommand} {path:?} {all:?} failed: {}",
+        stderr(&o)
+    );
+    let text = stdout(&o);
+    assert_eq!(
+        text.trim().lines().count(),
+        1,
+        "one JSON line expected: {text}"
+    );
+    serde_json::from_str(&text).expect("valid JSON")
+}
+
+/// The path of the bundled data file `data/NAME`.
+pub fn bundled(name: &str) -> String {
+    format!("{}/data/{name}", env!("CARGO_MANIFEST_DIR"))
+}
