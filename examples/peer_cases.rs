@@ -3,7 +3,8 @@
 //! response on the case's grid and the poles, for `bench/score_fdid.py` to score with the
 //! harness's own `score()`. Driven by `bench/compare.sh`.
 //!
-//! Run: `cargo run --release --example peer_cases -- CASES_DIR OUT_DIR`
+//! Run: `cargo run --release --example peer_cases -- CASES_DIR OUT_DIR` (`PEER_CASE=NAME`:
+//! that case only; `PEER_REPS=K`: K timed runs instead of 5).
 
 use fdid::prelude::*;
 use serde_json::{Value, json};
@@ -65,6 +66,14 @@ fn main() {
         })
         .collect();
     names.sort();
+    // `PEER_CASE=NAME` fits only that case (e.g. for a profiler), `PEER_REPS` times
+    if let Ok(only) = std::env::var("PEER_CASE") {
+        names.retain(|n| *n == only);
+    }
+    let reps: usize = std::env::var("PEER_REPS")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(5);
     for name in names {
         let meta: Value = serde_json::from_str(
             &std::fs::read_to_string(cases.join(format!("{name}.json"))).expect("meta"),
@@ -83,13 +92,14 @@ fn main() {
         let pipeline = Pipeline::default();
         let mut fit = pipeline.fit(&model, &data).expect("fit"); // warm-up
         let mut times = vec![];
-        for _ in 0..5 {
+        for _ in 0..reps.max(1) {
             let t = Instant::now();
             fit = pipeline.fit(&model, &data).expect("fit");
             times.push(t.elapsed().as_secs_f64());
         }
         let mut sorted = times.clone();
         sorted.sort_by(f64::total_cmp);
+        let median = sorted[sorted.len() / 2];
         let frf: Vec<[f64; 2]> = fit.response().iter().map(|g| [g.re, g.im]).collect();
         let poles: Vec<[f64; 2]> = fit
             .poles()
@@ -103,10 +113,10 @@ fn main() {
             .map(|s| json!({"name": s.name, "iterations": s.solution.iterations}))
             .collect();
         let doc = json!({
-            "time_s": sorted[2], "times_s": times, "omega": data.omega(),
+            "time_s": median, "times_s": times, "omega": data.omega(),
             "frf": frf, "poles": poles, "stages": stages,
         });
         std::fs::write(out.join(format!("{name}.json")), doc.to_string()).expect("write");
-        eprintln!("{name}: {:.2} ms", 1e3 * sorted[2]);
+        eprintln!("{name}: {:.2} ms", 1e3 * median);
     }
 }

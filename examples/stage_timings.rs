@@ -1,6 +1,6 @@
 //! Stage timings of the standard chain on the order-10 case (b_ct10, 20 000 lines) and on
 //! a_ct4 against the number of lines: `cargo run --release --example stage_timings`
-//! (`PROBE=full`, `PROBE=ct4` or `PROBE=fitnew` repeat one part for a profiler, `PROBE=dft` times the
+//! (`PROBE=full`, `PROBE=ct4` or `PROBE=fitnew` repeat one part for a profiler, `REPS` times, `PROBE=dft` times the
 //! DFT of 10⁷ samples).
 #[path = "../tests/common/mod.rs"]
 mod common;
@@ -36,6 +36,14 @@ fn best<R>(n: usize, mut f: impl FnMut() -> R) -> (f64, R) {
     (t, out)
 }
 
+/// Repetitions of a probe: `REPS`, else `default`.
+fn reps(default: usize) -> usize {
+    std::env::var("REPS")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(default)
+}
+
 fn main() {
     if std::env::var("PROBE").as_deref() == Ok("dft") {
         let n = 10_000_000usize;
@@ -50,7 +58,7 @@ fn main() {
     if std::env::var("PROBE").as_deref() == Ok("ct4") {
         let (data, _) = simulate(&a_ct4(), 2_000, 11);
         let model = Rational::continuous(4, 3, data.omega()).unwrap();
-        for _ in 0..2000 {
+        for _ in 0..reps(2000) {
             Pipeline::default().fit(&model, &data).unwrap();
         }
         return;
@@ -68,7 +76,7 @@ fn main() {
             return;
         }
         Ok("full") => {
-            for _ in 0..20 {
+            for _ in 0..reps(20) {
                 Pipeline::default().fit(&start, &data).unwrap();
             }
             return;

@@ -257,12 +257,12 @@ impl<T: Real> PolyBasis<T> {
                     if k >= out.len() {
                         break;
                     }
-                    let t1 = (v - *q).inv();
+                    let t1 = crate::scalar::recip(v - *q);
                     if q.im == T::zero() {
                         out[k] = t1;
                         k += 1;
                     } else {
-                        let t2 = (v - q.conj()).inv();
+                        let t2 = crate::scalar::recip(v - q.conj());
                         out[k] = t1 + t2;
                         if k + 1 < out.len() {
                             out[k + 1] = (t1 - t2) * i;

@@ -12,9 +12,6 @@ use crate::{Complex, Real};
 use nalgebra::DMatrix;
 use num_traits::Float;
 
-/// G and ∂G/∂θ on the data lines.
-type ResponseJacobian<T> = (Vec<Complex<T>>, DMatrix<Complex<T>>);
-
 /// What one stage of an estimation did.
 #[derive(Debug, Clone, PartialEq)]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
@@ -58,8 +55,13 @@ pub struct Fit<T: Real, M> {
     noise_variance: T,
     noise_known: bool,
     covariance: Option<DMatrix<T>>,
+    /// F with Cov θ̂ = F Fᵀ.
+    #[cfg_attr(feature = "serde", serde(default))]
+    covariance_factor: Option<DMatrix<T>>,
     robust_covariance: Option<DMatrix<T>>,
-    response_std: Option<ResponseStd<T>>,
+    /// The standard deviations of the response, computed when first asked for.
+    #[cfg_attr(feature = "serde", serde(skip))]
+    response_std: std::sync::OnceLock<Option<ResponseStd<T>>>,
     residuals: Vec<Complex<T>>,
     validation: Validation,
     stages: Vec<Stage<T>>,
@@ -110,13 +112,14 @@ impl<T: Real, M: ModelStructure<T>> Fit<T, M> {
     }
 
     /// The statistics of an ML problem at θ without any N × p matrix, over blocks of lines
-    /// ([`MlProblem::for_each_block`]): r, G and JᵀJ in a first pass; the covariance from
-    /// the equilibrated Gram matrix when it is accepted (see [`covariance_factors`]); the
-    /// sandwich's JᵀD²J and the response's standard deviations in a second pass (which
-    /// reuses the first when one block holds all the lines). `None` for small problems
-    /// (N·p ≤ 32 768, whose N × p matrices stay in cache), when anything is not finite or
-    /// when the Gram matrix is refused: then the caller takes the path of
-    /// [`Fit::from_residuals`] (the full J, its QR/SVD when needed, typed errors).
+    /// ([`MlProblem::for_each_block`]): r and G first (reusing the problem's last
+    /// evaluation when it was at θ, as after a solver's last step), then in one pass of
+    /// Jacobian blocks both JᵀJ and the sandwich's JᵀD²J (D from the residuals); the
+    /// covariance from the equilibrated Gram matrix when it is accepted (see
+    /// [`covariance_factors`]). `None` for small problems (N·p ≤ 32 768, whose N × p
+    /// matrices stay in cache), when anything is not finite or when the Gram matrix is
+    /// refused: then the caller takes the path of [`Fit::from_residuals`] (the full J, its
+    /// QR/SVD when needed, typed errors).
     fn ml_blocks<Mp: ModelStructure<T> + ?Sized>(
         problem: &MlProblem<'_, T, Mp>,
         theta: &[T],
@@ -131,41 +134,21 @@ impl<T: Real, M: ModelStructure<T>> Fit<T, M> {
         if p == 0 || 2 * n < p || crate::solver::gram::small_problem(n, p) {
             return None;
         }
-        // pass 1: r, G and JᵀJ
         let mut r = vec![T::zero(); 2 * n];
-        let mut response = Vec::with_capacity(n);
-        let mut g = DMatrix::zeros(p, p);
-        let finite = problem.for_each_block(theta, false, |k0, out, jac| {
-            problem.block_residuals(k0, out, &mut r);
-            response.extend_from_slice(&out.g);
-            gram_into(jac, &mut g, true);
-        });
-        if !finite || !r.iter().all(|v| Float::is_finite(*v)) {
+        let (finite, response) = problem.residuals_response(theta, &mut r);
+        if !finite {
             return None;
         }
         let head = Head::new(n, p, r, level).ok()?;
-        let sc = scaled_cholesky(&g, max_condition::<T>())?;
-        let linv = sc
-            .chol
-            .l()
-            .solve_lower_triangular(&DMatrix::identity(p, p))?;
-        let f0 = DMatrix::from_fn(p, p, |i, k| linv[(k, i)] / sc.d[i]);
-        if !f0.iter().all(|v| Float::is_finite(*v)) {
-            return None;
-        }
-        let factor = head.lambda.map(|l| &f0 * Float::sqrt(l / T::lit(2.0)));
-        // pass 2 (the blocks of pass 1 again when one block holds all the lines): the
-        // sandwich's Q = (DJ)ᵀ(DJ) and the response's standard deviations
         let d: Vec<T> = local_half_power(&head.residuals)
             .into_iter()
             .map(Float::sqrt)
             .collect();
+        // JᵀJ and Q = (DJ)ᵀ(DJ) from the same blocks (J scaled in place after the first)
+        let mut g = DMatrix::zeros(p, p);
         let mut q = DMatrix::zeros(p, p);
-        let mut blocks = factor.as_ref().map(|_| ResponseStdBlocks::new(n, p));
-        let finite = problem.for_each_block(theta, true, |k0, out, jac| {
-            if let (Some(b), Some(f)) = (blocks.as_mut(), factor.as_ref()) {
-                b.push(&out.dg, 0, &out.g, f);
-            }
+        let finite = problem.for_each_block(theta, true, |k0, _, jac| {
+            gram_into(jac, &mut g, true);
             let len = jac.nrows() / 2;
             for col in jac.as_mut_slice().chunks_exact_mut(2 * len) {
                 for (c, dk) in col.chunks_exact_mut(2).zip(&d[k0..k0 + len]) {
@@ -178,16 +161,23 @@ impl<T: Real, M: ModelStructure<T>> Fit<T, M> {
         if !finite {
             return None;
         }
+        let sc = scaled_cholesky(&g, max_condition::<T>())?;
+        let linv = sc
+            .chol
+            .l()
+            .solve_lower_triangular(&DMatrix::identity(p, p))?;
+        let f0 = DMatrix::from_fn(p, p, |i, k| linv[(k, i)] / sc.d[i]);
+        if !f0.iter().all(|v| Float::is_finite(*v)) {
+            return None;
+        }
+        let factor = head.lambda.map(|l| &f0 * Float::sqrt(l / T::lit(2.0)));
         let c0 = &f0 * f0.transpose();
         let robust = &c0 * &q * &c0;
-        let covariance = factor.as_ref().map(|f| f * f.transpose());
-        let response_std = blocks.map(|b| b.out);
         Some(Parts {
             head,
-            covariance,
+            factor,
             robust_covariance: Some(robust),
             response,
-            response_std,
         })
     }
 
@@ -201,10 +191,9 @@ impl<T: Real, M: ModelStructure<T>> Fit<T, M> {
     ) -> Self {
         let Parts {
             head,
-            covariance,
+            factor,
             robust_covariance,
             response,
-            response_std,
         } = parts;
         let validation = Validation::new(
             &head.residuals,
@@ -220,31 +209,32 @@ impl<T: Real, M: ModelStructure<T>> Fit<T, M> {
             cost: head.cost,
             noise_variance: head.noise_variance,
             noise_known: head.noise_known,
-            covariance,
+            covariance: factor.as_ref().map(|f| f * f.transpose()),
+            covariance_factor: factor,
             robust_covariance,
-            response_std,
+            response_std: std::sync::OnceLock::new(),
             residuals: head.residuals,
             validation,
             stages,
         }
     }
 
-    /// r, J, the noise level and (G, ∂G/∂θ) of an ML problem at θ.
+    /// r, J, the noise level and G of an ML problem at θ.
     #[allow(clippy::type_complexity)] // a private tuple of the four inputs
     fn ml_statistics_input<Mp: ModelStructure<T> + ?Sized>(
         problem: &MlProblem<'_, T, Mp>,
         theta: &[T],
-    ) -> Result<(Vec<T>, DMatrix<T>, NoiseLevel, Option<ResponseJacobian<T>>)> {
-        let (n, p) = (problem.data().len(), problem.n_params());
+    ) -> Result<(Vec<T>, DMatrix<T>, NoiseLevel, Option<Vec<Complex<T>>>)> {
         let level = if problem.weights().is_some() {
             NoiseLevel::Known
         } else {
             NoiseLevel::Estimated
         };
         let (r, jac) = residuals_and_jacobian(problem, theta)?;
-        let (response, dg) = problem.take_response_jacobian();
-        let dg = (dg.shape() == (n, p) && response.len() == n).then_some((response, dg));
-        Ok((r, jac, level, dg))
+        let response = problem
+            .response_at(theta)
+            .filter(|g| g.len() == problem.data().len());
+        Ok((r, jac, level, response))
     }
 
     /// Evaluates the statistics of `theta` with the normalised residuals of any
@@ -281,7 +271,7 @@ impl<T: Real, M: ModelStructure<T>> Fit<T, M> {
         Self::from_residuals(model, data, theta, r, jac, level, stages, None)
     }
 
-    /// `response`: G and ∂G/∂θ at θ on the data lines when the caller has them.
+    /// `response`: G at θ on the data lines when the caller has it.
     #[allow(clippy::too_many_arguments)]
     fn from_residuals(
         model: M,
@@ -291,7 +281,7 @@ impl<T: Real, M: ModelStructure<T>> Fit<T, M> {
         jac: DMatrix<T>,
         level: NoiseLevel,
         stages: Vec<Stage<T>>,
-        response: Option<ResponseJacobian<T>>,
+        response: Option<Vec<Complex<T>>>,
     ) -> Result<Self> {
         let (n, p) = (data.len(), model.n_params());
         let head = Head::new(n, p, r, level)?;
@@ -300,20 +290,16 @@ impl<T: Real, M: ModelStructure<T>> Fit<T, M> {
         let factor = head
             .lambda
             .and_then(|l| base.map(|f| f * Float::sqrt(l / T::lit(2.0))));
-        let covariance = factor.as_ref().map(|f| f * f.transpose());
-        let (response, dg) = response.unwrap_or_else(|| {
+        let response = response.unwrap_or_else(|| {
             let mut response = vec![Complex::new(T::zero(), T::zero()); n];
-            let mut dg = DMatrix::zeros(n, p);
-            model.jacobian_into(&theta, data.omega(), &mut response, &mut dg);
-            (response, dg)
+            model.response_into(&theta, data.omega(), &mut response);
+            response
         });
-        let response_std = factor.map(|f| ResponseStd::new(&dg, &f, &response));
         let parts = Parts {
             head,
-            covariance,
+            factor,
             robust_covariance,
             response,
-            response_std,
         };
         Ok(Self::assemble(model, data, theta, parts, stages))
     }
@@ -375,27 +361,60 @@ impl<T: Real, M: ModelStructure<T>> Fit<T, M> {
 
     /// Standard deviation of Ĝ at each data frequency: σ_G(ω_k)² = E|Ĝ_k − G_k|² =
     /// Σ_ij Cov_ij Re(∂G_k/∂θ_i · conj ∂G_k/∂θ_j).
+    ///
+    /// Computed on the first call of this method, [`Fit::magnitude_std`],
+    /// [`Fit::phase_std`] or [`Fit::bounds`] (one evaluation of ∂G/∂θ on the data lines).
     pub fn response_std(&self) -> Option<&[T]> {
-        self.response_std.as_ref().map(|s| s.complex.as_slice())
+        self.std_of_response().map(|s| s.complex.as_slice())
+    }
+
+    /// The [`ResponseStd`] of the fit, computed on first use: ∂G/∂θ at θ̂ on blocks of
+    /// the data lines, through the covariance factor.
+    fn std_of_response(&self) -> Option<&ResponseStd<T>> {
+        self.response_std
+            .get_or_init(|| {
+                let f = self.covariance_factor.as_ref()?;
+                let (n, p) = (self.omega.len(), f.ncols());
+                let mut blocks = ResponseStdBlocks::new(n, p);
+                let mut g = vec![Complex::new(T::zero(), T::zero()); RESPONSE_BLOCK.min(n)];
+                let mut dg = DMatrix::zeros(0, p);
+                for k0 in (0..n).step_by(RESPONSE_BLOCK) {
+                    let len = RESPONSE_BLOCK.min(n - k0);
+                    if dg.nrows() != len {
+                        dg = DMatrix::zeros(len, p);
+                        g.resize(len, Complex::new(T::zero(), T::zero()));
+                    }
+                    let lines = k0..k0 + len;
+                    self.model.jacobian_into(
+                        &self.theta,
+                        &self.omega[lines.clone()],
+                        &mut g,
+                        &mut dg,
+                    );
+                    blocks.push_block(&dg, 0, &self.response[lines], f);
+                }
+                Some(blocks.out)
+            })
+            .as_ref()
     }
 
     /// Standard deviation of |Ĝ| at each data frequency (first order: the component of
     /// δG along G).
     pub fn magnitude_std(&self) -> Option<&[T]> {
-        self.response_std.as_ref().map(|s| s.magnitude.as_slice())
+        self.std_of_response().map(|s| s.magnitude.as_slice())
     }
 
     /// Standard deviation of the phase ∠Ĝ (rad) at each data frequency (first order:
     /// Im(δG/G)).
     pub fn phase_std(&self) -> Option<&[T]> {
-        self.response_std.as_ref().map(|s| s.phase.as_slice())
+        self.std_of_response().map(|s| s.phase.as_slice())
     }
 
     /// Pointwise confidence bounds at `level` (e.g. 0.95) on |G| and on its phase at each
     /// data frequency, from the first-order standard deviations and the normal quantile
     /// z = Φ⁻¹((1 + level)/2). `None` without a covariance or for `level` outside (0, 1).
     pub fn bounds(&self, level: f64) -> Option<Vec<Bounds<T>>> {
-        let s = self.response_std.as_ref()?;
+        let s = self.std_of_response()?;
         if !(level > 0.0 && level < 1.0) {
             return None;
         }
@@ -515,10 +534,10 @@ impl<T: Real> Head<T> {
 /// Everything of a [`Fit`] but the model, θ and the stages.
 struct Parts<T: Real> {
     head: Head<T>,
-    covariance: Option<DMatrix<T>>,
+    /// F with Cov θ̂ = F Fᵀ.
+    factor: Option<DMatrix<T>>,
     robust_covariance: Option<DMatrix<T>>,
     response: Vec<Complex<T>>,
-    response_std: Option<ResponseStd<T>>,
 }
 
 /// Pointwise confidence bounds of one line (see [`Fit::bounds`]).
@@ -533,27 +552,13 @@ pub struct Bounds<T: Real> {
 
 /// First-order standard deviations of Ĝ, |Ĝ| and ∠Ĝ on the data lines.
 #[derive(Debug, Clone)]
-#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 struct ResponseStd<T: Real> {
     complex: Vec<T>,
     magnitude: Vec<T>,
     phase: Vec<T>,
 }
 
-impl<T: Real> ResponseStd<T> {
-    /// From ∂G/∂θ (`dg`), a covariance factor F (Cov = F Fᵀ) and G: with a_k = (∂G_k/∂θ)F,
-    /// σ_G² = ‖a_k‖², σ_|G| = ‖Re(conj(G_k) a_k)‖/|G_k|, σ_∠G = ‖Im(a_k/G_k)‖.
-    /// Blocks of lines go through two real products (the real gemm is much faster than the
-    /// complex one) in small reused buffers.
-    fn new(dg: &DMatrix<Complex<T>>, f: &DMatrix<T>, g: &[Complex<T>]) -> Self {
-        let n = g.len();
-        let mut blocks = ResponseStdBlocks::new(n, f.ncols());
-        blocks.push(dg, 0, g, f);
-        blocks.out
-    }
-}
-
-/// Lines per block of [`ResponseStd::new`].
+/// Lines per block of the response's standard deviations.
 const RESPONSE_BLOCK: usize = 256;
 
 /// [`ResponseStd`] built block of lines by block of lines, with the buffers of the two
@@ -582,16 +587,11 @@ impl<T: Real> ResponseStdBlocks<T> {
         }
     }
 
-    /// Appends the lines of `g` (G on them), whose ∂G/∂θ are the rows k0 … k0 + g.len() − 1
-    /// of `dg`.
-    fn push(&mut self, dg: &DMatrix<Complex<T>>, k0: usize, g: &[Complex<T>], f: &DMatrix<T>) {
-        for i0 in (0..g.len()).step_by(RESPONSE_BLOCK) {
-            let len = RESPONSE_BLOCK.min(g.len() - i0);
-            self.push_block(dg, k0 + i0, &g[i0..i0 + len], f);
-        }
-    }
-
-    /// [`ResponseStdBlocks::push`] for at most [`RESPONSE_BLOCK`] lines.
+    /// Appends the lines of `g` (G on them, at most [`RESPONSE_BLOCK`]), whose ∂G/∂θ are
+    /// the rows k0 … k0 + g.len() − 1 of `dg`: with a_k = (∂G_k/∂θ)F for a covariance
+    /// factor F (Cov = F Fᵀ), σ_G² = ‖a_k‖², σ_|G| = ‖Re(conj(G_k) a_k)‖/|G_k|,
+    /// σ_∠G = ‖Im(a_k/G_k)‖, through two real products (the real gemm is much faster than
+    /// the complex one) in small reused buffers.
     fn push_block(
         &mut self,
         dg: &DMatrix<Complex<T>>,

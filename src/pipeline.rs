@@ -325,55 +325,73 @@ impl Pipeline {
         if self.ml.is_none() {
             return estimate(model, data, &levy, linear, None);
         }
+        let (theta, cost) = self.levy_normal_equations(model, data, linear, work, true)?;
+        Ok(Solution {
+            theta,
+            cost: cost.unwrap_or_else(T::zero),
+            iterations: 1,
+            termination: crate::solver::Termination::Direct,
+        })
+    }
+
+    /// The Levy θ through the guarded normal equations (QR/SVD by `linear` when they are
+    /// refused), and with `want_cost` its residual norm². Small systems are stacked in
+    /// `work` and stay in cache; for large ones the Gram matrix is accumulated over blocks of
+    /// lines whose rows of the regressor are formed one block at a time
+    /// ([`EquationError::regressor_lines_into`]), so no N × q matrix is formed unless the
+    /// QR fallback needs it.
+    fn levy_normal_equations<T: Real, M: EquationError<T>>(
+        &self,
+        model: &M,
+        data: &FrequencyData<T>,
+        linear: &LinearLeastSquares,
+        work: &mut LevyWork<T>,
+        want_cost: bool,
+    ) -> Result<(Vec<T>, Option<T>)> {
+        use crate::solver::gram;
         model.check_data(data)?;
         crate::criterion::check_input(data)?;
         if work.weights.is_none() {
             work.weights = Some(self.weighting.weights(data)?);
         }
-        let q = model.n_coefficients();
-        if work.regressor.shape() != (data.len(), q) {
-            work.regressor = nalgebra::DMatrix::zeros(data.len(), q);
-        }
-        model.regressor_into(data, &mut work.regressor);
-        let weights = work.weights.as_ref().and_then(|w| w.as_deref());
-        let max_cond = crate::solver::gram::max_condition::<T>();
+        let (n, q) = (data.len(), model.n_coefficients());
+        let norm = model.normalising_index();
+        let max_cond = gram::max_condition::<T>();
         let stack = |work: &mut LevyWork<T>| {
+            if work.regressor.shape() != (n, q) {
+                work.regressor = nalgebra::DMatrix::zeros(n, q);
+            }
+            model.regressor_into(data, &mut work.regressor);
             crate::criterion::normalised_into(
                 &work.regressor,
                 work.weights.as_ref().and_then(|w| w.as_deref()),
-                model.normalising_index(),
+                norm,
                 &mut work.a,
                 &mut work.b,
             );
         };
-        // small systems stay in cache stacked; large ones are accumulated over blocks of
-        // lines from the regressor
-        let small = crate::solver::gram::small_problem(data.len(), q);
-        let gram = if small {
+        let gram = if gram::small_problem(n, q) {
             stack(work);
-            crate::solver::gram::least_squares_gram(&work.a, &work.b, max_cond)
+            gram::least_squares_gram(&work.a, &work.b, max_cond).map(|(t, c)| (t, Some(c)))
         } else {
-            crate::solver::gram::regressor_least_squares_gram(
-                &work.regressor,
-                weights,
-                model.normalising_index(),
-                max_cond,
-            )
+            let weights = work.weights.as_ref().and_then(|w| w.as_deref());
+            let fill = |k0: usize, rows: &mut nalgebra::DMatrix<crate::Complex<T>>| {
+                model.regressor_lines_into(data, k0, rows);
+            };
+            gram::lines_least_squares_gram(n, q, fill, weights, norm, max_cond).map(|t| {
+                let cost = want_cost
+                    .then(|| gram::lines_least_squares_cost(n, q, fill, weights, norm, &t));
+                (t, cost)
+            })
         };
-        let (theta, cost) = match gram {
-            Some(v) => v,
+        Ok(match gram {
+            Some((theta, cost)) => (theta.as_slice().to_vec(), cost),
             None => {
-                if !small {
-                    stack(work);
-                }
-                crate::solver::least_squares(work.a.clone(), work.b.clone(), linear.rcond_eps)?
+                stack(work);
+                let (theta, cost) =
+                    crate::solver::least_squares(work.a.clone(), work.b.clone(), linear.rcond_eps)?;
+                (theta.as_slice().to_vec(), Some(cost))
             }
-        };
-        Ok(Solution {
-            theta: theta.as_slice().to_vec(),
-            cost,
-            iterations: 1,
-            termination: crate::solver::Termination::Direct,
         })
     }
 
@@ -408,13 +426,19 @@ impl Pipeline {
                 break;
             };
             let next = next?;
-            let sol = self.levy_solve(&next, data, &linear, work)?;
-            let (new_cost, g_new) = oe_cost(&next, &sol.theta);
+            // only θ is needed: the SK cost is the output-error one
+            let next_theta = if self.ml.is_some() {
+                self.levy_normal_equations(&next, data, &linear, work, false)?
+                    .0
+            } else {
+                self.levy_solve(&next, data, &linear, work)?.theta
+            };
+            let (new_cost, g_new) = oe_cost(&next, &next_theta);
             let change = crate::criterion::relative_change(&g_old, &g_new);
             let stalled = num_traits::Float::abs(new_cost - cost)
                 <= ctol * num_traits::Float::max(new_cost, cost);
             model = next;
-            theta = sol.theta;
+            theta = next_theta;
             cost = new_cost;
             g_old = g_new;
             if cost < best.2 {

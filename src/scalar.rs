@@ -44,3 +44,21 @@ impl Real for f64 {
 
 /// Complex numbers over [`Real`].
 pub type Complex<T> = num_complex::Complex<T>;
+
+/// 1/z with one division (num-complex's `inv` makes two): the model evaluations divide
+/// by a complex number at every line.
+#[inline]
+pub(crate) fn recip<T: Real>(z: Complex<T>) -> Complex<T> {
+    let d = T::one() / z.norm_sqr();
+    Complex::new(z.re * d, -z.im * d)
+}
+
+/// Σ (v − v) over the real and imaginary parts: zero when every value is finite, NaN
+/// otherwise (a finiteness test that vectorises and cannot overflow).
+#[inline]
+pub(crate) fn all_finite_complex<T: Real>(v: &[Complex<T>]) -> bool {
+    let s = v
+        .iter()
+        .fold(T::zero(), |s, z| s + ((z.re - z.re) + (z.im - z.im)));
+    s == T::zero()
+}

@@ -32,6 +32,8 @@ pub struct MlProblem<'a, T: Real, M: ?Sized> {
     data: &'a FrequencyData<T>,
     weight: Option<Vec<T>>,
     scratch: RefCell<Output<T>>,
+    /// θ of the evaluation in `scratch`.
+    scratch_at: RefCell<Option<Vec<T>>>,
     /// Work space of [`NonlinearProblem::normal_equations_into`]: full blocks, last block.
     blocks: RefCell<[Block<T>; 2]>,
 }
@@ -89,6 +91,7 @@ impl<'a, T: Real, M: ModelStructure<T> + ?Sized> MlProblem<'a, T, M> {
             data,
             weight,
             scratch: RefCell::new(Output::new(data.len(), model.n_params())),
+            scratch_at: RefCell::new(None),
             blocks: RefCell::new([Block::new(), Block::new()]),
         })
     }
@@ -115,16 +118,29 @@ impl<'a, T: Real, M: ModelStructure<T> + ?Sized> MlProblem<'a, T, M> {
         r.iter().fold(T::zero(), |s, v| s + *v * *v)
     }
 
-    /// Moves G and ∂G/∂θ of the last Jacobian evaluation out of the work space (empty
-    /// before any).
-    pub(crate) fn take_response_jacobian(
+    /// G on the data lines from the last full evaluation ([`NonlinearProblem::residuals_into`]
+    /// or [`NonlinearProblem::jacobian_into`]), when it was at θ.
+    pub(crate) fn response_at(&self, theta: &[T]) -> Option<Vec<crate::Complex<T>>> {
+        let out = self.scratch.borrow();
+        (self.scratch_at.borrow().as_deref() == Some(theta)).then(|| out.g.clone())
+    }
+
+    /// The residuals r(θ) into `r` and G(θ) on the data lines, reusing the last full
+    /// evaluation when it was at θ (e.g. the last step of a solver). False when a value is
+    /// not finite.
+    pub(crate) fn residuals_response(
         &self,
-    ) -> (Vec<crate::Complex<T>>, DMatrix<crate::Complex<T>>) {
-        let mut out = self.scratch.borrow_mut();
-        (
-            std::mem::take(&mut out.g),
-            std::mem::replace(&mut out.dg, DMatrix::zeros(0, 0)),
-        )
+        theta: &[T],
+        r: &mut [T],
+    ) -> (bool, Vec<crate::Complex<T>>) {
+        if self.scratch_at.borrow().as_deref() == Some(theta) {
+            let out = self.scratch.borrow();
+            self.residuals_of(0, &out.yhat, r);
+            let finite = crate::scalar::all_finite_complex(&out.yhat) && all_finite(r);
+            return (finite, out.g.clone());
+        }
+        let finite = self.residuals_into(theta, r);
+        (finite, self.scratch.borrow().g.clone())
     }
 
     /// Evaluates the model output at θ block by block ([`crate::solver::gram`]'s block size, so that
@@ -159,16 +175,13 @@ impl<'a, T: Real, M: ModelStructure<T> + ?Sized> MlProblem<'a, T, M> {
                 if jac.shape() != (2 * len, p) {
                     *jac = DMatrix::zeros(2 * len, p);
                 }
+                let weight = self.weight.as_deref().map(|w| &w[k0..k0 + len]);
                 for (col, src) in jac
                     .as_mut_slice()
                     .chunks_exact_mut(2 * len)
                     .zip(out.dyhat.as_slice().chunks_exact(len))
                 {
-                    for (i, (c, d)) in col.chunks_exact_mut(2).zip(src).enumerate() {
-                        let d = -*d * self.w(k0 + i);
-                        c[0] = d.re;
-                        c[1] = d.im;
-                    }
+                    stack_weighted(src, weight, -T::one(), col);
                 }
                 if !all_finite(jac.as_slice()) {
                     return false;
@@ -182,28 +195,73 @@ impl<'a, T: Real, M: ModelStructure<T> + ?Sized> MlProblem<'a, T, M> {
         true
     }
 
-    /// Writes the residuals r of the lines k0 … k0 + len − 1 from the block's Ŷ.
-    pub(crate) fn block_residuals(&self, k0: usize, out: &Output<T>, r: &mut [T]) {
-        let len = out.yhat.len();
-        for (i, (yhat, y)) in out
-            .yhat
-            .iter()
-            .zip(&self.data.y()[k0..k0 + len])
-            .enumerate()
-        {
-            let e = (*y - *yhat) * self.w(k0 + i);
-            r[2 * (k0 + i)] = e.re;
-            r[2 * (k0 + i) + 1] = e.im;
+    /// Records θ as the point of the evaluation in `scratch`.
+    fn mark_scratch(&self, theta: &[T]) {
+        let mut at = self.scratch_at.borrow_mut();
+        match at.as_mut() {
+            Some(v) if v.len() == theta.len() => v.copy_from_slice(theta),
+            _ => *at = Some(theta.to_vec()),
         }
     }
 
-    fn w(&self, k: usize) -> T {
-        self.weight.as_ref().map_or(T::one(), |w| w[k])
+    /// Writes the residuals r of the lines k0 … k0 + len − 1 from the block's Ŷ.
+    pub(crate) fn block_residuals(&self, k0: usize, out: &Output<T>, r: &mut [T]) {
+        let len = out.yhat.len();
+        self.residuals_of(k0, &out.yhat, &mut r[2 * k0..2 * (k0 + len)]);
+    }
+
+    /// r_k = w_k (Y_k − Ŷ_k) for the lines k0 … k0 + ŷ.len() − 1, real-stacked into `r`.
+    fn residuals_of(&self, k0: usize, yhat: &[crate::Complex<T>], r: &mut [T]) {
+        let len = yhat.len();
+        let y = &self.data.y()[k0..k0 + len];
+        let weight = self.weight.as_deref().map(|w| &w[k0..k0 + len]);
+        let rc = r.chunks_exact_mut(2);
+        match weight {
+            Some(w) => {
+                for (((c, y), yhat), w) in rc.zip(y).zip(yhat).zip(w) {
+                    c[0] = (y.re - yhat.re) * *w;
+                    c[1] = (y.im - yhat.im) * *w;
+                }
+            }
+            None => {
+                for ((c, y), yhat) in rc.zip(y).zip(yhat) {
+                    c[0] = y.re - yhat.re;
+                    c[1] = y.im - yhat.im;
+                }
+            }
+        }
     }
 }
 
+/// dst[2i], dst[2i + 1] = Re, Im of sign·w_i·src_i (w absent: unit weights).
+fn stack_weighted<T: Real>(
+    src: &[crate::Complex<T>],
+    weight: Option<&[T]>,
+    sign: T,
+    dst: &mut [T],
+) {
+    let dc = dst.chunks_exact_mut(2);
+    match weight {
+        Some(w) => {
+            for ((c, d), w) in dc.zip(src).zip(w) {
+                let s = sign * *w;
+                c[0] = d.re * s;
+                c[1] = d.im * s;
+            }
+        }
+        None => {
+            for (c, d) in dc.zip(src) {
+                c[0] = d.re * sign;
+                c[1] = d.im * sign;
+            }
+        }
+    }
+}
+
+/// True when every value is finite: Σ (v − v) is zero then and NaN otherwise (a test that
+/// vectorises and cannot overflow).
 fn all_finite<T: Real>(r: &[T]) -> bool {
-    r.iter().all(|v| num_traits::Float::is_finite(*v))
+    r.iter().fold(T::zero(), |s, v| s + (*v - *v)) == T::zero()
 }
 
 impl<T: Real, M: ModelStructure<T> + ?Sized> NonlinearProblem<T> for MlProblem<'_, T, M> {
@@ -218,27 +276,24 @@ impl<T: Real, M: ModelStructure<T> + ?Sized> NonlinearProblem<T> for MlProblem<'
     fn residuals_into(&self, theta: &[T], r: &mut [T]) -> bool {
         let mut out = self.scratch.borrow_mut();
         let finite = out.evaluate(self.model, theta, self.data, false);
-        for (k, (yhat, y)) in out.yhat.iter().zip(self.data.y()).enumerate() {
-            let e = (*y - *yhat) * self.w(k);
-            r[2 * k] = e.re;
-            r[2 * k + 1] = e.im;
-        }
+        self.mark_scratch(theta);
+        self.residuals_of(0, &out.yhat, r);
         finite && all_finite(r)
     }
 
     fn jacobian_into(&self, theta: &[T], r: &mut [T], jac: &mut DMatrix<T>) -> bool {
         let mut out = self.scratch.borrow_mut();
         let finite = out.evaluate(self.model, theta, self.data, true);
-        for (k, (yhat, y)) in out.yhat.iter().zip(self.data.y()).enumerate() {
-            let e = (*y - *yhat) * self.w(k);
-            r[2 * k] = e.re;
-            r[2 * k + 1] = e.im;
-        }
-        for j in 0..self.model.n_params() {
-            for k in 0..self.data.len() {
-                let d = -out.dyhat[(k, j)] * self.w(k);
-                jac[(2 * k, j)] = d.re;
-                jac[(2 * k + 1, j)] = d.im;
+        self.mark_scratch(theta);
+        self.residuals_of(0, &out.yhat, r);
+        let n = self.data.len();
+        if n > 0 {
+            for (col, src) in jac
+                .as_mut_slice()
+                .chunks_exact_mut(2 * n)
+                .zip(out.dyhat.as_slice().chunks_exact(n))
+            {
+                stack_weighted(src, self.weight.as_deref(), -T::one(), col);
             }
         }
         finite && all_finite(r) && all_finite(jac.as_slice())

@@ -155,6 +155,24 @@ pub trait EquationError<T: Real>: ModelStructure<T> {
     /// Writes the regressor R (`data.len() × n_coefficients()`) into `out`.
     fn regressor_into(&self, data: &FrequencyData<T>, out: &mut DMatrix<Complex<T>>);
 
+    /// Writes the rows k0 … k0 + `out.nrows()` − 1 of the regressor R (lines of `data`)
+    /// into `out` (`out.nrows() × n_coefficients()`), so that a solve accumulated over
+    /// blocks of lines never forms the N × q matrix. The default forms all of R with
+    /// [`EquationError::regressor_into`] and copies the rows; structures override it.
+    ///
+    /// # Panics
+    /// When the lines run past the end of `data` or `out` has the wrong number of columns.
+    fn regressor_lines_into(
+        &self,
+        data: &FrequencyData<T>,
+        k0: usize,
+        out: &mut DMatrix<Complex<T>>,
+    ) {
+        let mut full = DMatrix::zeros(data.len(), self.n_coefficients());
+        self.regressor_into(data, &mut full);
+        out.copy_from(&full.rows(k0, out.nrows()));
+    }
+
     /// Writes the denominator A(θ, ω_k) (the Sanathanan–Koerner weight is 1/|A|²).
     fn denominator_into(&self, theta: &[T], omega: &[T], out: &mut [Complex<T>]);
 

@@ -104,27 +104,34 @@ impl<T: Real> Output<T> {
             model.response_into(theta, omega, &mut self.g);
             model.transient_into(theta, omega, &mut self.t, None)
         };
-        for (k, (yhat, (g, u))) in self.yhat.iter_mut().zip(self.g.iter().zip(u)).enumerate() {
+        for ((yhat, g), u) in self.yhat.iter_mut().zip(&self.g).zip(u) {
             *yhat = *g * *u;
-            if has_t {
-                *yhat += self.t[k];
+        }
+        if has_t {
+            for (yhat, t) in self.yhat.iter_mut().zip(&self.t) {
+                *yhat += *t;
             }
         }
-        if jacobian {
-            for j in 0..p {
-                for (k, uk) in u.iter().enumerate() {
-                    let mut d = self.dg[(k, j)] * *uk;
-                    if has_t {
-                        d += self.dt[(k, j)];
+        if jacobian && n > 0 {
+            let cols = self
+                .dyhat
+                .as_mut_slice()
+                .chunks_exact_mut(n)
+                .zip(self.dg.as_slice().chunks_exact(n));
+            for (j, (d, g)) in cols.enumerate() {
+                for ((d, g), u) in d.iter_mut().zip(g).zip(u) {
+                    *d = *g * *u;
+                }
+                if has_t {
+                    for (d, t) in d.iter_mut().zip(&self.dt.as_slice()[j * n..(j + 1) * n]) {
+                        *d += *t;
                     }
-                    self.dyhat[(k, j)] = d;
                 }
             }
         }
-        let finite = |v: &Complex<T>| {
-            num_traits::Float::is_finite(v.re) && num_traits::Float::is_finite(v.im)
-        };
-        self.yhat.iter().all(finite)
-            && (!jacobian || (self.dyhat.iter().all(finite) && self.g.iter().all(finite)))
+        use crate::scalar::all_finite_complex;
+        all_finite_complex(&self.yhat)
+            && (!jacobian
+                || (all_finite_complex(self.dyhat.as_slice()) && all_finite_complex(&self.g)))
     }
 }

@@ -529,32 +529,26 @@ impl<T: Real> Rational<T> {
         self.basis.eval_into(self.basis.variable(omega), phi);
         let zero = Complex::new(T::zero(), T::zero());
         let na = self.na;
-        let mut a = zero;
-        let mut b = zero;
-        if self.constant_normalised() {
-            a = phi[0];
-            for k in 1..=na {
-                a += phi[k] * theta[k - 1];
-            }
+        let dot = |phi: &[Complex<T>], c: &[T]| {
+            phi.iter().zip(c).fold(zero, |s, (p, c)| {
+                Complex::new(s.re + p.re * *c, s.im + p.im * *c)
+            })
+        };
+        let a = if self.constant_normalised() {
+            phi[0] + dot(&phi[1..=na], &theta[..na])
         } else {
-            for k in 0..na {
-                a += phi[k] * theta[k];
+            dot(&phi[..na], &theta[..na]) + phi[na]
+        };
+        let b = if let Some(z) = &self.numerator_map {
+            let mut b = zero;
+            for (j, zj) in z.column_iter().enumerate() {
+                b += dot(&phi[1..=zj.len()], zj.as_slice()) * theta[na + j];
             }
-            a += phi[na];
-        }
-        if let Some(z) = &self.numerator_map {
-            for j in 0..=self.nb {
-                let psi = (0..z.nrows()).fold(Complex::new(T::zero(), T::zero()), |s, k| {
-                    s + phi[k + 1] * z[(k, j)]
-                });
-                b += psi * theta[na + j];
-            }
+            b
         } else {
             let off = self.b_offset();
-            for k in 0..=self.nb {
-                b += phi[k + off] * theta[na + k];
-            }
-        }
+            dot(&phi[off..=off + self.nb], &theta[na..=na + self.nb])
+        };
         (a, b)
     }
 
@@ -582,7 +576,7 @@ impl<T: Real> ModelStructure<T> for Rational<T> {
         let mut phi = self.zero_phi();
         for (w, o) in omega.iter().zip(out.iter_mut()) {
             let (a, b) = self.eval_ab(theta, *w, &mut phi);
-            *o = b / a;
+            *o = b * crate::scalar::recip(a);
         }
     }
 
@@ -597,22 +591,27 @@ impl<T: Real> ModelStructure<T> for Rational<T> {
         let mut psi = vec![Complex::new(T::zero(), T::zero()); self.nb + 1];
         let na = self.na;
         let off = self.a_offset();
-        for (k, w) in omega.iter().enumerate() {
+        let n = jac.nrows();
+        if n == 0 {
+            return;
+        }
+        let mut cols: Vec<&mut [Complex<T>]> = jac.as_mut_slice().chunks_exact_mut(n).collect();
+        // the transient coefficients do not enter G
+        for col in cols[na + self.nb + 1..].iter_mut() {
+            col.fill(Complex::new(T::zero(), T::zero()));
+        }
+        for (k, (w, g)) in omega.iter().zip(g.iter_mut()).enumerate() {
             let (a, b) = self.eval_ab(theta, *w, &mut phi);
-            let inv_a = a.inv();
+            let inv_a = crate::scalar::recip(a);
             let gk = b * inv_a;
-            g[k] = gk;
+            *g = gk;
             let minus_g_over_a = -gk * inv_a;
-            for j in 0..na {
-                jac[(k, j)] = phi[j + off] * minus_g_over_a;
+            for (col, p) in cols[..na].iter_mut().zip(&phi[off..]) {
+                col[k] = *p * minus_g_over_a;
             }
             self.numerator_basis(&phi, &mut psi);
-            for (j, p) in psi.iter().enumerate() {
-                jac[(k, na + j)] = *p * inv_a;
-            }
-            let first_t = na + self.nb + 1;
-            for j in first_t..first_t + self.n_transient() {
-                jac[(k, j)] = Complex::new(T::zero(), T::zero());
+            for (col, p) in cols[na..].iter_mut().zip(&psi) {
+                col[k] = *p * inv_a;
             }
         }
     }
@@ -728,23 +727,44 @@ impl<T: Real> EquationError<T> for Rational<T> {
     /// coefficients], R_k = [φ₀ Y_k … φ_na Y_k, −ψ₀ U_k … −ψ_nb U_k, −χ₁ … −χ_nt]: the
     /// transient T = t/A enters the equation error A Y − B U − t linearly.
     fn regressor_into(&self, data: &FrequencyData<T>, out: &mut DMatrix<Complex<T>>) {
+        self.regressor_lines_into(data, 0, out);
+    }
+
+    fn regressor_lines_into(
+        &self,
+        data: &FrequencyData<T>,
+        k0: usize,
+        out: &mut DMatrix<Complex<T>>,
+    ) {
         let mut phi = self.zero_phi();
         let mut psi = vec![Complex::new(T::zero(), T::zero()); self.nb + 1];
         let mut chi = vec![Complex::new(T::zero(), T::zero()); self.n_transient()];
         let na = self.na;
-        for (k, ((w, y), u)) in data.omega().iter().zip(data.y()).zip(data.u()).enumerate() {
+        let lines = k0..k0 + out.nrows();
+        let (omega, y, u) = (
+            &data.omega()[lines.clone()],
+            &data.y()[lines.clone()],
+            &data.u()[lines],
+        );
+        let len = out.nrows();
+        if len == 0 {
+            return;
+        }
+        // the columns of the block, written line by line
+        let mut cols: Vec<&mut [Complex<T>]> = out.as_mut_slice().chunks_exact_mut(len).collect();
+        for (k, ((w, y), u)) in omega.iter().zip(y).zip(u).enumerate() {
             self.basis.eval_into(self.basis.variable(*w), &mut phi);
-            for j in 0..=na {
-                out[(k, j)] = phi[j] * *y;
+            for (col, p) in cols[..=na].iter_mut().zip(&phi) {
+                col[k] = *p * *y;
             }
             self.numerator_basis(&phi, &mut psi);
-            for (j, p) in psi.iter().enumerate() {
-                out[(k, na + 1 + j)] = -(*p * *u);
+            for (col, p) in cols[na + 1..].iter_mut().zip(&psi) {
+                col[k] = -(*p * *u);
             }
             if let Some(ts) = self.transient {
                 self.transient_basis(ts, *w, &mut chi);
-                for (j, c) in chi.iter().enumerate() {
-                    out[(k, na + self.nb + 2 + j)] = -*c;
+                for (col, c) in cols[na + self.nb + 2..].iter_mut().zip(&chi) {
+                    col[k] = -*c;
                 }
             }
         }

@@ -207,47 +207,81 @@ pub(crate) fn regressor_least_squares_gram<T: Real>(
     max_cond: T,
 ) -> Option<(DVector<T>, T)> {
     let (n, q) = regressor.shape();
+    let theta = lines_least_squares_gram(
+        n,
+        q,
+        |k0, rows| rows.copy_from(&regressor.rows(k0, rows.nrows())),
+        w,
+        normalising,
+        max_cond,
+    )?;
+    let c = with_normalising(&theta, normalising);
+    let mut e = vec![crate::Complex::new(T::zero(), T::zero()); n];
+    for (col, cj) in regressor.as_slice().chunks_exact(n).zip(&c) {
+        for (e, v) in e.iter_mut().zip(col) {
+            *e += *v * *cj;
+        }
+    }
+    Some((theta, weighted_norm_sqr(&e, w.unwrap_or(&[]))))
+}
+
+/// [`regressor_least_squares_gram`] with the rows of R produced block by block by
+/// `fill(k0, rows)` (the lines k0 … k0 + `rows.nrows()` − 1 of the N × q regressor), so
+/// that R itself is never formed; returns θ only (the residual norm² is
+/// [`lines_least_squares_cost`]).
+pub(crate) fn lines_least_squares_gram<T: Real>(
+    n: usize,
+    q: usize,
+    mut fill: impl FnMut(usize, &mut DMatrix<crate::Complex<T>>),
+    w: Option<&[T]>,
+    normalising: usize,
+    max_cond: T,
+) -> Option<DVector<T>> {
     if q < 2 || normalising >= q || 2 * n < q - 1 || w.is_some_and(|w| w.len() != n) {
         return None;
     }
     let p = q - 1;
-    let wk = |k: usize| w.map_or(T::one(), |w| w[k]);
     // AᵀA and Aᵀb over blocks of the stacked rows (b apart from A: a q-th column in the
     // blocked product would cost a whole extra tile of its kernel)
     let mut g = DMatrix::zeros(p, p);
     let mut atb = DVector::zeros(p);
     let mut block = DMatrix::<T>::zeros(0, 0);
     let mut rhs = DVector::<T>::zeros(0);
-    let re = regressor.as_slice();
+    let mut rows = DMatrix::<crate::Complex<T>>::zeros(0, 0);
+    let mut wb = Vec::new();
     let lines = block_lines(p);
     for k0 in (0..n).step_by(lines) {
         let len = lines.min(n - k0);
         if block.nrows() != 2 * len {
             block = DMatrix::zeros(2 * len, p);
             rhs = DVector::zeros(2 * len);
+            rows = DMatrix::zeros(len, q);
+        }
+        fill(k0, &mut rows);
+        wb.clear();
+        match w {
+            Some(w) => wb.extend_from_slice(&w[k0..k0 + len]),
+            None => wb.resize(len, T::one()),
         }
         // rows 0..len: real parts, len..2len: imaginary parts (the order of rows does not
         // change AᵀA and Aᵀb)
-        for (j, src) in re.chunks_exact(n).enumerate() {
-            let col = match j.cmp(&normalising) {
-                std::cmp::Ordering::Less => {
-                    &mut block.as_mut_slice()[j * 2 * len..(j + 1) * 2 * len]
-                }
-                std::cmp::Ordering::Equal => rhs.as_mut_slice(),
-                std::cmp::Ordering::Greater => {
-                    &mut block.as_mut_slice()[(j - 1) * 2 * len..j * 2 * len]
-                }
-            };
-            let sign = if j == normalising {
-                -T::one()
-            } else {
-                T::one()
+        for (j, src) in rows.as_slice().chunks_exact(len).enumerate() {
+            let (col, sign) = match j.cmp(&normalising) {
+                std::cmp::Ordering::Less => (
+                    &mut block.as_mut_slice()[j * 2 * len..(j + 1) * 2 * len],
+                    T::one(),
+                ),
+                std::cmp::Ordering::Equal => (rhs.as_mut_slice(), -T::one()),
+                std::cmp::Ordering::Greater => (
+                    &mut block.as_mut_slice()[(j - 1) * 2 * len..j * 2 * len],
+                    T::one(),
+                ),
             };
             let (cr, ci) = col.split_at_mut(len);
-            for (i, v) in src[k0..k0 + len].iter().enumerate() {
-                let x = *v * (wk(k0 + i) * sign);
-                cr[i] = x.re;
-                ci[i] = x.im;
+            for (((r, i), v), wk) in cr.iter_mut().zip(ci.iter_mut()).zip(src).zip(&wb) {
+                let s = *wk * sign;
+                *r = v.re * s;
+                *i = v.im * s;
             }
         }
         gram_into(&block, &mut g, true);
@@ -259,24 +293,60 @@ pub(crate) fn regressor_least_squares_gram<T: Real>(
     }
     let y = sc.chol.solve(&atb);
     let theta = DVector::from_iterator(p, y.iter().zip(&sc.d).map(|(v, d)| *v / *d));
-    if theta.iter().any(|v| !Float::is_finite(*v)) {
-        return None;
+    theta.iter().all(|v| Float::is_finite(*v)).then_some(theta)
+}
+
+/// The residual norm² ‖Rᵂ c‖² of θ from [`lines_least_squares_gram`], with the rows of R
+/// produced again block by block by `fill`.
+pub(crate) fn lines_least_squares_cost<T: Real>(
+    n: usize,
+    q: usize,
+    mut fill: impl FnMut(usize, &mut DMatrix<crate::Complex<T>>),
+    w: Option<&[T]>,
+    normalising: usize,
+    theta: &DVector<T>,
+) -> T {
+    let c = with_normalising(theta, normalising);
+    let lines = block_lines(q.saturating_sub(1));
+    let mut rows = DMatrix::<crate::Complex<T>>::zeros(0, 0);
+    let mut e = Vec::new();
+    let mut cost = T::zero();
+    for k0 in (0..n).step_by(lines) {
+        let len = lines.min(n - k0);
+        if rows.nrows() != len {
+            rows = DMatrix::zeros(len, q);
+        }
+        fill(k0, &mut rows);
+        e.clear();
+        e.resize(len, crate::Complex::new(T::zero(), T::zero()));
+        for (col, cj) in rows.as_slice().chunks_exact(len).zip(&c) {
+            for (e, v) in e.iter_mut().zip(col) {
+                *e += *v * *cj;
+            }
+        }
+        cost += weighted_norm_sqr(&e, w.map_or(&[][..], |w| &w[k0..k0 + len]));
     }
-    let mut c = Vec::with_capacity(q);
+    cost
+}
+
+/// c: θ with the coefficient one inserted at `normalising`.
+fn with_normalising<T: Real>(theta: &DVector<T>, normalising: usize) -> Vec<T> {
+    let mut c = Vec::with_capacity(theta.len() + 1);
     c.extend_from_slice(&theta.as_slice()[..normalising]);
     c.push(T::one());
     c.extend_from_slice(&theta.as_slice()[normalising..]);
-    let mut e = vec![crate::Complex::new(T::zero(), T::zero()); n];
-    for (col, cj) in re.chunks_exact(n).zip(&c) {
-        for (e, v) in e.iter_mut().zip(col) {
-            *e += *v * *cj;
-        }
+    c
+}
+
+/// Σ_k |w_k e_k|² (w empty: unit weights).
+fn weighted_norm_sqr<T: Real>(e: &[crate::Complex<T>], w: &[T]) -> T {
+    if w.is_empty() {
+        e.iter().fold(T::zero(), |s, v| s + v.norm_sqr())
+    } else {
+        e.iter()
+            .zip(w)
+            .fold(T::zero(), |s, (v, w)| s + (*v * *w).norm_sqr())
     }
-    let cost = e
-        .iter()
-        .enumerate()
-        .fold(T::zero(), |s, (k, v)| s + (*v * wk(k)).norm_sqr());
-    Some((theta, cost))
 }
 
 #[cfg(test)]
