@@ -719,39 +719,20 @@ fn discrete_start<T: Real>(
 
 impl<T: Real> Fit<T, Rational<T>> {
     /// Poles whose half-power band holds no data line, so that the data do not determine
-    /// their damping: with s = p (continuous time) or s = ln(p)/Ts (discrete time),
-    /// s = σ + iω_p, a pole is unresolved when ω_p lies inside the band of the data and no
-    /// line ω_k satisfies |ω_k − |ω_p|| ≤ |σ|. Such a pole is typically spurious — a
-    /// resonance fitted between two lines (e.g. in place of poles closer together than the
-    /// noise resolves) — even when the cost looks right; one conjugate of each pair is
-    /// listed.
+    /// their damping ([`crate::validation::unresolved_poles`]): with s = p (continuous
+    /// time) or s = ln(p)/Ts (discrete time), s = σ + iω_p, a pole is unresolved when ω_p
+    /// lies inside the band of the data and no line ω_k satisfies |ω_k − |ω_p|| ≤ |σ|.
+    /// Such a pole is typically spurious — a resonance fitted between two lines (e.g. in
+    /// place of poles closer together than the noise resolves) — even when the cost looks
+    /// right; one conjugate of each pair is listed.
     ///
     /// # Errors
     /// As [`crate::model::PolesZeros::poles`].
     pub fn unresolved_poles(&self) -> Result<Vec<Complex<T>>> {
-        let omega = self.omega();
-        let (Some(lo), Some(hi)) = (omega.first().copied(), omega.last().copied()) else {
-            return Ok(vec![]);
-        };
-        let mut out = vec![];
-        for p in self.poles()? {
-            if p.im < T::zero() {
-                continue;
-            }
-            let s = match self.model().domain() {
-                Domain::Continuous => p,
-                Domain::Discrete { ts } => p.ln() / ts,
-            };
-            let (sigma, w) = (Float::abs(s.re), Float::abs(s.im));
-            if !(w >= lo && w <= hi) {
-                continue;
-            }
-            // first line at or above w − σ
-            let k = omega.partition_point(|x| *x < w - sigma);
-            if !omega.get(k).is_some_and(|x| *x <= w + sigma) {
-                out.push(p);
-            }
-        }
-        Ok(out)
+        Ok(crate::validation::unresolved_poles(
+            &self.poles()?,
+            self.model().domain(),
+            self.omega(),
+        ))
     }
 }

@@ -53,12 +53,42 @@ pub(crate) fn recip<T: Real>(z: Complex<T>) -> Complex<T> {
     Complex::new(z.re * d, -z.im * d)
 }
 
-/// Σ (v − v) over the real and imaginary parts: zero when every value is finite, NaN
-/// otherwise (a finiteness test that vectorises and cannot overflow).
+/// True when every value is finite: Σ 0·v is zero then and NaN otherwise (0·∞ and 0·NaN
+/// are NaN) — a test that vectorises and cannot overflow.
+#[inline]
+pub(crate) fn all_finite<T: Real>(v: &[T]) -> bool {
+    v.iter().fold(T::zero(), |s, x| s + *x * T::zero()) == T::zero()
+}
+
+/// [`all_finite`] over the real and imaginary parts.
 #[inline]
 pub(crate) fn all_finite_complex<T: Real>(v: &[Complex<T>]) -> bool {
-    let s = v
-        .iter()
-        .fold(T::zero(), |s, z| s + ((z.re - z.re) + (z.im - z.im)));
-    s == T::zero()
+    v.iter()
+        .fold(T::zero(), |s, z| s + z.re * T::zero() + z.im * T::zero())
+        == T::zero()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn finiteness_and_reciprocal() {
+        let big = f64::MAX;
+        assert!(all_finite(&[1.0, -big, big, 0.0]));
+        assert!(all_finite::<f64>(&[]));
+        for bad in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
+            assert!(!all_finite(&[1.0, bad, 2.0]));
+            assert!(!all_finite_complex(&[Complex::new(0.0, bad)]));
+            assert!(!all_finite_complex(&[Complex::new(bad, 1.0)]));
+        }
+        assert!(all_finite_complex(&[
+            Complex::new(big, big),
+            Complex::new(-big, big)
+        ]));
+        let z = Complex::new(3.0f64, -4.0);
+        assert!((recip(z) - Complex::new(1.0, 0.0) / z).norm() <= 1e-16);
+        let z = Complex::new(0.5f32, 2.0);
+        assert!((recip(z) * z - Complex::new(1.0, 0.0)).norm() <= 1e-6);
+    }
 }

@@ -8,8 +8,55 @@
 //! variance. Whiteness: the complex Ljung–Box statistic over lags l = 1 … m,
 //! Q = Σ_l 2N²|ρ̂_l|²/(N − l) ~ χ²(2m), ρ̂_l = Σ_k r_{k+l} r̄_k / Σ_k |r_k|².
 
+use crate::model::Domain;
 use crate::stats::chi2_sf;
 use crate::{Complex, Real};
+use num_traits::Float;
+
+/// The poles among `poles` (of a model in `domain`) whose half-power band holds none of the
+/// data lines `omega` (rad/s, ascending), so that the data do not determine their damping:
+/// with s = p (continuous time) or s = ln(p)/Ts (discrete time), s = σ + iω_p, a pole is
+/// unresolved when ω_p lies inside the band of the data and no line ω_k satisfies
+/// |ω_k − |ω_p|| ≤ |σ|. One conjugate of each pair is listed (the one with Im p ≥ 0).
+/// Such a pole is typically spurious — a resonance fitted between two lines — even when
+/// the cost looks right.
+///
+/// ```
+/// use fdid::prelude::*;
+/// use fdid::model::Domain;
+/// use fdid::validation::unresolved_poles;
+/// let omega: Vec<f64> = (1..=100).map(|k| k as f64).collect(); // lines 1 rad/s apart
+/// let poles = [Complex::new(-1e-3, 10.5), Complex::new(-1e-3, -10.5), Complex::new(-2.0, 20.0)];
+/// // the first pair's band (10.5 ± 0.001 rad/s) falls between two lines
+/// assert_eq!(unresolved_poles(&poles, Domain::Continuous, &omega), vec![poles[0]]);
+/// ```
+pub fn unresolved_poles<T: Real>(
+    poles: &[Complex<T>],
+    domain: Domain<T>,
+    omega: &[T],
+) -> Vec<Complex<T>> {
+    let (Some(lo), Some(hi)) = (omega.first().copied(), omega.last().copied()) else {
+        return vec![];
+    };
+    poles
+        .iter()
+        .filter(|p| p.im >= T::zero())
+        .filter(|p| {
+            let s = match domain {
+                Domain::Continuous => **p,
+                Domain::Discrete { ts } => p.ln() / ts,
+            };
+            let (sigma, w) = (Float::abs(s.re), Float::abs(s.im));
+            if !(w >= lo && w <= hi) {
+                return false;
+            }
+            // the first line at or above w − σ
+            let k = omega.partition_point(|x| *x < w - sigma);
+            !omega.get(k).is_some_and(|x| *x <= w + sigma)
+        })
+        .copied()
+        .collect()
+}
 
 /// The validation statistics of one fit (see the module docs).
 #[derive(Debug, Clone, PartialEq)]

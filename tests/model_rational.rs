@@ -175,3 +175,71 @@ fn monomial_coefficients_reproduce_the_response() {
         }
     }
 }
+
+/// The regressor built block by block (as the Levy and SK solves of large problems do)
+/// equals the whole regressor, row for row, for every form of the model.
+#[test]
+fn regressor_rows_by_blocks_equal_the_whole_regressor() {
+    use fdid::EquationError;
+    use nalgebra::DMatrix;
+    let omega = logspace(-1.0, 1.0, 101);
+    let mut noise = common::Noise::new(5);
+    let y: Vec<Complex<f64>> = omega.iter().map(|_| noise.complex(1.0)).collect();
+    let u: Vec<Complex<f64>> = omega.iter().map(|_| noise.complex(1.0)).collect();
+    let ct = FrequencyData::new(omega.clone(), u.clone(), y.clone(), None).unwrap();
+    let dt = FrequencyData::new(omega.iter().map(|w| w * 0.3).collect(), u, y, Some(1.0)).unwrap();
+    let models = [
+        (Rational::continuous(4, 3, ct.omega()).unwrap(), &ct),
+        (Rational::continuous(4, 1, ct.omega()).unwrap(), &ct), // constrained numerator
+        (Rational::polynomial(3, 2, ct.omega()).unwrap(), &ct),
+        (Rational::discrete(3, 3, 1.0).unwrap(), &dt),
+        (
+            Rational::discrete(2, 1, 1.0)
+                .unwrap()
+                .with_transient()
+                .unwrap(),
+            &dt,
+        ),
+    ];
+    for (model, data) in models {
+        let q = model.n_coefficients();
+        let mut whole = DMatrix::zeros(data.len(), q);
+        model.regressor_into(data, &mut whole);
+        for k0 in (0..data.len()).step_by(7) {
+            let len = 7.min(data.len() - k0);
+            let mut rows = DMatrix::zeros(len, q);
+            model.regressor_lines_into(data, k0, &mut rows);
+            assert_eq!(rows, whole.rows(k0, len), "{model:?} lines {k0}..");
+        }
+    }
+}
+
+/// On a problem large enough for the blocked normal equations (N·q > 32 768), the Levy
+/// stage of the standard chain has the estimate and the cost of the QR solve.
+#[test]
+fn blocked_levy_stage_equals_the_qr_one() {
+    let omega = logspace(-1.0, 1.0, 6_000);
+    let sys = common::b_ct10();
+    let mut noise = common::Noise::new(9);
+    let y: Vec<Complex<f64>> = sys
+        .frf(&omega)
+        .iter()
+        .map(|g| g + noise.complex(1e-6))
+        .collect();
+    let data = FrequencyData::from_frf(omega, y, None).unwrap();
+    let model = Rational::continuous(10, 9, data.omega()).unwrap();
+    let chain = Pipeline::default().fit(&model, &data).unwrap();
+    let qr = Pipeline::levy().fit(&model, &data).unwrap();
+    let (a, b) = (&chain.stages()[0].solution, &qr.stages()[0].solution);
+    assert_eq!(chain.stages()[0].name, "levy");
+    assert!(
+        (a.cost - b.cost).abs() <= 1e-6 * b.cost,
+        "{} vs {}",
+        a.cost,
+        b.cost
+    );
+    let scale = b.theta.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    for (x, y) in a.theta.iter().zip(&b.theta) {
+        assert!((x - y).abs() <= 1e-6 * scale, "{x} vs {y}");
+    }
+}

@@ -71,4 +71,8 @@ fn whole_fit_and_data_round_trip() {
         bits(&fit.response_at(data.omega()))
     );
     assert_eq!(back.cost().to_bits(), fit.cost().to_bits());
+    // the response's standard deviations are recomputed after the round trip
+    assert!(fit.response_std().is_some());
+    assert_eq!(back.response_std(), fit.response_std());
+    assert_eq!(back.phase_std(), fit.phase_std());
 }

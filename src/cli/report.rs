@@ -151,32 +151,22 @@ impl UnresolvedPole {
     }
 }
 
-/// The poles that [`Fit::unresolved_poles`] flags, by its definition, for a model whose
-/// poles are `poles` (those of its rational part) fitted on the lines `omega` (rad/s,
-/// ascending): for the delayed and noise-model fits, where that method does not apply.
+/// The poles that [`fdid::validation::unresolved_poles`] (the rule of
+/// [`Fit::unresolved_poles`]) flags for a model whose poles are `poles` (those of its
+/// rational part) fitted on the lines `omega` (rad/s, ascending), for any fit; none in z
+/// without a sample time.
 pub fn unresolved_poles(
     domain: DomainArg,
     ts: Option<f64>,
     omega: &[f64],
     poles: &[Complex<f64>],
 ) -> Vec<Complex<f64>> {
-    let (Some(lo), Some(hi)) = (omega.first().copied(), omega.last().copied()) else {
-        return vec![];
+    let domain = match (domain, ts) {
+        (DomainArg::S, _) => fdid::model::Domain::Continuous,
+        (DomainArg::Z, Some(ts)) => fdid::model::Domain::Discrete { ts },
+        (DomainArg::Z, None) => return vec![],
     };
-    poles
-        .iter()
-        .filter(|p| p.im >= 0.0)
-        .filter(|p| {
-            let s = s_of(domain, ts, **p);
-            let (sigma, w) = (s.re.abs(), s.im.abs());
-            if !(w >= lo && w <= hi) {
-                return false;
-            }
-            let k = omega.partition_point(|x| *x < w - sigma);
-            !omega.get(k).is_some_and(|x| *x <= w + sigma)
-        })
-        .copied()
-        .collect()
+    fdid::validation::unresolved_poles(poles, domain, omega)
 }
 
 /// s of a pole: itself (s), or ln(z)/Ts (z; NaN without a sample time).

@@ -6,6 +6,7 @@ use crate::data::FrequencyData;
 use crate::error::Result;
 use crate::model::{ModelStructure, Output};
 use crate::problem::NonlinearProblem;
+use crate::scalar::all_finite;
 use nalgebra::{DMatrix, DVector};
 use std::cell::RefCell;
 
@@ -256,12 +257,6 @@ fn stack_weighted<T: Real>(
             }
         }
     }
-}
-
-/// True when every value is finite: Σ (v − v) is zero then and NaN otherwise (a test that
-/// vectorises and cannot overflow).
-fn all_finite<T: Real>(r: &[T]) -> bool {
-    r.iter().fold(T::zero(), |s, v| s + (*v - *v)) == T::zero()
 }
 
 impl<T: Real, M: ModelStructure<T> + ?Sized> NonlinearProblem<T> for MlProblem<'_, T, M> {

@@ -526,7 +526,7 @@ impl<T: Real> Rational<T> {
     /// Evaluates A and B at the variable of ω, with the basis values in `phi`.
     #[inline]
     fn eval_ab(&self, theta: &[T], omega: T, phi: &mut [Complex<T>]) -> (Complex<T>, Complex<T>) {
-        self.basis.eval_into(self.basis.variable(omega), phi);
+        self.basis.eval_at(omega, phi);
         let zero = Complex::new(T::zero(), T::zero());
         let na = self.na;
         let dot = |phi: &[Complex<T>], c: &[T]| {
@@ -753,7 +753,7 @@ impl<T: Real> EquationError<T> for Rational<T> {
         // the columns of the block, written line by line
         let mut cols: Vec<&mut [Complex<T>]> = out.as_mut_slice().chunks_exact_mut(len).collect();
         for (k, ((w, y), u)) in omega.iter().zip(y).zip(u).enumerate() {
-            self.basis.eval_into(self.basis.variable(*w), &mut phi);
+            self.basis.eval_at(*w, &mut phi);
             for (col, p) in cols[..=na].iter_mut().zip(&phi) {
                 col[k] = *p * *y;
             }
