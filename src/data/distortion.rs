@@ -217,7 +217,7 @@ pub struct DetectionLine<T: Real> {
 /// the more powerful of the two on spread-out distortion: with `P = 4` and 20 odd
 /// detection lines at a distortion-to-noise ratio of 0 dB per line, the Bonferroni
 /// decision fires in 45 % of the runs with Fisher's statistic against 29 % with the sum
-/// (tests/data_distortion.rs, 300 seeds).
+/// (tests/suite/data_distortion.rs, 300 seeds).
 ///
 /// The distortion power `D = mean_j (|Ȳ_j|² − σ̂²_j)` estimates the mean power of the
 /// periodic distortion `|Y_S,k|²` at these lines without bias (`E|Ȳ|² = |Y_S|² + σ²`,

@@ -1,7 +1,7 @@
-//! Helpers shared by the tests of the `fdid` command (`tests/cli*.rs` and the command test
-//! of `tests/io_touchstone_v2.rs`, each including this file with
-//! `#[path = "common/cli.rs"] mod cli;`): running the built binary, reading what it printed,
-//! scratch files, and the bundled data sets.
+//! Helpers shared by the tests of the `fdid` command (`tests/suite/cli*.rs` and the command
+//! test of `tests/suite/io_touchstone_v2.rs`, each with `use crate::cli_common as cli;`):
+//! running the built binary, reading what it printed, scratch files, and the bundled data
+//! sets.
 
 #![allow(dead_code)]
 

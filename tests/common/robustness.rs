@@ -1,4 +1,4 @@
-//! The optimisation-robustness study shared by `tests/optimisation_robustness.rs` and
+//! The optimisation-robustness study shared by `tests/suite/optimisation_robustness.rs` and
 //! `examples/optimisation_robustness.rs`: does `Pipeline::fit`, from its automatic start
 //! (Levy → SK), reach the global optimum of the ML cost?
 //!

@@ -1,0 +1,63 @@
+//! The integration tests, one module per area (`tests/suite/NAME.rs`), compiled into one
+//! test binary: the crate's generic code is instantiated and optimised once for all of
+//! them instead of once per file. Run one area with a name filter, e.g.
+//! `cargo test --release --all-features --test suite stress_numerical::`.
+
+#[path = "../common/mod.rs"]
+mod common;
+
+#[cfg(feature = "cli")]
+#[path = "../common/cli.rs"]
+mod cli_common;
+
+#[path = "../common/robustness.rs"]
+mod robustness;
+
+mod batch;
+mod cli;
+mod cli_diagnose;
+mod cli_unresolved;
+mod cli_usability;
+mod data_distortion;
+mod data_lpm;
+mod data_merge;
+mod data_merge_fit;
+mod data_periodic;
+mod data_time;
+mod estimators_band;
+mod estimators_eiv;
+mod estimators_errors;
+mod estimators_jacobian;
+mod estimators_montecarlo;
+mod estimators_noise_model;
+mod estimators_recovery;
+mod fit_uncertainty;
+mod greybox;
+mod greybox_transient;
+mod io_csv;
+mod io_touchstone;
+mod io_touchstone_v2;
+mod ltv_lti;
+mod ltv_paper;
+mod ltv_varying;
+mod model_delay;
+mod model_modal;
+mod model_rational;
+mod model_transient;
+mod model_wideband;
+mod optimisation_robustness;
+mod robustness_garbage;
+mod robustness_input;
+mod saved_model;
+mod silverbox;
+mod simulate;
+mod stress_numerical;
+mod workflow_combined;
+mod workflow_detect;
+mod workflow_greybox;
+mod workflow_lrt;
+mod workflow_measurement;
+mod workflow_noise;
+mod workflow_segments;
+mod workflow_spec;
+mod workflow_tvswitch;
