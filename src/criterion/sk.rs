@@ -35,6 +35,9 @@ pub struct SkProblem<'a, T: Real, M: ?Sized> {
     /// The responses G(θ) of the last two estimates whose cost was evaluated: the
     /// convergence test compares each estimate with the previous one.
     responses: RefCell<Vec<Evaluated<T>>>,
+    /// The denominator A(θ) of the last estimate whose cost was evaluated: the weights of
+    /// the next iteration.
+    denominator: RefCell<Option<Evaluated<T>>>,
 }
 
 /// An estimate θ with its response G(θ) on the data lines.
@@ -56,9 +59,18 @@ impl<T: Real, M: EquationError<T> + ?Sized> SkProblem<'_, T, M> {
         match previous {
             None => None,
             Some(theta) => {
-                let mut a = vec![Complex::new(T::zero(), T::zero()); self.data.len()];
-                self.model
-                    .denominator_into(theta, self.data.omega(), &mut a);
+                let cached = self
+                    .denominator
+                    .borrow()
+                    .as_ref()
+                    .filter(|(t, _)| t.as_slice() == theta)
+                    .map(|(_, a)| a.clone());
+                let a = cached.unwrap_or_else(|| {
+                    let mut a = vec![Complex::new(T::zero(), T::zero()); self.data.len()];
+                    self.model
+                        .denominator_into(theta, self.data.omega(), &mut a);
+                    a
+                });
                 // 1/|A| normalised by its RMS so the weights stay O(1)
                 let mut w: Vec<T> = a.iter().map(|v| T::one() / v.norm()).collect();
                 let rms = num_traits::Float::sqrt(
@@ -93,6 +105,7 @@ impl<T: Real, M: EquationError<T> + ?Sized> Criterion<T, M> for SanathananKoerne
             system: EquationErrorSystem::new(model, data, self.weighting)?,
             noise_weight: self.weighting.weights(data)?,
             responses: RefCell::new(Vec::with_capacity(2)),
+            denominator: RefCell::new(None),
         })
     }
 }
@@ -127,9 +140,25 @@ impl<T: Real, M: EquationError<T> + ?Sized> ReweightedProblem<T> for SkProblem<'
         super::relative_change(&self.response(old), &self.response(new))
     }
 
+    /// The output-error cost Σ W_k |Y_k − G U_k|²; without a transient term G and A come
+    /// from one evaluation, and A is kept for the next iteration's weights.
     fn cost(&self, theta: &[T]) -> T {
-        let (cost, g) =
-            super::output_error_cost(self.model, theta, self.data, self.noise_weight.as_deref());
+        let (cost, g) = if self.model.has_transient() {
+            super::output_error_cost(self.model, theta, self.data, self.noise_weight.as_deref())
+        } else {
+            let zero = Complex::new(T::zero(), T::zero());
+            let (mut g, mut a) = (vec![zero; self.data.len()], vec![zero; self.data.len()]);
+            self.model
+                .response_and_denominator_into(theta, self.data.omega(), &mut g, &mut a);
+            let (y, u) = (self.data.y(), self.data.u());
+            let w = self.noise_weight.as_deref();
+            let cost = (0..g.len()).fold(T::zero(), |s, k| {
+                let wk = w.map_or(T::one(), |w| w[k]);
+                s + ((y[k] - g[k] * u[k]) * wk).norm_sqr()
+            });
+            *self.denominator.borrow_mut() = Some((theta.to_vec(), a));
+            (cost, g)
+        };
         let mut cached = self.responses.borrow_mut();
         if cached.len() == 2 {
             cached.remove(0);

@@ -176,6 +176,21 @@ pub trait EquationError<T: Real>: ModelStructure<T> {
     /// Writes the denominator A(θ, ω_k) (the Sanathanan–Koerner weight is 1/|A|²).
     fn denominator_into(&self, theta: &[T], omega: &[T], out: &mut [Complex<T>]);
 
+    /// Writes G(θ, ω_k) into `g` and A(θ, ω_k) into `a`: the Sanathanan–Koerner cost of an
+    /// estimate and the weights of the next iteration. The default makes two evaluations
+    /// ([`ModelStructure::response_into`], [`EquationError::denominator_into`]);
+    /// structures override it with one.
+    fn response_and_denominator_into(
+        &self,
+        theta: &[T],
+        omega: &[T],
+        g: &mut [Complex<T>],
+        a: &mut [Complex<T>],
+    ) {
+        self.response_into(theta, omega, g);
+        self.denominator_into(theta, omega, a);
+    }
+
     /// A model of the same structure with its basis adapted to θ — e.g. partial fractions
     /// whose basis poles are moved to the poles of θ (vector fitting's relocation) — or
     /// `None` when the basis is fixed. A Levy solve in the relocated basis is then one

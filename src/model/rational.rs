@@ -776,6 +776,21 @@ impl<T: Real> EquationError<T> for Rational<T> {
             *o = self.eval_ab(theta, *w, &mut phi).0;
         }
     }
+
+    fn response_and_denominator_into(
+        &self,
+        theta: &[T],
+        omega: &[T],
+        g: &mut [Complex<T>],
+        a: &mut [Complex<T>],
+    ) {
+        let mut phi = self.zero_phi();
+        for ((w, g), a) in omega.iter().zip(g.iter_mut()).zip(a.iter_mut()) {
+            let (den, num) = self.eval_ab(theta, *w, &mut phi);
+            *g = num * crate::scalar::recip(den);
+            *a = den;
+        }
+    }
 }
 
 impl<T: Real> PolesZeros<T> for Rational<T> {

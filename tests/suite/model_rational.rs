@@ -243,3 +243,29 @@ fn blocked_levy_stage_equals_the_qr_one() {
         assert!((x - y).abs() <= 1e-6 * scale, "{x} vs {y}");
     }
 }
+
+/// G and A from one evaluation equal the response and the denominator evaluated apart.
+#[test]
+fn response_and_denominator_in_one_pass() {
+    use fdid::EquationError;
+    let omega = logspace(-1.0, 0.4, 50);
+    let zero = Complex::new(0.0, 0.0);
+    for (model, theta) in [
+        (
+            Rational::discrete(3, 2, 1.0).unwrap(),
+            vec![-0.5, 0.2, 0.1, 1.0, 0.3, -0.2],
+        ),
+        (
+            Rational::continuous(2, 1, &omega).unwrap(),
+            vec![0.4, 0.3, 1.0, -0.5],
+        ),
+    ] {
+        let (mut g, mut a) = (vec![zero; omega.len()], vec![zero; omega.len()]);
+        model.response_and_denominator_into(&theta, &omega, &mut g, &mut a);
+        let (mut g0, mut a0) = (vec![zero; omega.len()], vec![zero; omega.len()]);
+        model.response_into(&theta, &omega, &mut g0);
+        model.denominator_into(&theta, &omega, &mut a0);
+        assert_eq!(g, g0, "{model:?}");
+        assert_eq!(a, a0, "{model:?}");
+    }
+}
