@@ -207,22 +207,12 @@ pub(crate) fn regressor_least_squares_gram<T: Real>(
     max_cond: T,
 ) -> Option<(DVector<T>, T)> {
     let (n, q) = regressor.shape();
-    let theta = lines_least_squares_gram(
-        n,
-        q,
-        |k0, rows| rows.copy_from(&regressor.rows(k0, rows.nrows())),
-        w,
-        normalising,
-        max_cond,
-    )?;
-    let c = with_normalising(&theta, normalising);
-    let mut e = vec![crate::Complex::new(T::zero(), T::zero()); n];
-    for (col, cj) in regressor.as_slice().chunks_exact(n).zip(&c) {
-        for (e, v) in e.iter_mut().zip(col) {
-            *e += *v * *cj;
-        }
-    }
-    Some((theta, weighted_norm_sqr(&e, w.unwrap_or(&[]))))
+    let fill = |k0: usize, rows: &mut DMatrix<crate::Complex<T>>| {
+        rows.copy_from(&regressor.rows(k0, rows.nrows()));
+    };
+    let theta = lines_least_squares_gram(n, q, fill, w, normalising, max_cond)?;
+    let cost = lines_least_squares_cost(n, q, fill, w, normalising, &theta);
+    Some((theta, cost))
 }
 
 /// [`regressor_least_squares_gram`] with the rows of R produced block by block by
