@@ -421,11 +421,21 @@ impl<T: Real> PolyBasis<T> {
         }
     }
 
-    /// For a partial-fraction basis: an orthonormal basis Z (n × (n − m)) of the coefficient vectors c ∈ ℝⁿ with
-    /// cᵀQᵏb = 0 for k < m, for the realisation (Q, b) of a partial-fraction basis: the
-    /// orthogonal complement of the Krylov space span{b, Q̂b, …, Q̂^{m−1}b} (Q̂ = Q/‖Q‖, built by
-    /// Arnoldi with re-orthogonalisation), from the eigenvectors of the projector onto it.
+    /// For a partial-fraction basis: an orthonormal basis Z (n × (n − m)) of the
+    /// coefficient vectors c ∈ ℝⁿ with cᵀQᵏb = 0 for k < m, for the realisation (Q, b) of a
+    /// partial-fraction basis: the orthogonal complement of the Krylov space
+    /// span{b, Q̂b, …, Q̂^{m−1}b} (Q̂ = Q/‖Q‖, built by Arnoldi with re-orthogonalisation),
+    /// the last n − m columns of the Q of its Householder QR.
+    ///
+    /// # Errors
+    /// A polynomial basis; a Krylov space that breaks down (m too large for the poles).
     pub fn markov_null_space(&self, m: usize) -> Result<DMatrix<T>> {
+        Ok(self.markov_complement(m)?.basis())
+    }
+
+    /// [`PolyBasis::markov_null_space`] held as its m Householder reflectors, which map the
+    /// basis values φ to ψ = φZ in O(m·n) per line.
+    pub(crate) fn markov_complement(&self, m: usize) -> Result<crate::householder::Complement<T>> {
         let (q, b) = self.realisation().ok_or(FdidError::InvalidArgument {
             name: "basis",
             value: "polynomial".into(),
@@ -458,24 +468,11 @@ impl<T: Real> PolyBasis<T> {
             u.set_column(j, &v);
             v = &qhat * &v;
         }
-        // projector onto the complement; its unit eigenvalues give Z
-        let proj = DMatrix::<T>::identity(n, n) - &u * u.transpose();
-        let eig = nalgebra::SymmetricEigen::try_new(proj, T::default_epsilon(), 100 * n.max(10))
-            .ok_or(FdidError::NotConverged {
-                method: "symmetric eigenvalue iteration",
-                reason: "no convergence for the Markov constraints".into(),
-            })?;
-        let mut order: Vec<usize> = (0..n).collect();
-        order.sort_by(|a, b| {
-            eig.eigenvalues[*b]
-                .partial_cmp(&eig.eigenvalues[*a])
-                .unwrap_or(std::cmp::Ordering::Equal)
-        });
-        let mut z = DMatrix::<T>::zeros(n, n - m);
-        for (j, i) in order.iter().take(n - m).enumerate() {
-            z.set_column(j, &eig.eigenvectors.column(*i));
-        }
-        Ok(z)
+        crate::householder::Complement::of(&u).ok_or(FdidError::Singular {
+            what: "relative-degree constraints of the partial-fraction numerator \
+                   (the Krylov basis lost its rank to rounding)",
+            condition: f64::INFINITY,
+        })
     }
 
     /// Evaluates the polynomial Σ cₙ φₙ(v).

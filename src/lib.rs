@@ -72,6 +72,7 @@ pub mod error;
 pub mod fit;
 pub mod fitted;
 pub mod greybox;
+pub(crate) mod householder;
 #[cfg(feature = "csv")]
 pub mod io;
 pub mod ltv;

@@ -58,6 +58,11 @@ pub struct Rational<T: Real> {
     /// from θ's numerator part to c₁…c_n (c₀ = 0), spanning the c with vanishing Markov
     /// parameters cᵀQᵏb, k < na − nb − 1 (relative degree na − nb).
     numerator_map: Option<DMatrix<T>>,
+    /// Z of `numerator_map` as its Householder reflectors, which give ψ = φZ in O(m·n)
+    /// per line (see [`crate::householder`]); `None` in a model read from a file written
+    /// without them, which then applies Z as a matrix.
+    #[cfg_attr(feature = "serde", serde(default))]
+    numerator_reflectors: Option<crate::householder::Complement<T>>,
     /// Sample time of the transient term, when the model has one.
     transient: Option<T>,
 }
@@ -99,6 +104,7 @@ impl<T: Real> Rational<T> {
             nb,
             basis,
             numerator_map: None,
+            numerator_reflectors: None,
             transient: None,
         })
     }
@@ -116,6 +122,7 @@ impl<T: Real> Rational<T> {
             nb,
             basis: PolyBasis::delay_powers(ts)?,
             numerator_map: None,
+            numerator_reflectors: None,
             transient: None,
         })
     }
@@ -271,8 +278,8 @@ impl<T: Real> Rational<T> {
                 reason: "the partial-fraction form needs at least one pole and nb ≤ na".into(),
             });
         }
-        let numerator_map = if nb + 1 < na {
-            Some(basis.markov_null_space(na - nb - 1)?)
+        let numerator_reflectors = if nb + 1 < na {
+            Some(basis.markov_complement(na - nb - 1)?)
         } else {
             None
         };
@@ -280,7 +287,8 @@ impl<T: Real> Rational<T> {
             na,
             nb,
             basis,
-            numerator_map,
+            numerator_map: numerator_reflectors.as_ref().map(|c| c.basis()),
+            numerator_reflectors,
             transient: None,
         })
     }
@@ -396,21 +404,33 @@ impl<T: Real> Rational<T> {
         full
     }
 
-    /// The nb + 1 numerator basis values ψⱼ from the basis values φ (ψ = φ shifted by the
-    /// offset, or ψⱼ = Σ_k φ_{k+1} Z_kj for a constrained partial-fraction numerator).
+    /// The nb + 1 numerator basis values ψⱼ from the basis values φ: φ shifted by the
+    /// offset, or ψⱼ = Σ_k φ_{k+1} Z_kj for a constrained partial-fraction numerator, by its
+    /// reflectors in `phi` itself (then overwritten) or with Z in `psi`.
     #[inline]
-    fn numerator_basis(&self, phi: &[Complex<T>], psi: &mut [Complex<T>]) {
-        match &self.numerator_map {
-            Some(z) => {
-                for (j, p) in psi.iter_mut().enumerate() {
-                    *p = (0..z.nrows()).fold(Complex::new(T::zero(), T::zero()), |s, k| {
-                        s + phi[k + 1] * z[(k, j)]
-                    });
-                }
+    fn numerator_basis<'a>(
+        &self,
+        phi: &'a mut [Complex<T>],
+        psi: &'a mut [Complex<T>],
+    ) -> &'a [Complex<T>] {
+        match (&self.numerator_reflectors, &self.numerator_map) {
+            (Some(c), _) => {
+                let m = c.rank();
+                c.reflect_row(&mut phi[1..=c.dim()]);
+                &phi[1 + m..=c.dim()]
             }
-            None => {
+            (None, Some(z)) => {
+                for (p, zj) in psi.iter_mut().zip(z.column_iter()) {
+                    *p = phi[1..]
+                        .iter()
+                        .zip(zj.iter())
+                        .fold(Complex::new(T::zero(), T::zero()), |s, (f, z)| s + *f * *z);
+                }
+                psi
+            }
+            (None, None) => {
                 let off = self.b_offset();
-                psi.copy_from_slice(&phi[off..off + psi.len()]);
+                &phi[off..=off + self.nb]
             }
         }
     }
@@ -523,9 +543,22 @@ impl<T: Real> Rational<T> {
         Ok(out)
     }
 
-    /// Evaluates A and B at the variable of ω, with the basis values in `phi`.
+    /// The numerator's coefficients over the whole basis, c = [0…, θ_b] or [0, Zθ_b]
+    /// ([`Rational::b_in_basis`]), for [`Rational::eval_ab`].
+    fn numerator_coefficients(&self, theta: &[T]) -> Vec<T> {
+        self.b_in_basis(&theta[self.na..=self.na + self.nb])
+    }
+
+    /// Evaluates A and B at the variable of ω, with the basis values in `phi` and the
+    /// numerator coefficients `c` of [`Rational::numerator_coefficients`]: B = Σ cₙφₙ.
     #[inline]
-    fn eval_ab(&self, theta: &[T], omega: T, phi: &mut [Complex<T>]) -> (Complex<T>, Complex<T>) {
+    fn eval_ab(
+        &self,
+        theta: &[T],
+        c: &[T],
+        omega: T,
+        phi: &mut [Complex<T>],
+    ) -> (Complex<T>, Complex<T>) {
         self.basis.eval_at(omega, phi);
         let zero = Complex::new(T::zero(), T::zero());
         let na = self.na;
@@ -539,17 +572,7 @@ impl<T: Real> Rational<T> {
         } else {
             dot(&phi[..na], &theta[..na]) + phi[na]
         };
-        let b = if let Some(z) = &self.numerator_map {
-            let mut b = zero;
-            for (j, zj) in z.column_iter().enumerate() {
-                b += dot(&phi[1..=zj.len()], zj.as_slice()) * theta[na + j];
-            }
-            b
-        } else {
-            let off = self.b_offset();
-            dot(&phi[off..=off + self.nb], &theta[na..=na + self.nb])
-        };
-        (a, b)
+        (a, dot(&phi[..c.len()], c))
     }
 
     fn zero_phi(&self) -> Vec<Complex<T>> {
@@ -574,8 +597,9 @@ impl<T: Real> ModelStructure<T> for Rational<T> {
 
     fn response_into(&self, theta: &[T], omega: &[T], out: &mut [Complex<T>]) {
         let mut phi = self.zero_phi();
+        let c = self.numerator_coefficients(theta);
         for (w, o) in omega.iter().zip(out.iter_mut()) {
-            let (a, b) = self.eval_ab(theta, *w, &mut phi);
+            let (a, b) = self.eval_ab(theta, &c, *w, &mut phi);
             *o = b * crate::scalar::recip(a);
         }
     }
@@ -600,8 +624,9 @@ impl<T: Real> ModelStructure<T> for Rational<T> {
         for col in cols[na + self.nb + 1..].iter_mut() {
             col.fill(Complex::new(T::zero(), T::zero()));
         }
+        let c = self.numerator_coefficients(theta);
         for (k, (w, g)) in omega.iter().zip(g.iter_mut()).enumerate() {
-            let (a, b) = self.eval_ab(theta, *w, &mut phi);
+            let (a, b) = self.eval_ab(theta, &c, *w, &mut phi);
             let inv_a = crate::scalar::recip(a);
             let gk = b * inv_a;
             *g = gk;
@@ -609,8 +634,8 @@ impl<T: Real> ModelStructure<T> for Rational<T> {
             for (col, p) in cols[..na].iter_mut().zip(&phi[off..]) {
                 col[k] = *p * minus_g_over_a;
             }
-            self.numerator_basis(&phi, &mut psi);
-            for (col, p) in cols[na..].iter_mut().zip(&psi) {
+            let psi = self.numerator_basis(&mut phi, &mut psi);
+            for (col, p) in cols[na..].iter_mut().zip(psi) {
                 col[k] = *p * inv_a;
             }
         }
@@ -633,8 +658,9 @@ impl<T: Real> ModelStructure<T> for Rational<T> {
         let mut phi = self.zero_phi();
         let mut chi = vec![Complex::new(T::zero(), T::zero()); nt];
         let off = self.a_offset();
+        let c = self.numerator_coefficients(theta);
         for (k, w) in omega.iter().enumerate() {
-            let (a, _) = self.eval_ab(theta, *w, &mut phi);
+            let (a, _) = self.eval_ab(theta, &c, *w, &mut phi);
             self.transient_basis(ts, *w, &mut chi);
             let inv_a = a.inv();
             let num = chi
@@ -757,8 +783,8 @@ impl<T: Real> EquationError<T> for Rational<T> {
             for (col, p) in cols[..=na].iter_mut().zip(&phi) {
                 col[k] = *p * *y;
             }
-            self.numerator_basis(&phi, &mut psi);
-            for (col, p) in cols[na + 1..].iter_mut().zip(&psi) {
+            let psi = self.numerator_basis(&mut phi, &mut psi);
+            for (col, p) in cols[na + 1..].iter_mut().zip(psi) {
                 col[k] = -(*p * *u);
             }
             if let Some(ts) = self.transient {
@@ -772,8 +798,9 @@ impl<T: Real> EquationError<T> for Rational<T> {
 
     fn denominator_into(&self, theta: &[T], omega: &[T], out: &mut [Complex<T>]) {
         let mut phi = self.zero_phi();
+        let c = self.numerator_coefficients(theta);
         for (w, o) in omega.iter().zip(out.iter_mut()) {
-            *o = self.eval_ab(theta, *w, &mut phi).0;
+            *o = self.eval_ab(theta, &c, *w, &mut phi).0;
         }
     }
 
@@ -785,8 +812,9 @@ impl<T: Real> EquationError<T> for Rational<T> {
         a: &mut [Complex<T>],
     ) {
         let mut phi = self.zero_phi();
+        let c = self.numerator_coefficients(theta);
         for ((w, g), a) in omega.iter().zip(g.iter_mut()).zip(a.iter_mut()) {
-            let (den, num) = self.eval_ab(theta, *w, &mut phi);
+            let (den, num) = self.eval_ab(theta, &c, *w, &mut phi);
             *g = num * crate::scalar::recip(den);
             *a = den;
         }
