@@ -116,7 +116,7 @@ impl<T: Real, M: ModelStructure<T>> Fit<T, M> {
     /// evaluation when it was at θ, as after a solver's last step), then in one pass of
     /// Jacobian blocks both JᵀJ and the sandwich's JᵀD²J (D from the residuals); the
     /// covariance from the equilibrated Gram matrix when it is accepted (see
-    /// [`covariance_factors`]). `None` for small problems (N·p ≤ 32 768, whose N × p
+    /// [`covariance_factors`]). `None` for small problems (N·p ≤ 8 192, whose N × p
     /// matrices stay in cache), when anything is not finite or when the Gram matrix is
     /// refused: then the caller takes the path of [`Fit::from_residuals`] (the full J, its
     /// QR/SVD when needed, typed errors).

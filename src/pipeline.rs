@@ -413,10 +413,22 @@ impl Pipeline {
             .map_or_else(|| num_traits::Float::sqrt(T::default_epsilon()), T::lit);
         let ctol = T::lit(fp.cost_tolerance);
         let weights = w.weights(data)?;
-        let oe_cost = |m: &M, theta: &[T]| {
-            crate::criterion::output_error_cost(m, theta, data, weights.as_deref())
+        // one set of response buffers for every iterate: G of the latest in `g_old`
+        let mut out = crate::model::Output::new(data.len(), model.n_params());
+        let mut oe_cost = |m: &M, theta: &[T], g: &mut Vec<crate::Complex<T>>| {
+            let cost = crate::criterion::output_error_cost_in(
+                &mut out,
+                m,
+                theta,
+                data,
+                weights.as_deref(),
+            );
+            std::mem::swap(&mut out.g, g);
+            cost
         };
-        let (mut cost, mut g_old) = oe_cost(&model, &theta);
+        let mut g_old = vec![];
+        let mut cost = oe_cost(&model, &theta, &mut g_old);
+        let mut g_new = vec![];
         let mut best = (model.clone(), theta.clone(), cost);
         let linear = LinearLeastSquares {
             rcond_eps: fp.rcond_eps,
@@ -433,14 +445,14 @@ impl Pipeline {
             } else {
                 self.levy_solve(&next, data, &linear, work)?.theta
             };
-            let (new_cost, g_new) = oe_cost(&next, &next_theta);
+            let new_cost = oe_cost(&next, &next_theta, &mut g_new);
             let change = crate::criterion::relative_change(&g_old, &g_new);
             let stalled = num_traits::Float::abs(new_cost - cost)
                 <= ctol * num_traits::Float::max(new_cost, cost);
             model = next;
             theta = next_theta;
             cost = new_cost;
-            g_old = g_new;
+            std::mem::swap(&mut g_old, &mut g_new);
             if cost < best.2 {
                 best = (model.clone(), theta.clone(), cost);
             }

@@ -296,7 +296,7 @@ impl<T: Real, M: ModelStructure<T> + ?Sized> NonlinearProblem<T> for MlProblem<'
 
     /// JᵀJ and Jᵀr accumulated over blocks of lines (of about 4 096/p lines each), each
     /// block's rows of J formed in a small buffer that stays in cache: no 2N × p matrix is
-    /// formed, and `jac` is not used — except for small problems (N·p ≤ 32 768), whose J
+    /// formed, and `jac` is not used — except for small problems (N·p ≤ 8 192), whose J
     /// is formed in `jac` as by the default.
     fn normal_equations_into(
         &self,

@@ -119,17 +119,27 @@ pub(crate) fn output_error_cost<T: Real, M: crate::ModelStructure<T> + ?Sized>(
     weights: Option<&[T]>,
 ) -> (T, Vec<crate::Complex<T>>) {
     let mut out = crate::model::Output::new(data.len(), model.n_params());
+    let cost = output_error_cost_in(&mut out, model, theta, data, weights);
+    (cost, out.g)
+}
+
+/// [`output_error_cost`] in the buffers of `out` (G in `out.g`), which an iteration reuses.
+pub(crate) fn output_error_cost_in<T: Real, M: crate::ModelStructure<T> + ?Sized>(
+    out: &mut crate::model::Output<T>,
+    model: &M,
+    theta: &[T],
+    data: &FrequencyData<T>,
+    weights: Option<&[T]>,
+) -> T {
     out.evaluate(model, theta, data, false);
-    let cost = out
-        .yhat
+    out.yhat
         .iter()
         .zip(data.y())
         .enumerate()
         .fold(T::zero(), |s, (k, (yhat, y))| {
             let wk = weights.map_or(T::one(), |w| w[k]);
             s + ((*y - *yhat) * wk).norm_sqr()
-        });
-    (cost, out.g)
+        })
 }
 
 /// Relative change ‖new − old‖/‖new‖ between two model responses.

@@ -214,7 +214,7 @@ fn regressor_rows_by_blocks_equal_the_whole_regressor() {
     }
 }
 
-/// On a problem large enough for the blocked normal equations (N·q > 32 768), the Levy
+/// On a problem large enough for the blocked normal equations (N·q > 8 192), the Levy
 /// stage of the standard chain has the estimate and the cost of the QR solve.
 #[test]
 fn blocked_levy_stage_equals_the_qr_one() {
