@@ -67,13 +67,18 @@ impl<T: Real> GramWork<T> {
 
 /// G = JᵀJ (`accumulate`: G += JᵀJ) into `g` (p × p, p = J's column count): one blocked
 /// matrix product (`matrixmultiply`, through nalgebra's gemm) of a transposed *view* of J
-/// with J, so no copy of J is made; column dot products for p ≤ 5, below nalgebra's
-/// threshold for the blocked product.
+/// with J, so no copy of J is made; column dot products when p ≤ 5 or J has at most 5
+/// rows, below nalgebra's threshold for the blocked product. The view must not reach
+/// nalgebra's column-by-column fallback of gemm below that threshold: it bounds its loop
+/// over a strided column by the length of the underlying slice, not by the column's, and
+/// writes past the result (a 2 × p block of one line's rows did).
 pub(crate) fn gram_into<T: Real>(jac: &DMatrix<T>, g: &mut DMatrix<T>, accumulate: bool) {
     let (m, p) = jac.shape();
     debug_assert_eq!(g.shape(), (p, p));
     let beta = if accumulate { T::one() } else { T::zero() };
-    if p <= 5 || m == 0 {
+    // nalgebra's blocked-product threshold (`SMALL_DIM` of its gemm)
+    const SMALL_DIM: usize = 5;
+    if p <= SMALL_DIM || m <= SMALL_DIM {
         g.gemm_tr(T::one(), jac, jac, beta);
         return;
     }
@@ -356,13 +361,29 @@ mod tests {
 
     #[test]
     fn gram_matches_the_direct_product() {
-        for (m, p) in [(7, 3), (9, 5), (12, 6), (400, 11), (1000, 21)] {
+        // m ≤ 5 with p > 5: the last block of a blocked pass can hold one or two lines
+        for (m, p) in [
+            (1, 8),
+            (2, 8),
+            (4, 12),
+            (5, 6),
+            (6, 6),
+            (7, 3),
+            (9, 5),
+            (12, 6),
+            (400, 11),
+            (1000, 21),
+        ] {
             let j = tall(m, p, 3 + m as u64);
             let mut w = GramWork::new(1);
             w.gram(&j);
             let direct = j.transpose() * &j;
             let err = (&w.g - &direct).norm() / direct.norm();
             assert!(err < 1e-14, "{m}×{p}: {err:e}");
+            let mut acc = direct.clone();
+            gram_into(&j, &mut acc, true);
+            let err = (&acc - &direct * 2.0).norm() / direct.norm();
+            assert!(err < 1e-14, "{m}×{p} accumulated: {err:e}");
             let v: Vec<f64> = (0..m).map(|k| (k as f64).sin()).collect();
             let mut out = DVector::zeros(p);
             GramWork::tr_mul(&j, &v, &mut out);

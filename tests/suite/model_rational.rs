@@ -218,7 +218,19 @@ fn regressor_rows_by_blocks_equal_the_whole_regressor() {
 /// stage of the standard chain has the estimate and the cost of the QR solve.
 #[test]
 fn blocked_levy_stage_equals_the_qr_one() {
-    let omega = logspace(-1.0, 1.0, 6_000);
+    blocked_levy_stage_on(6_000);
+}
+
+/// The same with a last block of one line (the order-(10, 9) model's Levy and ML passes
+/// take 204 lines per block): its 2 × p rows once made the Gram product write past its
+/// result.
+#[test]
+fn blocked_passes_with_a_last_block_of_one_line() {
+    blocked_levy_stage_on(204 * 29 + 1);
+}
+
+fn blocked_levy_stage_on(lines: usize) {
+    let omega = logspace(-1.0, 1.0, lines);
     let sys = common::b_ct10();
     let mut noise = common::Noise::new(9);
     let y: Vec<Complex<f64>> = sys
