@@ -597,7 +597,10 @@ fn sin_cos<T: Real>(x: T) -> (T, T) {
     // π/2 = PIO2_HI + PIO2_LO, PIO2_HI with 33 significant bits
     const PIO2_HI: f64 = 1.570_796_326_734_125_6;
     const PIO2_LO: f64 = 6.077_100_506_506_192e-11;
-    let k = Float::round(x * T::lit(std::f64::consts::FRAC_2_PI));
+    // the nearest integer to x·2/π (|x·2/π| ≤ 2.6) by adding and removing 1.5·2⁵²: no call
+    // to the library's `round` (a tie may round either way: |r| ≤ π/4 + 1 ulp still)
+    let magic = T::lit(6_755_399_441_055_744.0);
+    let k = (x * T::lit(std::f64::consts::FRAC_2_PI) + magic) - magic;
     let r = (x - k * T::lit(PIO2_HI)) - k * T::lit(PIO2_LO);
     let x = r * r;
     // sin r = r + r x S(x), cos r = 1 + x C(x) with x = r², S and C of degree 7 (the series
