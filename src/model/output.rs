@@ -37,8 +37,9 @@ pub struct Output<T: Real> {
 }
 
 impl<T: Real> Output<T> {
-    /// Buffers for `lines` lines and `params` parameters. The Jacobian buffers are
-    /// allocated on the first evaluation that asks for them.
+    /// Buffers for `lines` lines and `params` parameters. The Jacobian buffers, and the
+    /// transient term's of a model that has one, are allocated on the first evaluation
+    /// that needs them.
     pub fn new(lines: usize, params: usize) -> Self {
         let _ = params;
         let zero = Complex::new(T::zero(), T::zero());
@@ -47,7 +48,7 @@ impl<T: Real> Output<T> {
             yhat: vec![zero; lines],
             dg: DMatrix::zeros(0, 0),
             dyhat: DMatrix::zeros(0, 0),
-            t: vec![zero; lines],
+            t: Vec::new(),
             dt: DMatrix::zeros(0, 0),
         }
     }
@@ -80,10 +81,15 @@ impl<T: Real> Output<T> {
         let omega = &omega[..n];
         let u = &u[..n];
         let zero = Complex::new(T::zero(), T::zero());
-        for v in [&mut self.g, &mut self.yhat, &mut self.t] {
+        for v in [&mut self.g, &mut self.yhat] {
             if v.len() != n {
                 v.resize(n, zero);
             }
+        }
+        // T only for a model with a transient term
+        let with_t = model.has_transient();
+        if with_t && self.t.len() != n {
+            self.t.resize(n, zero);
         }
         let has_t = if jacobian {
             for m in [&mut self.dg, &mut self.dyhat] {
@@ -92,7 +98,7 @@ impl<T: Real> Output<T> {
                 }
             }
             model.jacobian_into(theta, omega, &mut self.g, &mut self.dg);
-            if !model.has_transient() {
+            if !with_t {
                 false
             } else {
                 if self.dt.shape() != (n, p) {
@@ -102,7 +108,7 @@ impl<T: Real> Output<T> {
             }
         } else {
             model.response_into(theta, omega, &mut self.g);
-            model.transient_into(theta, omega, &mut self.t, None)
+            with_t && model.transient_into(theta, omega, &mut self.t, None)
         };
         for ((yhat, g), u) in self.yhat.iter_mut().zip(&self.g).zip(u) {
             *yhat = *g * *u;
