@@ -8,9 +8,9 @@
 //!
 //! Measured on the 500 systems of seeds 1000–1499 (README, Tests): `Pipeline::fit`, which
 //! runs further starts when its fit shows evidence of a local minimum, reaches the optimum
-//! on 97.6 % (continuous time 98.4 %, discrete time 96.8 %), below the 99 % target; the
+//! on 97.8 % (continuous time 98.8 %, discrete time 96.8 %), below the 99 % target; the
 //! chain alone (`restarts: false`) on 84.0 %; the multistart fits (`fit_multistart`,
-//! `fit_multistart_discrete`) on 98.6 %. These tests guard those levels.
+//! `fit_multistart_discrete`) on 98.8 %. These tests guard those levels.
 
 use crate::robustness;
 
