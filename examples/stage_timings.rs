@@ -1,6 +1,6 @@
 //! Stage timings of the standard chain on the order-10 case (b_ct10, 20 000 lines) and on
 //! a_ct4 against the number of lines: `cargo run --release --example stage_timings`
-//! (`PROBE=full`, `PROBE=ct4` or `PROBE=fitnew` repeat one part for a profiler, `REPS` times, `PROBE=dft` times the
+//! (`PROBE=full`, `PROBE=ct4` (`LINES` lines) or `PROBE=fitnew` repeat one part for a profiler, `REPS` times, `PROBE=dft` times the
 //! DFT of 10⁷ samples).
 #[path = "../tests/common/mod.rs"]
 mod common;
@@ -56,7 +56,12 @@ fn main() {
         return;
     }
     if std::env::var("PROBE").as_deref() == Ok("ct4") {
-        let (data, _) = simulate(&a_ct4(), 2_000, 11);
+        // `LINES` lines (default 2 000), e.g. LINES=200000 for the lines-scaling case
+        let lines = std::env::var("LINES")
+            .ok()
+            .and_then(|v| v.parse().ok())
+            .unwrap_or(2_000);
+        let (data, _) = simulate(&a_ct4(), lines, 11);
         let model = Rational::continuous(4, 3, data.omega()).unwrap();
         for _ in 0..reps(2000) {
             Pipeline::default().fit(&model, &data).unwrap();

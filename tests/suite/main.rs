@@ -13,6 +13,12 @@ mod cli_common;
 #[path = "../common/robustness.rs"]
 mod robustness;
 
+#[path = "../common/drifting.rs"]
+mod drifting;
+
+#[path = "../common/measurement.rs"]
+mod measurement;
+
 mod batch;
 mod cli;
 mod cli_diagnose;
