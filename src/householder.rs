@@ -20,7 +20,7 @@ pub(crate) struct Reflector<T: Real> {
 }
 
 /// Z = (H₁⋯H_m)[:, m..], the orthonormal complement of span U, held as its reflectors.
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, PartialEq)]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub(crate) struct Complement<T: Real> {
     n: usize,
