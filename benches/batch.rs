@@ -1,4 +1,4 @@
-//! Criterion bench of `fdid::batch::fit_many`: 1 000 independent FRFs, each a random stable
+//! Criterion bench of `fdid::estimate::batch::fit_many`: 1 000 independent FRFs, each a random stable
 //! discrete-time order-4 system (two resonances) on 200–500 equally spaced lines over
 //! (0, π) rad/sample at 40 dB SNR (seeded), fitted by the default pipeline (Levy → SK → ML)
 //! with one order-(4, 3) model:
@@ -14,7 +14,7 @@
 //! Run: `cargo bench --features rayon --bench batch` (about a minute on 2 cores).
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use fdid::batch::{fit_many, fit_many_sequential};
+use fdid::estimate::batch::{fit_many, fit_many_sequential};
 use fdid::{Complex, FrequencyData, Pipeline, Rational};
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};

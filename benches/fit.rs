@@ -24,7 +24,7 @@ use criterion::{
     BenchmarkId, Criterion, SamplingMode, Throughput, criterion_group, criterion_main,
 };
 use fdid::criterion::NoiseWeighting;
-use fdid::pipeline::estimate;
+use fdid::estimate::estimate;
 use fdid::solver::{LevenbergMarquardt, LinearLeastSquares};
 use fdid::{
     Complex, Fit, FrequencyData, Levy, MaximumLikelihood, NoiseVariances, Pipeline, Rational,

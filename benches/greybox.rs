@@ -20,8 +20,9 @@
 //! with `CARGO_PROFILE_BENCH_CODEGEN_UNITS=1`; p = 17 (a 20-component dual) 9.7 and 4.3.
 
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
+use fdid::estimate::greybox::fit_ml;
 use fdid::greybox::physical::{DriveOutput, MassSpringDamper, TwoMassDrive};
-use fdid::greybox::{AutoDiff, DualScalar, GreyBox, PhysicalParameters, fit_ml};
+use fdid::greybox::{AutoDiff, DualScalar, GreyBox, PhysicalParameters};
 use fdid::{Complex, FrequencyData, ModelStructure, NoiseVariances, Rational};
 use nalgebra::DMatrix;
 use std::hint::black_box;

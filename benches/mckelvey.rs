@@ -11,7 +11,8 @@
 //! Run: `cargo bench --bench mckelvey`.
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use fdid::model::{Delayed, ModalOptions, fit_modal};
+use fdid::estimate::{ModalOptions, fit_modal};
+use fdid::model::Delayed;
 use fdid::prelude::*;
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};

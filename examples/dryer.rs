@@ -20,8 +20,8 @@
 //!
 //! Run: `cargo run --release --example dryer` (well under a second).
 
+use fdid::estimate::fit_delayed;
 use fdid::io::{Measurement, read_csv};
-use fdid::model::fit_delayed;
 use fdid::prelude::*;
 use std::path::Path;
 

@@ -9,10 +9,11 @@
 //!
 //! Run: `cargo run --release --example greybox`
 
+use fdid::estimate::greybox::{fit_ml, physical_values};
 use fdid::greybox::physical::{
     DcMotor, DriveOutput, MassSpringDamper, Rlc, RlcOutput, TwoMassDrive,
 };
-use fdid::greybox::{AutoDiff, Fixed, PhysicalParameters, fit_ml, physical_values};
+use fdid::greybox::{AutoDiff, Fixed, PhysicalParameters};
 use fdid::io::{Measurement, read_csv};
 use fdid::prelude::*;
 

@@ -37,7 +37,7 @@
 mod progress;
 
 use fdid::criterion::interior_lines;
-use fdid::model::{ModalOptions, fit_modal};
+use fdid::estimate::{ModalOptions, fit_modal};
 use fdid::prelude::*;
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};

@@ -6,7 +6,7 @@
 mod common;
 use common::{Noise, a_ct4, b_ct10, logspace, rel_rms};
 use fdid::criterion::NoiseWeighting;
-use fdid::pipeline::estimate;
+use fdid::estimate::estimate;
 use fdid::solver::{GramLevenbergMarquardt, LevenbergMarquardt};
 use fdid::{Complex, Fit, FrequencyData, MaximumLikelihood, NoiseVariances, Pipeline, Rational};
 use std::time::Instant;

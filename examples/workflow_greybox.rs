@@ -3,8 +3,9 @@
 //! `missing_resonance` and augmented by a flexible mode.
 //!
 //! Run: `cargo run --release --example workflow_greybox`.
+use fdid::estimate::greybox::physical_values;
 use fdid::greybox::physical::{DriveOutput, TwoMassDrive};
-use fdid::greybox::{AutoDiff, DualScalar, Fixed, GreyBox, Parameter, physical_values};
+use fdid::greybox::{AutoDiff, DualScalar, Fixed, GreyBox, Parameter};
 use fdid::prelude::*;
 use fdid::simulate::SplitMix64;
 use fdid::workflow::{Context, Workflow};

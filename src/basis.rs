@@ -24,7 +24,7 @@
 //! the real polynomial P(s) = Σ cₙ φₙ(s), so physical (real-coefficient) models are kept.
 
 use crate::error::{FdidError, Result};
-use crate::{Complex, Real};
+use crate::scalar::{Complex, Real};
 use nalgebra::DMatrix;
 use num_traits::Float;
 
@@ -435,7 +435,10 @@ impl<T: Real> PolyBasis<T> {
 
     /// [`PolyBasis::markov_null_space`] held as its m Householder reflectors, which map the
     /// basis values φ to ψ = φZ in O(m·n) per line.
-    pub(crate) fn markov_complement(&self, m: usize) -> Result<crate::householder::Complement<T>> {
+    pub(crate) fn markov_complement(
+        &self,
+        m: usize,
+    ) -> Result<crate::linalg::householder::Complement<T>> {
         let (q, b) = self.realisation().ok_or(FdidError::InvalidArgument {
             name: "basis",
             value: "polynomial".into(),
@@ -468,7 +471,7 @@ impl<T: Real> PolyBasis<T> {
             u.set_column(j, &v);
             v = &qhat * &v;
         }
-        crate::householder::Complement::of(&u).ok_or(FdidError::Singular {
+        crate::linalg::householder::Complement::of(&u).ok_or(FdidError::Singular {
             what: "relative-degree constraints of the partial-fraction numerator \
                    (the Krylov basis lost its rank to rounding)",
             condition: f64::INFINITY,

@@ -140,7 +140,7 @@ pub enum FdidError {
 pub type Result<T> = std::result::Result<T, FdidError>;
 
 /// Checks that every value is finite; names the first bad one.
-pub(crate) fn check_finite<T: crate::Real>(what: &'static str, values: &[T]) -> Result<()> {
+pub(crate) fn check_finite<T: crate::scalar::Real>(what: &'static str, values: &[T]) -> Result<()> {
     match values
         .iter()
         .position(|v| !num_traits::Float::is_finite(*v))
@@ -155,9 +155,9 @@ pub(crate) fn check_finite<T: crate::Real>(what: &'static str, values: &[T]) -> 
 }
 
 /// Checks that every complex value is finite; names the first bad one.
-pub(crate) fn check_finite_complex<T: crate::Real>(
+pub(crate) fn check_finite_complex<T: crate::scalar::Real>(
     what: &'static str,
-    values: &[crate::Complex<T>],
+    values: &[crate::scalar::Complex<T>],
 ) -> Result<()> {
     match values
         .iter()

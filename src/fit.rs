@@ -6,9 +6,9 @@ use crate::data::FrequencyData;
 use crate::error::Result;
 use crate::model::{ModelStructure, PolesZeros};
 use crate::problem::NonlinearProblem;
+use crate::scalar::{Complex, Real};
 use crate::solver::Solution;
 use crate::validation::Validation;
-use crate::{Complex, Real};
 use nalgebra::DMatrix;
 use num_traits::Float;
 
@@ -124,14 +124,14 @@ impl<T: Real, M: ModelStructure<T>> Fit<T, M> {
         problem: &MlProblem<'_, T, Mp>,
         theta: &[T],
     ) -> Option<Parts<T>> {
-        use crate::solver::gram::{gram_into, max_condition, scaled_cholesky};
+        use crate::linalg::gram::{gram_into, max_condition, scaled_cholesky};
         let (n, p) = (problem.data().len(), problem.n_params());
         let level = if problem.weights().is_some() {
             NoiseLevel::Known
         } else {
             NoiseLevel::Estimated
         };
-        if p == 0 || 2 * n < p || crate::solver::gram::small_problem(n, p) {
+        if p == 0 || 2 * n < p || crate::linalg::gram::small_problem(n, p) {
             return None;
         }
         let mut r = vec![T::zero(); 2 * n];
@@ -253,7 +253,7 @@ impl<T: Real, M: ModelStructure<T>> Fit<T, M> {
         stages: Vec<Stage<T>>,
     ) -> Result<Self> {
         if problem.n_residuals() != 2 * data.len() || problem.n_params() != model.n_params() {
-            return Err(crate::FdidError::InvalidArgument {
+            return Err(crate::error::FdidError::InvalidArgument {
                 name: "problem",
                 value: format!(
                     "{} residuals, {} parameters",
@@ -504,7 +504,7 @@ impl<T: Real> Head<T> {
     fn new(n: usize, p: usize, r: Vec<T>, level: NoiseLevel) -> Result<Self> {
         let cost = r.iter().fold(T::zero(), |s, v| s + *v * *v);
         if !Float::is_finite(cost) {
-            return Err(crate::FdidError::Numerical {
+            return Err(crate::error::FdidError::Numerical {
                 what: format!(
                     "the fit's cost is not finite ({}): the data are too large for this precision; scale them",
                     cost.to_f64_lossless()
@@ -671,7 +671,7 @@ fn residuals_and_jacobian<T: Real, P: NonlinearProblem<T> + ?Sized>(
     let mut r = vec![T::zero(); problem.n_residuals()];
     let mut jac = DMatrix::zeros(problem.n_residuals(), problem.n_params());
     if !problem.jacobian_into(theta, &mut r, &mut jac) {
-        return Err(crate::FdidError::Numerical {
+        return Err(crate::error::FdidError::Numerical {
             what: "model response or Jacobian at the estimate".into(),
         });
     }
@@ -707,7 +707,7 @@ fn covariance_factors<T: Real>(
     mut jac: DMatrix<T>,
     r: &[Complex<T>],
 ) -> (Option<DMatrix<T>>, Option<DMatrix<T>>) {
-    use crate::solver::gram::{GramWork, max_condition, scaled_cholesky};
+    use crate::linalg::gram::{GramWork, max_condition, scaled_cholesky};
     let (m, p) = jac.shape();
     if p == 0 || m < p || m != 2 * r.len() {
         return (None, None);
@@ -758,7 +758,7 @@ fn gram_inverse_factor_qr<T: Real>(mut jac: DMatrix<T>) -> Option<DMatrix<T>> {
     if r.iter().any(|v| !Float::is_finite(*v)) {
         return None;
     }
-    let svd = crate::problem::try_svd(r, false, true, 100 * p.max(10))?;
+    let svd = crate::linalg::try_svd(r, false, true, 100 * p.max(10))?;
     let smax = svd.singular_values.max();
     let smin = svd.singular_values.min();
     if !(smin > smax * T::default_epsilon() * T::lit(10.0)) {
@@ -768,6 +768,26 @@ fn gram_inverse_factor_qr<T: Real>(mut jac: DMatrix<T>) -> Option<DMatrix<T>> {
     Some(DMatrix::from_fn(p, p, |i, k| {
         vt[(k, i)] / (svd.singular_values[k] * scale[i])
     }))
+}
+
+impl<T: Real> Fit<T, crate::model::Rational<T>> {
+    /// Poles whose half-power band holds no data line, so that the data do not determine
+    /// their damping ([`crate::validation::unresolved_poles`]): with s = p (continuous
+    /// time) or s = ln(p)/Ts (discrete time), s = σ + iω_p, a pole is unresolved when ω_p
+    /// lies inside the band of the data and no line ω_k satisfies |ω_k − |ω_p|| ≤ |σ|.
+    /// Such a pole is typically spurious — a resonance fitted between two lines (e.g. in
+    /// place of poles closer together than the noise resolves) — even when the cost looks
+    /// right; one conjugate of each pair is listed.
+    ///
+    /// # Errors
+    /// As [`crate::model::PolesZeros::poles`].
+    pub fn unresolved_poles(&self) -> Result<Vec<Complex<T>>> {
+        Ok(crate::validation::unresolved_poles(
+            &self.poles()?,
+            self.model().domain(),
+            self.omega(),
+        ))
+    }
 }
 
 #[cfg(test)]

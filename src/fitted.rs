@@ -4,7 +4,7 @@
 
 use crate::fit::Fit;
 use crate::model::ModelStructure;
-use crate::{Complex, Real};
+use crate::scalar::{Complex, Real};
 use nalgebra::DMatrix;
 
 /// The summary of a [`Fit`]: model structure `M`, estimate θ̂ and its covariance, noise

@@ -32,9 +32,9 @@
 //! [`Rational::continuous`] uses vector fitting's partial-fraction (barycentric) form for
 //! every proper model, and [`Pipeline`] moves its basis poles to the estimated poles
 //! (Sanathanan–Koerner as pole relocation) before the ML refinement. [`Pipeline`] runs
-//! Levy → SK → ML; [`pipeline::estimate`] composes any criterion with any solver that
+//! Levy → SK → ML; [`estimate::estimate()`] composes any criterion with any solver that
 //! accepts its problem.
-//! [`batch::fit_many`] fits many independent data sets with one pipeline, on rayon's
+//! [`estimate::batch::fit_many`] fits many independent data sets with one pipeline, on rayon's
 //! thread pool with the `rayon` feature.
 //!
 //! Equation numbers refer to T. McKelvey, *Frequency domain identification methods*
@@ -65,20 +65,18 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod basis;
-pub mod batch;
 pub mod criterion;
 pub mod data;
 pub mod error;
+pub mod estimate;
 pub mod fit;
 pub mod fitted;
 pub mod greybox;
-pub(crate) mod householder;
 #[cfg(feature = "csv")]
 pub mod io;
+pub mod linalg;
 pub mod ltv;
 pub mod model;
-pub mod multistart;
-pub mod pipeline;
 pub mod problem;
 pub mod roots;
 pub mod scalar;
@@ -90,14 +88,14 @@ mod test_rng;
 pub mod validation;
 pub mod workflow;
 
+pub use criterion::ErrorsInVariables;
 pub use criterion::{Criterion, Levy, MaximumLikelihood, SanathananKoerner, TotalLeastSquares};
-pub use criterion::{ErrorsInVariables, fit_eiv};
 pub use data::{FrequencyData, NoiseVariances, TimeData};
 pub use error::{FdidError, Result};
+pub use estimate::{FurtherStarts, Pipeline, fit_eiv};
 pub use fit::{Fit, NoiseLevel};
 pub use fitted::FittedModel;
 pub use model::{Delayed, EquationError, ModelStructure, PolesZeros, Rational};
-pub use pipeline::Pipeline;
 pub use scalar::{Complex, Real};
 pub use solver::{Solution, Solver};
 
@@ -107,21 +105,21 @@ pub mod prelude {
     pub use crate::criterion::{
         Criterion, Levy, MaximumLikelihood, SanathananKoerner, TotalLeastSquares,
     };
-    pub use crate::criterion::{ErrorsInVariables, fit_eiv};
-    pub use crate::criterion::{NoiseModelMl, fit_noise_model};
+    pub use crate::criterion::{ErrorsInVariables, NoiseModelMl};
     pub use crate::data::{FrequencyData, NoiseVariances, TimeData};
     pub use crate::data::{Lpm, LpmEstimate, lpm};
     pub use crate::error::{FdidError, Result};
+    pub use crate::estimate::{FurtherStarts, Pipeline, estimate};
+    pub use crate::estimate::{ModalOptions, fit_modal};
+    pub use crate::estimate::{fit_delayed, fit_eiv, fit_noise_model};
+    pub use crate::estimate::{fit_multistart, fit_multistart_discrete};
     pub use crate::fit::{Fit, NoiseLevel};
     pub use crate::greybox::{AutoDiff, Fixed, GreyBox, PhysicalParameters};
     pub use crate::ltv::{LtvFit, LtvOde};
-    pub use crate::model::{Delayed, fit_delayed};
+    pub use crate::model::Delayed;
     pub use crate::model::{Domain, EquationError, ModelStructure, PolesZeros, Rational};
-    pub use crate::model::{Modal, ModalDomain, ModalOptions, fit_modal};
+    pub use crate::model::{Modal, ModalDomain};
     pub use crate::model::{NoiseModel, WithNoiseModel};
-    pub use crate::multistart::{fit_multistart, fit_multistart_discrete};
-    pub use crate::pipeline::Pipeline;
-    pub use crate::pipeline::estimate;
     pub use crate::scalar::{Complex, Real};
     pub use crate::solver::{
         FixedPoint, LevenbergMarquardt, LinearLeastSquares, Solution, Solver, SvdNullVector,

@@ -4,7 +4,7 @@
 //! criterion paired with the wrong solver does not compile. Complex equations are stacked as
 //! real ones (real and imaginary parts, line by line) so parameters stay real.
 
-use crate::Real;
+use crate::scalar::Real;
 use nalgebra::{DMatrix, DVector};
 
 /// A nonlinear least-squares problem: minimise ‖r(θ)‖² over θ ∈ ℝᵖ.
@@ -44,8 +44,8 @@ pub trait NonlinearProblem<T: Real> {
         if grad.len() != p {
             *grad = DVector::zeros(p);
         }
-        crate::solver::gram::gram_into(jac, gram, false);
-        crate::solver::gram::GramWork::tr_mul(jac, r, grad);
+        crate::linalg::gram::gram_into(jac, gram, false);
+        crate::linalg::gram::GramWork::tr_mul(jac, r, grad);
         true
     }
 }
@@ -79,7 +79,7 @@ pub trait ReweightedProblem<T: Real> {
     /// it.
     fn solve_normal_equations(&self, previous: Option<&[T]>) -> Option<(Vec<T>, T)> {
         let (a, b) = self.system(previous);
-        crate::solver::gram::least_squares_gram(&a, &b, crate::solver::gram::max_condition::<T>())
+        crate::linalg::gram::least_squares_gram(&a, &b, crate::linalg::gram::max_condition::<T>())
             .map(|(theta, cost)| (theta.as_slice().to_vec(), cost))
     }
     /// A scale-free measure of the change between two estimates (e.g. relative change of
@@ -87,65 +87,4 @@ pub trait ReweightedProblem<T: Real> {
     fn change(&self, old: &[T], new: &[T]) -> T;
     /// The criterion value at θ, reported with the solution.
     fn cost(&self, theta: &[T]) -> T;
-}
-
-/// Copies complex rows into real-stacked form: row k becomes rows 2k (real part) and 2k + 1
-/// (imaginary part), each scaled by `weight[k]`.
-pub(crate) fn stack_rows<T: Real>(
-    m: &DMatrix<crate::Complex<T>>,
-    weight: Option<&[T]>,
-) -> DMatrix<T> {
-    let (n, p) = m.shape();
-    let mut out = DMatrix::<T>::zeros(2 * n, p);
-    for j in 0..p {
-        for k in 0..n {
-            let w = weight.map_or(T::one(), |w| w[k]);
-            let v = m[(k, j)];
-            out[(2 * k, j)] = v.re * w;
-            out[(2 * k + 1, j)] = v.im * w;
-        }
-    }
-    out
-}
-
-/// The SVD of `m` (U and/or Vᵀ on request) in at most `max_niter` iterations, with the
-/// singular values in no particular order; `None` when `m` is empty, when the iteration
-/// does not converge or when a singular value is not finite. The entries below
-/// max|mᵢⱼ|·ε² are first set to zero ([`flush_negligible`]). Unlike nalgebra's ordered
-/// SVD, whose sort panics on a NaN singular value (which its iteration can produce on
-/// rank-deficient or badly scaled factors), it never panics.
-pub(crate) fn try_svd<T: Real>(
-    mut m: DMatrix<T>,
-    compute_u: bool,
-    compute_v: bool,
-    max_niter: usize,
-) -> Option<nalgebra::SVD<T, nalgebra::Dyn, nalgebra::Dyn>> {
-    if m.is_empty() {
-        return None;
-    }
-    flush_negligible(&mut m);
-    let eps = T::default_epsilon();
-    let svd = nalgebra::SVD::try_new_unordered(m, compute_u, compute_v, eps, max_niter)?;
-    svd.singular_values
-        .iter()
-        .all(|s| num_traits::Float::is_finite(*s))
-        .then_some(svd)
-}
-
-/// Sets to zero the entries of `m` below max|mᵢⱼ|·ε², before an SVD. nalgebra's SVD can
-/// produce NaN singular values (and then panic while sorting them) on matrices whose
-/// entries reach down to the underflow range next to entries of order one; the
-/// perturbation, of norm at most √(mn)·max|mᵢⱼ|·ε², is far below the SVD's own backward
-/// error ε‖m‖, so the factorisation is unchanged to rounding.
-fn flush_negligible<T: Real>(m: &mut DMatrix<T>) {
-    let max = m.iter().fold(T::zero(), |a, v| {
-        num_traits::Float::max(a, num_traits::Float::abs(*v))
-    });
-    let eps = T::default_epsilon();
-    let tiny = max * eps * eps;
-    for v in m.iter_mut() {
-        if num_traits::Float::abs(*v) < tiny {
-            *v = T::zero();
-        }
-    }
 }

@@ -4,7 +4,7 @@
 
 use crate::basis::PolyBasis;
 use crate::error::{FdidError, Result};
-use crate::{Complex, Real};
+use crate::scalar::{Complex, Real};
 use nalgebra::DMatrix;
 use num_traits::Float;
 

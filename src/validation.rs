@@ -9,8 +9,8 @@
 //! Q = Σ_l 2N²|ρ̂_l|²/(N − l) ~ χ²(2m), ρ̂_l = Σ_k r_{k+l} r̄_k / Σ_k |r_k|².
 
 use crate::model::Domain;
+use crate::scalar::{Complex, Real};
 use crate::stats::chi2_sf;
-use crate::{Complex, Real};
 use num_traits::Float;
 
 /// The poles among `poles` (of a model in `domain`) whose half-power band holds none of the

@@ -6,7 +6,8 @@ mod common;
 
 use common::Bytes;
 use fdid::data::merge;
-use fdid::model::{ModalOptions, remove_delay};
+use fdid::model::remove_delay;
+use fdid::estimate::ModalOptions;
 use fdid::prelude::*;
 use fdid::workflow::{Context, ModelSpec, SpecCriterion, SpecDomain, Workflow, fit_spec};
 use libfuzzer_sys::fuzz_target;

@@ -10,7 +10,7 @@ mod svg;
 
 use args::{Cli, Command, CriterionArg, DomainArg, FitArgs, MAX_ORDER};
 use data::Prepared;
-use fdid::criterion::fit_eiv_delayed;
+use fdid::estimate::fit_eiv_delayed;
 use fdid::fit::Stage;
 use fdid::prelude::*;
 use fdid::workflow::{ModelSpec, SpecCriterion, SpecDomain};
@@ -509,5 +509,5 @@ fn noise_model_ml<M: ModelStructure<f64> + Clone>(
         reason: "a noise model H(z) is discrete time: the data need a sample time".into(),
     })?;
     let noise = NoiseModel::new(n, n, ts)?;
-    fdid::criterion::refine_noise_model(&start, data, noise, &LevenbergMarquardt::default())
+    fdid::estimate::refine_noise_model(&start, data, noise, &LevenbergMarquardt::default())
 }

@@ -4,7 +4,7 @@ use super::{NoiseWeighting, check_input};
 use crate::data::FrequencyData;
 use crate::error::Result;
 use crate::model::EquationError;
-use crate::{Complex, Real};
+use crate::scalar::{Complex, Real};
 use nalgebra::{DMatrix, DVector};
 
 /// The regressor R of an [`EquationError`] model on data (e_k = Σ_j R_kj c_j), with the
@@ -60,7 +60,7 @@ impl<T: Real> EquationErrorSystem<T> {
 
     /// The real-stacked weighted homogeneous matrix (all coefficients).
     pub fn homogeneous(&self, extra: Option<&[T]>) -> DMatrix<T> {
-        crate::problem::stack_rows(&self.regressor, self.line_weights(extra).as_deref())
+        crate::linalg::stack_rows(&self.regressor, self.line_weights(extra).as_deref())
     }
 
     /// The real-stacked weighted system A θ ≈ b with the normalising coefficient fixed to
@@ -70,7 +70,7 @@ impl<T: Real> EquationErrorSystem<T> {
         let (n, p) = self.regressor.shape();
         let mut a = DMatrix::<T>::zeros(2 * n, p - 1);
         let mut b = DVector::<T>::zeros(2 * n);
-        normalised_into(
+        crate::linalg::normalised_into(
             &self.regressor,
             w.as_deref(),
             self.normalising,
@@ -78,38 +78,5 @@ impl<T: Real> EquationErrorSystem<T> {
             &mut b,
         );
         (a, b)
-    }
-}
-
-/// The real-stacked system of [`EquationErrorSystem::normalised`] from a regressor,
-/// per-line weights and the normalising column, written into `a` (2N × (q − 1)) and `b`
-/// (2N), which are resized when their shapes differ.
-pub(crate) fn normalised_into<T: Real>(
-    regressor: &DMatrix<Complex<T>>,
-    w: Option<&[T]>,
-    normalising: usize,
-    a: &mut DMatrix<T>,
-    b: &mut DVector<T>,
-) {
-    let (n, p) = regressor.shape();
-    if a.shape() != (2 * n, p - 1) {
-        *a = DMatrix::zeros(2 * n, p - 1);
-    }
-    if b.len() != 2 * n {
-        *b = DVector::zeros(2 * n);
-    }
-    for j in 0..p {
-        for k in 0..n {
-            let wk = w.map_or(T::one(), |w| w[k]);
-            let v = regressor[(k, j)] * wk;
-            if j == normalising {
-                b[2 * k] = -v.re;
-                b[2 * k + 1] = -v.im;
-            } else {
-                let col = if j < normalising { j } else { j - 1 };
-                a[(2 * k, col)] = v.re;
-                a[(2 * k + 1, col)] = v.im;
-            }
-        }
     }
 }

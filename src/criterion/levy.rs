@@ -1,11 +1,11 @@
 //! Levy's linear least-squares estimator (McKelvey eq. 39).
 
 use super::{Criterion, EquationErrorSystem, NoiseWeighting};
-use crate::Real;
 use crate::data::FrequencyData;
 use crate::error::Result;
 use crate::model::EquationError;
 use crate::problem::LinearProblem;
+use crate::scalar::Real;
 use nalgebra::{DMatrix, DVector};
 
 /// Levy's estimator: minimise the equation error

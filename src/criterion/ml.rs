@@ -1,11 +1,11 @@
 //! Output-error maximum likelihood with a fixed noise model (McKelvey eq. 23).
 
 use super::{Criterion, NoiseWeighting, check_input};
-use crate::Real;
 use crate::data::FrequencyData;
 use crate::error::Result;
 use crate::model::{ModelStructure, Output};
 use crate::problem::NonlinearProblem;
+use crate::scalar::Real;
 use crate::scalar::all_finite;
 use nalgebra::{DMatrix, DVector};
 use std::cell::RefCell;
@@ -121,7 +121,7 @@ impl<'a, T: Real, M: ModelStructure<T> + ?Sized> MlProblem<'a, T, M> {
 
     /// G on the data lines from the last full evaluation ([`NonlinearProblem::residuals_into`]
     /// or [`NonlinearProblem::jacobian_into`]), when it was at θ.
-    pub(crate) fn response_at(&self, theta: &[T]) -> Option<Vec<crate::Complex<T>>> {
+    pub(crate) fn response_at(&self, theta: &[T]) -> Option<Vec<crate::scalar::Complex<T>>> {
         let out = self.scratch.borrow();
         (self.scratch_at.borrow().as_deref() == Some(theta)).then(|| out.g.clone())
     }
@@ -133,7 +133,7 @@ impl<'a, T: Real, M: ModelStructure<T> + ?Sized> MlProblem<'a, T, M> {
         &self,
         theta: &[T],
         r: &mut [T],
-    ) -> (bool, Vec<crate::Complex<T>>) {
+    ) -> (bool, Vec<crate::scalar::Complex<T>>) {
         if self.scratch_at.borrow().as_deref() == Some(theta) {
             let out = self.scratch.borrow();
             self.residuals_of(0, &out.yhat, r);
@@ -144,7 +144,7 @@ impl<'a, T: Real, M: ModelStructure<T> + ?Sized> MlProblem<'a, T, M> {
         (finite, self.scratch.borrow().g.clone())
     }
 
-    /// Evaluates the model output at θ block by block ([`crate::solver::gram`]'s block size, so that
+    /// Evaluates the model output at θ block by block ([`crate::linalg::gram`]'s block size, so that
     /// a block stays in cache) and calls `f(k0, output, jac)` for each block starting at
     /// line k0, with G, Ŷ and their Jacobians on the block's lines in `output` and the
     /// block's rows of J = ∂r/∂θ (real-stacked line by line, 2·len × p) in `jac`. Returns
@@ -162,7 +162,7 @@ impl<'a, T: Real, M: ModelStructure<T> + ?Sized> MlProblem<'a, T, M> {
         let (n, p) = (self.data.len(), self.model.n_params());
         let mut blocks = self.blocks.borrow_mut();
         let (omega, u) = (self.data.omega(), self.data.u());
-        let lines = crate::solver::gram::block_lines(p);
+        let lines = crate::linalg::gram::block_lines(p);
         for k0 in (0..n).step_by(lines) {
             let len = lines.min(n - k0);
             let Block { out, jac, at } = &mut blocks[usize::from(len < lines)];
@@ -212,7 +212,7 @@ impl<'a, T: Real, M: ModelStructure<T> + ?Sized> MlProblem<'a, T, M> {
     }
 
     /// r_k = w_k (Y_k − Ŷ_k) for the lines k0 … k0 + ŷ.len() − 1, real-stacked into `r`.
-    fn residuals_of(&self, k0: usize, yhat: &[crate::Complex<T>], r: &mut [T]) {
+    fn residuals_of(&self, k0: usize, yhat: &[crate::scalar::Complex<T>], r: &mut [T]) {
         let len = yhat.len();
         let y = &self.data.y()[k0..k0 + len];
         let weight = self.weight.as_deref().map(|w| &w[k0..k0 + len]);
@@ -236,7 +236,7 @@ impl<'a, T: Real, M: ModelStructure<T> + ?Sized> MlProblem<'a, T, M> {
 
 /// dst[2i], dst[2i + 1] = Re, Im of sign·w_i·src_i (w absent: unit weights).
 fn stack_weighted<T: Real>(
-    src: &[crate::Complex<T>],
+    src: &[crate::scalar::Complex<T>],
     weight: Option<&[T]>,
     sign: T,
     dst: &mut [T],
@@ -313,7 +313,7 @@ impl<T: Real, M: ModelStructure<T> + ?Sized> NonlinearProblem<T> for MlProblem<'
         if grad.len() != p {
             *grad = DVector::zeros(p);
         }
-        if crate::solver::gram::small_problem(n, p) {
+        if crate::linalg::gram::small_problem(n, p) {
             // J itself, in cache
             let m = 2 * n;
             if jac.shape() != (m, p) {
@@ -322,8 +322,8 @@ impl<T: Real, M: ModelStructure<T> + ?Sized> NonlinearProblem<T> for MlProblem<'
             if !self.jacobian_into(theta, r, jac) {
                 return false;
             }
-            crate::solver::gram::gram_into(jac, gram, false);
-            crate::solver::gram::GramWork::tr_mul(jac, r, grad);
+            crate::linalg::gram::gram_into(jac, gram, false);
+            crate::linalg::gram::GramWork::tr_mul(jac, r, grad);
             return true;
         }
         gram.fill(T::zero());
@@ -331,7 +331,7 @@ impl<T: Real, M: ModelStructure<T> + ?Sized> NonlinearProblem<T> for MlProblem<'
         self.for_each_block(theta, false, |k0, out, jac| {
             let len = out.yhat.len();
             self.block_residuals(k0, out, r);
-            crate::solver::gram::gram_into(jac, gram, true);
+            crate::linalg::gram::gram_into(jac, gram, true);
             let rb = nalgebra::DVectorView::from_slice(&r[2 * k0..2 * (k0 + len)], 2 * len);
             grad.gemv_tr(T::one(), jac, &rb, T::one());
         }) && all_finite(r)

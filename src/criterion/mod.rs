@@ -23,19 +23,19 @@ mod sk;
 mod tls;
 
 mod eiv;
-pub use eiv::{EivProblem, ErrorsInVariables, fit_eiv, fit_eiv_delayed};
+pub use crate::data::NoiseWeighting;
+pub use eiv::{EivProblem, ErrorsInVariables};
 pub use equation_error::EquationErrorSystem;
-pub(crate) use equation_error::normalised_into;
 pub use levy::{Levy, LevyProblem};
 pub use ml::{MaximumLikelihood, MlProblem};
+pub use noise_model::interior_lines;
 pub use noise_model::{NoiseModelMl, NoiseModelProblem, NoiseModelResiduals};
-pub use noise_model::{fit_noise_model, interior_lines, refine_noise_model};
 pub use sk::{SanathananKoerner, SkProblem};
 pub use tls::{TlsProblem, TotalLeastSquares};
 
-use crate::Real;
 use crate::data::FrequencyData;
 use crate::error::{FdidError, Result};
+use crate::scalar::Real;
 
 /// A criterion for model `M` on data with scalar `T`.
 pub trait Criterion<T: Real, M: ?Sized> {
@@ -55,49 +55,6 @@ pub trait Criterion<T: Real, M: ?Sized> {
     -> Result<Self::Problem<'a>>;
 }
 
-/// How lines are weighted by the measurement noise.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
-pub enum NoiseWeighting {
-    /// Weight line k by 1/σ_k with σ_k² the output noise variance of the data when the data
-    /// carry noise variances (a fixed noise model |H_ω|² = σ_k², eq. 23); flat otherwise.
-    #[default]
-    Auto,
-    /// All lines weigh the same (H ≡ 1; λ is estimated, eq. 25).
-    Flat,
-}
-
-impl NoiseWeighting {
-    /// Per-line weights w_k = 1/σ_k, or `None` for flat weighting.
-    ///
-    /// # Errors
-    /// A zero output noise variance on some line (the weight would be infinite).
-    pub fn weights<T: Real>(&self, data: &FrequencyData<T>) -> Result<Option<Vec<T>>> {
-        match (self, data.noise()) {
-            (NoiseWeighting::Flat, _) | (NoiseWeighting::Auto, None) => Ok(None),
-            (NoiseWeighting::Auto, Some(noise)) => noise
-                .var_y
-                .iter()
-                .enumerate()
-                .map(|(k, v)| {
-                    if *v > T::zero() {
-                        Ok(T::one() / num_traits::Float::sqrt(*v))
-                    } else {
-                        Err(FdidError::InvalidArgument {
-                            name: "var_y",
-                            value: format!("{v} at line {k}"),
-                            reason: "a zero noise variance gives an infinite weight; use flat \
-                                     weighting or drop the line"
-                                .into(),
-                        })
-                    }
-                })
-                .collect::<Result<Vec<T>>>()
-                .map(Some),
-        }
-    }
-}
-
 /// Checks that no input spectrum line is zero (it would carry no information on G).
 pub(crate) fn check_input<T: Real>(data: &FrequencyData<T>) -> Result<()> {
     match data.u().iter().position(|u| u.norm_sqr() == T::zero()) {
@@ -112,19 +69,19 @@ pub(crate) fn check_input<T: Real>(data: &FrequencyData<T>) -> Result<()> {
 /// The output-error cost Σ_k w_k²|Y_k − Ŷ_k|² of `model` at θ on `data`, with
 /// Ŷ = G U + T (the transient when the model has one) and w_k = 1 when `weights` is `None`.
 /// Returns the model response G on the lines too.
-pub(crate) fn output_error_cost<T: Real, M: crate::ModelStructure<T> + ?Sized>(
+pub(crate) fn output_error_cost<T: Real, M: crate::model::ModelStructure<T> + ?Sized>(
     model: &M,
     theta: &[T],
     data: &FrequencyData<T>,
     weights: Option<&[T]>,
-) -> (T, Vec<crate::Complex<T>>) {
+) -> (T, Vec<crate::scalar::Complex<T>>) {
     let mut out = crate::model::Output::new(data.len(), model.n_params());
     let cost = output_error_cost_in(&mut out, model, theta, data, weights);
     (cost, out.g)
 }
 
 /// [`output_error_cost`] in the buffers of `out` (G in `out.g`), which an iteration reuses.
-pub(crate) fn output_error_cost_in<T: Real, M: crate::ModelStructure<T> + ?Sized>(
+pub(crate) fn output_error_cost_in<T: Real, M: crate::model::ModelStructure<T> + ?Sized>(
     out: &mut crate::model::Output<T>,
     model: &M,
     theta: &[T],
@@ -143,7 +100,10 @@ pub(crate) fn output_error_cost_in<T: Real, M: crate::ModelStructure<T> + ?Sized
 }
 
 /// Relative change ‖new − old‖/‖new‖ between two model responses.
-pub(crate) fn relative_change<T: Real>(old: &[crate::Complex<T>], new: &[crate::Complex<T>]) -> T {
+pub(crate) fn relative_change<T: Real>(
+    old: &[crate::scalar::Complex<T>],
+    new: &[crate::scalar::Complex<T>],
+) -> T {
     let (num, den) = old
         .iter()
         .zip(new)

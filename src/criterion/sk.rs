@@ -5,7 +5,7 @@ use crate::data::FrequencyData;
 use crate::error::Result;
 use crate::model::EquationError;
 use crate::problem::ReweightedProblem;
-use crate::{Complex, Real};
+use crate::scalar::{Complex, Real};
 use nalgebra::{DMatrix, DVector};
 use std::cell::RefCell;
 
@@ -119,14 +119,14 @@ impl<T: Real, M: EquationError<T> + ?Sized> ReweightedProblem<T> for SkProblem<'
     /// regressor, without the real-stacked system.
     fn solve_normal_equations(&self, previous: Option<&[T]>) -> Option<(Vec<T>, T)> {
         let reg = self.system.regressor();
-        let max_cond = crate::solver::gram::max_condition::<T>();
+        let max_cond = crate::linalg::gram::max_condition::<T>();
         let extra = self.sk_weights(previous);
-        let (theta, cost) = if crate::solver::gram::small_problem(reg.nrows(), reg.ncols()) {
+        let (theta, cost) = if crate::linalg::gram::small_problem(reg.nrows(), reg.ncols()) {
             let (a, b) = self.system.normalised(extra.as_deref());
-            crate::solver::gram::least_squares_gram(&a, &b, max_cond)?
+            crate::linalg::gram::least_squares_gram(&a, &b, max_cond)?
         } else {
             let w = self.system.line_weights(extra.as_deref());
-            crate::solver::gram::regressor_least_squares_gram(
+            crate::linalg::gram::regressor_least_squares_gram(
                 reg,
                 w.as_deref(),
                 self.system.normalising(),

@@ -1,11 +1,11 @@
 //! Total least squares on the equation error.
 
 use super::{Criterion, EquationErrorSystem, NoiseWeighting};
-use crate::Real;
 use crate::data::FrequencyData;
 use crate::error::Result;
 use crate::model::EquationError;
 use crate::problem::HomogeneousProblem;
+use crate::scalar::Real;
 use nalgebra::DMatrix;
 
 /// Total least squares: minimise ‖W R c‖ over real coefficient vectors with ‖c‖ = 1,

@@ -25,9 +25,9 @@
 
 use crate::data::{FrequencyData, NoiseVariances, PeriodicAverage, TimeData};
 use crate::error::{FdidError, Result};
+use crate::scalar::{Complex, Real};
 use crate::simulate::{Multisine, SplitMix64};
 use crate::stats::chi2_sf;
-use crate::{Complex, Real};
 use std::f64::consts::TAU;
 
 /// The line plan of a random odd multisine with detection lines.

@@ -2,7 +2,7 @@
 //! (co)variances.
 
 use crate::error::{FdidError, Result, check_finite, check_finite_complex};
-use crate::{Complex, Real};
+use crate::scalar::{Complex, Real};
 
 /// Per-line noise (co)variances of the measured spectra.
 ///

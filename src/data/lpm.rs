@@ -9,7 +9,7 @@
 
 use crate::data::{FrequencyData, NoiseVariances};
 use crate::error::{FdidError, Result};
-use crate::{Complex, Real};
+use crate::scalar::{Complex, Real};
 use nalgebra::{DMatrix, DVector};
 use num_traits::Float;
 

@@ -2,7 +2,7 @@
 
 use crate::data::{FrequencyData, NoiseVariances};
 use crate::error::{FdidError, Result};
-use crate::{Complex, Real};
+use crate::scalar::{Complex, Real};
 
 /// Merges experiments into one data set: the union of all lines, sorted by frequency.
 ///

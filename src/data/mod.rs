@@ -7,6 +7,7 @@ mod lpm;
 mod merge;
 mod periodic;
 mod time;
+mod weighting;
 
 pub use distortion::{DetectionLine, DetectionTest, DistortionAnalysis, OddMultisineDesign};
 pub use frequency::{FrequencyData, NoiseVariances};
@@ -15,3 +16,4 @@ pub use merge::merge;
 pub use periodic::PeriodicAverage;
 pub(crate) use time::check_ts;
 pub use time::{TimeData, dft_lines};
+pub use weighting::NoiseWeighting;

@@ -4,7 +4,7 @@
 use crate::data::time::{TimeData, dft_pair_with, line_frequencies};
 use crate::data::{FrequencyData, NoiseVariances};
 use crate::error::{FdidError, Result, check_finite, check_finite_complex};
-use crate::{Complex, Real};
+use crate::scalar::{Complex, Real};
 use rustfft::FftPlanner;
 
 /// The DFT of a periodic record averaged over its `P` periods, with the sample noise

@@ -2,7 +2,7 @@
 
 use crate::data::FrequencyData;
 use crate::error::{FdidError, Result, check_finite};
-use crate::{Complex, Real};
+use crate::scalar::{Complex, Real};
 use num_traits::Float;
 use rustfft::{Fft, FftPlanner};
 

@@ -6,7 +6,7 @@
 //! θⱼ = θⱼ + εⱼ and evaluating G(θ, x) once in `Complex<Dual<T, N>>` gives G and all N
 //! partial derivatives ∂G/∂θⱼ exactly (to rounding), with no step size to choose.
 
-use crate::Real;
+use crate::scalar::Real;
 use num_traits::{Float, Num, NumCast, One, ToPrimitive, Zero};
 use std::cmp::Ordering;
 use std::fmt;

@@ -7,9 +7,10 @@
 //! discrepancy workflow ([`crate::workflow::Workflow::run_model`]) adds such a factor to a
 //! user's model when it names a missing resonance.
 use super::{DualScalar, GreyBox, Parameter, PhysicalParameters, Slot, fill_nan};
+use crate::data::FrequencyData;
 use crate::error::Result;
 use crate::model::ModelStructure;
-use crate::{Complex, FrequencyData, Real};
+use crate::scalar::{Complex, Real};
 use nalgebra::DMatrix;
 
 /// n flexible modes, each a resonance–antiresonance pair of unit DC gain:

@@ -2,7 +2,7 @@
 //! mass–spring–damper, a two-mass flexible drive, an RLC circuit and a DC motor.
 //!
 //! Every physical quantity is positive, so each is estimated through its logarithm
-//! (θᵢ = ln vᵢ, [`super::Scale::Log`]); [`super::physical_values`] reports the values and their
+//! (θᵢ = ln vᵢ, [`super::Scale::Log`]); [`crate::estimate::greybox::physical_values`] reports the values and their
 //! standard deviations in physical units (std(vᵢ) = vᵢ·std(θᵢ)). An optional gain g > 0
 //! ([`MassSpringDamper::with_gain`], …) multiplies G for sensors in other units; it is
 //! confounded with the overall scale of the other parameters, so fit it with one of them
@@ -18,7 +18,7 @@
 //! k = 1/G(0), m = k/|p|², c = −2 Re(p)·m (see `examples/greybox.rs`).
 
 use super::{DualScalar, GreyBox, Parameter};
-use crate::Complex;
+use crate::scalar::Complex;
 
 /// The gain parameter g (sensor units per model unit).
 fn gain_parameter() -> Parameter {

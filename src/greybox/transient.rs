@@ -27,7 +27,7 @@
 use super::{AutoDiff, Dual, GreyBox};
 use crate::data::FrequencyData;
 use crate::error::{FdidError, Result};
-use crate::{Complex, Real};
+use crate::scalar::{Complex, Real};
 use nalgebra::DMatrix;
 use num_traits::Float;
 

@@ -3,7 +3,7 @@
 use super::Measurement;
 use crate::data::{FrequencyData, NoiseVariances, TimeData};
 use crate::error::{FdidError, Result};
-use crate::{Complex, Real};
+use crate::scalar::{Complex, Real};
 use std::io::Read;
 use std::path::Path;
 

@@ -15,8 +15,8 @@ pub use self::touchstone::{
     parse_touchstone_v2, read_touchstone, touchstone_ports,
 };
 
-use crate::Real;
 use crate::data::{FrequencyData, TimeData};
+use crate::scalar::Real;
 
 /// The content of a data file.
 #[derive(Debug, Clone, PartialEq)]

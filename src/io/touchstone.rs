@@ -3,7 +3,7 @@
 
 use crate::data::FrequencyData;
 use crate::error::{FdidError, Result};
-use crate::{Complex, Real};
+use crate::scalar::{Complex, Real};
 use std::io::Read;
 use std::path::Path;
 

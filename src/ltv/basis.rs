@@ -7,7 +7,7 @@
 //! [`FrequencyBasis::monomial_coefficients`].
 
 use crate::error::{FdidError, Result};
-use crate::{Complex, Real};
+use crate::scalar::{Complex, Real};
 use num_traits::Float;
 
 /// The time basis b_p(t) on the record [0, T] (Lataire–Pintelon eq. 3, section IV-A).

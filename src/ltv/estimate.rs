@@ -4,8 +4,9 @@ use super::model::{InstantaneousModel, LtvOde, MonomialCoefficients};
 use super::regression::{Lines, Regression, regression};
 use crate::data::TimeData;
 use crate::error::{FdidError, Result};
-use crate::problem::{HomogeneousProblem, stack_rows};
-use crate::{Complex, Real};
+use crate::linalg::stack_rows;
+use crate::problem::HomogeneousProblem;
+use crate::scalar::{Complex, Real};
 use nalgebra::DMatrix;
 use num_traits::Float;
 
@@ -147,7 +148,7 @@ impl<T: Real> LtvOde<T> {
         } else {
             m.clone()
         };
-        let svd = crate::problem::try_svd(r, false, true, 200 * p.max(10)).ok_or(
+        let svd = crate::linalg::try_svd(r, false, true, 200 * p.max(10)).ok_or(
             FdidError::NotConverged {
                 method: "SVD",
                 reason: "no convergence for the LTV regression matrix".into(),

@@ -3,7 +3,7 @@
 
 use super::basis::{FrequencyBasis, TimeBasis};
 use crate::error::{FdidError, Result};
-use crate::{Complex, Real};
+use crate::scalar::{Complex, Real};
 use nalgebra::DMatrix;
 use num_traits::Float;
 

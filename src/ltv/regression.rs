@@ -20,7 +20,7 @@
 use super::model::LtvOde;
 use crate::data::TimeData;
 use crate::error::{FdidError, Result};
-use crate::{Complex, Real};
+use crate::scalar::{Complex, Real};
 use nalgebra::DMatrix;
 use num_traits::Float;
 use rustfft::{Fft, FftPlanner};

@@ -2,14 +2,10 @@
 //! "Continuous time systems"), its starting value from the phase slope, and the end-to-end
 //! fit of a delayed rational model.
 
-use super::{EquationError, ModelStructure, PolesZeros};
-use crate::criterion::MaximumLikelihood;
+use super::{ModelStructure, PolesZeros};
 use crate::data::FrequencyData;
 use crate::error::{FdidError, Result};
-use crate::fit::{Fit, Stage};
-use crate::pipeline::{Pipeline, estimate};
-use crate::solver::{Solution, Termination};
-use crate::{Complex, Real};
+use crate::scalar::{Complex, Real};
 use nalgebra::DMatrix;
 use num_traits::Float;
 
@@ -26,7 +22,7 @@ use num_traits::Float;
 /// The delay is a finite-dimensional parameter in the frequency domain although it has no
 /// finite-dimensional state-space form; the model is nonlinear in τ, so it is fitted by
 /// output-error maximum likelihood (McKelvey eq. 23) — see [`Delayed::fit`] and
-/// [`fit_delayed`] — not by the linear criteria.
+/// [`crate::estimate::fit_delayed`] — not by the linear criteria.
 ///
 /// **Transient.** An inner model with an input-independent output term T (McKelvey eqs.
 /// 4, 9; [`ModelStructure::transient_into`]) keeps it undelayed: Ŷ = G_M e^{−iωτ} U + T.
@@ -37,7 +33,7 @@ use num_traits::Float;
 ///
 /// **Bounds.** [`Delayed::with_bounds`] restricts τ to [lo, hi] (0 ≤ lo < hi, seconds).
 /// τ stays a plain, unconstrained parameter for Levenberg–Marquardt (the trust region sees
-/// no kink): the bounds confine the search for the starting value ([`delay_start`]), and
+/// no kink): the bounds confine the search for the starting value ([`crate::estimate::delay_start`]), and
 /// a fitted τ̂ outside them is reported as an error by [`Delayed::fit`] (see
 /// [`Delayed::check_delay`]).
 ///
@@ -69,8 +65,8 @@ use num_traits::Float;
 #[derive(Debug, Clone, PartialEq)]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct Delayed<M> {
-    inner: M,
-    bounds: Option<(f64, f64)>,
+    pub(crate) inner: M,
+    pub(crate) bounds: Option<(f64, f64)>,
 }
 
 impl<M> Delayed<M> {
@@ -157,7 +153,7 @@ impl<M> Delayed<M> {
     }
 
     /// Clamps τ into the bounds (unchanged without bounds).
-    fn clamp<T: Real>(&self, tau: T) -> T {
+    pub(crate) fn clamp<T: Real>(&self, tau: T) -> T {
         match self.bounds {
             Some((lo, hi)) => Float::min(Float::max(tau, T::lit(lo)), T::lit(hi)),
             None => tau,
@@ -198,7 +194,7 @@ impl<M> Delayed<M> {
 
 /// e^{−iωτ}.
 #[inline]
-fn delay_factor<T: Real>(omega: T, tau: T) -> Complex<T> {
+pub(crate) fn delay_factor<T: Real>(omega: T, tau: T) -> Complex<T> {
     let (s, c) = Float::sin_cos(omega * tau);
     Complex::new(c, -s)
 }
@@ -338,498 +334,4 @@ pub fn remove_delay<T: Real>(data: &FrequencyData<T>, tau: T) -> Result<Frequenc
         noise,
         data.ts(),
     ))
-}
-
-/// A starting delay from [`delay_start`], with what its search did.
-#[derive(Debug, Clone, PartialEq)]
-#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
-pub struct DelayStart<T: Real> {
-    /// τ₀ (s): the candidate with the lowest output-error cost.
-    pub tau: T,
-    /// Its output-error cost V = Σ_k w_k²|Y_k − G(θ, ω_k) U_k|² (McKelvey eq. 23) after the
-    /// ML refinement of the delayed model from that candidate.
-    pub cost: T,
-    /// τ from the phase-slope iterations alone (before the scan).
-    pub phase_slope: T,
-    /// Delay-free fits made (phase iterations, scan and refinements).
-    pub fits: usize,
-}
-
-/// Phase-slope iterations after the slope of the raw phase.
-const PHASE_ITERATIONS: usize = 4;
-/// Sanathanan–Koerner iterations of a screening fit in the candidate scan.
-const SCREEN_ITERATIONS: usize = 3;
-/// Local minima of the screening scan refitted in full.
-const REFINED_MINIMA: usize = 5;
-/// Cap on the candidates of the scan.
-const MAX_SCAN: usize = 512;
-/// Rounds of (delay-free fit, ML on the delayed model) per refined candidate.
-const CANDIDATE_ROUNDS: usize = 3;
-
-/// A starting value τ₀ for the delay of `model` on `data`, from the phase slope and a scan
-/// of candidate delays by output-error cost, each delay-free fit made with `pipeline`
-/// without its ML stage (Levy → SK).
-///
-/// **Method.** With H_k = Y_k/U_k and weights w_k = |Y_k|²/σ_k² (σ_k² the output noise
-/// variance, 1 without variances or with flat weighting — the inverse variance of arg H_k
-/// for small noise), and V(τ) = Σ_k |Y_k − G_M(ω_k) e^{−iω_kτ} U_k|²/σ_k² the
-/// output-error cost (McKelvey eq. 23) of the delay-free model G_M fitted to the
-/// delay-compensated data Y_k e^{iω_kτ} ([`remove_delay`]):
-/// 1. τ_r ← −slope of the weighted linear regression φ_k ≈ c − τ ω_k of the unwrapped
-///    phase φ_k = arg H_k (the intercept c is free: a sign of the gain or a constant phase
-///    of G_M goes there);
-/// 2. up to four times from τ_r: fit G_M to the data compensated by the current τ,
-///    regress the unwrapped phase of H_k e^{iω_kτ}/G_M(ω_k) (the phase of Y/U minus those
-///    of the delay and of the delay-free fit) the same way and move τ by the remaining
-///    slope; stop when the step is below δ/8 (δ below);
-/// 3. the phase slope is biased by the mean group delay of G_M (step 1), and a rational
-///    fit absorbs much of a residual linear phase (a Padé-like approximation of a delay,
-///    step 2), so a scan by cost follows: candidates τ_r + jδ, δ = π/(4 ω_max) — an eighth
-///    of the period of the highest frequency, Ts/4 for discrete time up to Nyquist —
-///    over |j| ≤ 4(p_M/2 + 2) (the phase of a rational model of p_M parameters varies by
-///    about p_M·π/2 over the band: a few samples for a low-order discrete model), each
-///    screened by V(τ) after three SK iterations; with bounds the scan covers [lo, hi]
-///    instead when that is no wider (at most 512 candidates, δ widened if needed);
-/// 4. the phase-slope estimate and the five lowest local minima of the scan are refined:
-///    each by three rounds of a delay-free fit at the current τ — in full (Levy → SK), by
-///    Levy alone, and in full on the lower half of the band, whose phase error from a
-///    small delay error is halved — followed by output-error ML ([`MaximumLikelihood`],
-///    eq. 23) of the delayed model by Levenberg–Marquardt from [θ_M, τ], τ moving to the
-///    ML delay. The three delay-free fits fall into different local solutions when τ is
-///    slightly wrong (a discrete model then often takes an unstable pole near z = −1), so
-///    the joint ML from one of them usually reaches the true delay;
-/// 5. the same refinement at ±1 and ±2 multiples of π/ω_max from the best refined delay
-///    (a delay one sample off is the commonest wrong local minimum of a discrete model);
-///    τ₀ is the refined delay of lowest ML cost V. V is jagged in τ (a wrong delay leaves
-///    SK in different local solutions), which is why the search scans densely and
-///    refines several minima rather than descending from one point.
-///
-/// Every candidate is clamped into the model's bounds; without bounds τ may turn out
-/// negative (an advance).
-///
-/// # Errors
-/// No positive frequency (the delay is not identifiable), a zero input line, or every
-/// delay-free fit failing (the first failure is returned).
-pub fn delay_start<T: Real, M: EquationError<T> + Clone>(
-    pipeline: &Pipeline,
-    model: &Delayed<M>,
-    data: &FrequencyData<T>,
-) -> Result<DelayStart<T>> {
-    model.check_data(data)?;
-    let h = data.etfe()?;
-    let omega = data.omega();
-    let w_max = omega.iter().copied().fold(T::zero(), Float::max);
-    if !(w_max > T::zero()) {
-        return Err(FdidError::InvalidArgument {
-            name: "omega",
-            value: format!("max {w_max} rad/s"),
-            reason: "a delay needs at least one positive frequency to be identified".into(),
-        });
-    }
-    let line_weights = pipeline.weighting.weights(data)?;
-    // |Y|² capped at its median, so that resonance peaks (where G_M's group delay is
-    // largest) do not dominate the regression
-    let mut power: Vec<T> = data.y().iter().map(|y| y.norm_sqr()).collect();
-    let cap = median(&mut power.clone());
-    for p in power.iter_mut() {
-        *p = Float::min(*p, cap);
-    }
-    let phase_weight: Vec<T> = power
-        .iter()
-        .enumerate()
-        .map(|(k, p)| {
-            let w = line_weights.as_ref().map_or(T::one(), |w| w[k]);
-            *p * w * w
-        })
-        .collect();
-    let full = Pipeline {
-        ml: None,
-        ..*pipeline
-    };
-    let screen = Pipeline {
-        ml: None,
-        sk: Some(crate::solver::FixedPoint {
-            max_iterations: SCREEN_ITERATIONS,
-            ..pipeline.sk.unwrap_or_default()
-        }),
-        ..*pipeline
-    };
-    let search = Search {
-        model: model.inner(),
-        data,
-        phase_weight: &phase_weight,
-    };
-    let mut fits = 0;
-    let mut first_error = None;
-    let mut visited: Vec<(T, T)> = vec![];
-
-    // 1. the slope of the raw phase
-    let tau_r = model.clamp(search.residual_slope(&h, None).map_or_else(T::zero, |s| -s));
-    // 2. phase-slope iterations on delay-compensated fits
-    let step = T::pi() / (T::lit(4.0) * w_max);
-    let mut tau = tau_r;
-    for _ in 0..PHASE_ITERATIONS {
-        fits += 1;
-        let g = match search.fit(&full, tau) {
-            Ok((cost, g)) => {
-                visited.push((tau, cost));
-                g
-            }
-            Err(e) => {
-                first_error.get_or_insert(e);
-                break;
-            }
-        };
-        let ratio: Vec<Complex<T>> = h
-            .iter()
-            .zip(omega)
-            .zip(&g)
-            .map(|((h, w), g)| *h * delay_factor(*w, tau).conj() / *g)
-            .collect();
-        let Some(slope) = search.residual_slope(&ratio, Some(&g)) else {
-            break;
-        };
-        let next = model.clamp(tau - slope);
-        let moved = Float::abs(next - tau);
-        tau = next;
-        if moved < step / T::lit(8.0) {
-            break;
-        }
-    }
-    let phase_slope = best(&visited).map_or(tau, |b| b.0);
-
-    // 3. the screening scan
-    let half = 4 * (ModelStructure::<T>::n_params(model.inner()) / 2 + 2);
-    // twice as far below τ_r as above: the group delay of G_M biases τ_r upwards
-    let mut grid: Vec<T> = (0..=3 * half)
-        .map(|j| tau_r + step * (T::from_usize_lossy(j) - T::from_usize_lossy(2 * half)))
-        .collect();
-    if let Some((lo, hi)) = model.bounds() {
-        let (lo, hi) = (T::lit(lo), T::lit(hi));
-        let width = hi - lo;
-        if width <= step * T::from_usize_lossy(3 * half) {
-            let n = Float::min(Float::ceil(width / step), T::from_usize_lossy(MAX_SCAN - 1))
-                .to_f64_lossless() as usize;
-            let n = n.max(1);
-            grid = (0..=n)
-                .map(|j| lo + width * T::from_usize_lossy(j) / T::from_usize_lossy(n))
-                .collect();
-        } else {
-            for t in grid.iter_mut() {
-                *t = model.clamp(*t);
-            }
-            grid.dedup_by(|a, b| Float::abs(*a - *b) < step / T::lit(4.0));
-        }
-    }
-    let mut scan: Vec<(T, T)> = vec![];
-    for t in grid {
-        fits += 1;
-        match search.fit(&screen, t) {
-            Ok((cost, _)) if Float::is_finite(cost) => scan.push((t, cost)),
-            Ok(_) => {}
-            Err(e) => {
-                first_error.get_or_insert(e);
-            }
-        }
-    }
-    // 4. the lowest local minima and the phase-slope estimate, refitted in full and
-    //    refined by ML on the delayed model
-    let mut minima: Vec<(T, T)> = (0..scan.len())
-        .filter(|&i| {
-            let c = scan[i].1;
-            (i == 0 || scan[i - 1].1 >= c) && (i + 1 == scan.len() || scan[i + 1].1 >= c)
-        })
-        .map(|i| scan[i])
-        .collect();
-    minima.sort_by(|a, b| a.1.partial_cmp(&b.1).unwrap_or(std::cmp::Ordering::Equal));
-    let mut candidates: Vec<T> = vec![phase_slope];
-    for (t, _) in minima {
-        if candidates.len() > REFINED_MINIMA {
-            break;
-        }
-        if candidates
-            .iter()
-            .all(|c| Float::abs(*c - t) >= step / T::lit(2.0))
-        {
-            candidates.push(t);
-        }
-    }
-    let lm = pipeline.ml.unwrap_or_default();
-    let ml = MaximumLikelihood {
-        weighting: pipeline.weighting,
-    };
-    // a cost at the noise level (known variances: V ≤ N − p/2 + 3.3√N, the 99.95 %
-    // quantile of its asymptotic distribution) or at round-off (noise free: V ≤ (100ε)²
-    // Σ|w Y|²) cannot be improved on significantly: the search stops there
-    let n = T::from_usize_lossy(data.len());
-    let p = T::from_usize_lossy(ModelStructure::<T>::n_params(model));
-    let good_enough = match &line_weights {
-        Some(_) => n - p / T::lit(2.0) + T::lit(3.3) * Float::sqrt(n),
-        None => T::zero(),
-    };
-    let floor = data.y().iter().enumerate().fold(T::zero(), |s, (k, y)| {
-        let w = line_weights.as_ref().map_or(T::one(), |w| w[k]);
-        s + y.norm_sqr() * w * w
-    }) * Float::powi(T::default_epsilon() * T::lit(100.0), 2);
-    let threshold = Float::max(good_enough, floor);
-    let mut refined: Vec<(T, T)> = vec![];
-    let levy = Pipeline {
-        sk: None,
-        ml: None,
-        ..*pipeline
-    };
-    let mut refine = |t: T, refined: &mut Vec<(T, T)>, fits: &mut usize| {
-        // ML from the delay-free fit at t; then once more from the delay-free fit at the
-        // ML delay, whose inner start is better when t was a fraction of δ off
-        let mut t = t;
-        let mut last: Option<(T, T)> = None;
-        for round in 0..CANDIDATE_ROUNDS {
-            *fits += 1;
-            let inner_pipeline = if round == 1 { &levy } else { &full };
-            let outcome =
-                search
-                    .fit_full(inner_pipeline, t, round == 2)
-                    .and_then(|(inner, theta)| {
-                        let delayed = Delayed::new(inner);
-                        let start = Delayed::<M>::theta(&theta, t);
-                        estimate(&delayed, data, &ml, &lm, Some(&start))
-                    });
-            match outcome {
-                Ok(sol) if Float::is_finite(sol.theta[sol.theta.len() - 1]) => {
-                    let tau = model.clamp(sol.theta[sol.theta.len() - 1]);
-                    if last.is_none_or(|l| sol.cost < l.1) {
-                        last = Some((tau, sol.cost));
-                    }
-                    t = tau;
-                    if sol.cost <= threshold {
-                        break;
-                    }
-                }
-                Ok(_) => break,
-                Err(e) => {
-                    first_error.get_or_insert(e);
-                    break;
-                }
-            }
-        }
-        refined.extend(last);
-    };
-    let done = |refined: &[(T, T)]| best(refined).is_some_and(|b| b.1 <= threshold);
-    for t in candidates {
-        refine(t, &mut refined, &mut fits);
-        if done(&refined) {
-            break;
-        }
-    }
-    // 5. multiples of π/ω_max away from the best: a delay wrong by one sample (half a
-    //    period of the top frequency) is the commonest local minimum of discrete models
-    if let (Some((b, _)), false) = (best(&refined), done(&refined)) {
-        let sample = T::lit(4.0) * step;
-        for k in [-2.0, -1.0, 1.0, 2.0] {
-            let t = model.clamp(b + sample * T::lit(k));
-            if refined
-                .iter()
-                .all(|(r, _)| Float::abs(*r - t) >= step / T::lit(2.0))
-            {
-                refine(t, &mut refined, &mut fits);
-                if done(&refined) {
-                    break;
-                }
-            }
-        }
-    }
-    match best(&refined) {
-        Some((tau, cost)) => Ok(DelayStart {
-            tau,
-            cost,
-            phase_slope,
-            fits,
-        }),
-        None => Err(first_error.unwrap_or(FdidError::Numerical {
-            what: "delay-free fits of the delay search".into(),
-        })),
-    }
-}
-
-/// The median of `v` (reordered), zero for an empty slice.
-fn median<T: Real>(v: &mut [T]) -> T {
-    if v.is_empty() {
-        return T::zero();
-    }
-    let mid = v.len() / 2;
-    v.select_nth_unstable_by(mid, |a, b| {
-        a.partial_cmp(b).unwrap_or(std::cmp::Ordering::Equal)
-    });
-    v[mid]
-}
-
-/// The visited (τ, cost) with the lowest finite cost.
-fn best<T: Real>(visited: &[(T, T)]) -> Option<(T, T)> {
-    visited
-        .iter()
-        .copied()
-        .filter(|(_, c)| Float::is_finite(*c))
-        .min_by(|a, b| a.1.partial_cmp(&b.1).unwrap_or(std::cmp::Ordering::Equal))
-}
-
-/// What the delay search needs at every candidate.
-struct Search<'a, T: Real, M> {
-    model: &'a M,
-    data: &'a FrequencyData<T>,
-    phase_weight: &'a [T],
-}
-
-impl<T: Real, M: EquationError<T> + Clone> Search<'_, T, M> {
-    /// Fits the inner model to the data with τ removed; returns the output-error cost of
-    /// the delayed model and G_M on the lines.
-    fn fit_full(&self, pipeline: &Pipeline, tau: T, lower_half: bool) -> Result<(M, Vec<T>)> {
-        let mut compensated = remove_delay(self.data, tau)?;
-        if lower_half {
-            let w_max = self
-                .data
-                .omega()
-                .iter()
-                .copied()
-                .fold(T::zero(), Float::max);
-            let band = compensated.band(T::zero(), w_max / T::lit(2.0))?;
-            if band.len() >= self.model.n_params() + 2 {
-                compensated = band;
-            }
-        }
-        let fit = pipeline.fit(self.model, &compensated)?;
-        Ok((fit.model().clone(), fit.theta().to_vec()))
-    }
-
-    fn fit(&self, pipeline: &Pipeline, tau: T) -> Result<(T, Vec<Complex<T>>)> {
-        let compensated = remove_delay(self.data, tau)?;
-        let fit = pipeline.fit(self.model, &compensated)?;
-        Ok((fit.cost(), fit.response().to_vec()))
-    }
-
-    /// The slope of the weighted linear regression of the unwrapped phase of `ratio`
-    /// against ω, over the lines where `ratio` (and `g`, when given) is finite and non-zero.
-    fn residual_slope(&self, ratio: &[Complex<T>], g: Option<&[Complex<T>]>) -> Option<T> {
-        let omega = self.data.omega();
-        let usable = |k: usize| {
-            let r = ratio[k];
-            let ok = Float::is_finite(r.re) && Float::is_finite(r.im) && r.norm_sqr() > T::zero();
-            ok && g.is_none_or(|g| g[k].norm_sqr() > T::zero())
-        };
-        let two_pi = T::two_pi();
-        let mut phase = vec![T::zero(); ratio.len()];
-        let mut prev: Option<T> = None;
-        let mut unwrapped = T::zero();
-        for k in 0..ratio.len() {
-            if !usable(k) {
-                continue;
-            }
-            let a = ratio[k].arg();
-            unwrapped = match prev {
-                None => a,
-                Some(p) => {
-                    let mut d = a - p;
-                    d = d - two_pi * Float::round(d / two_pi);
-                    unwrapped + d
-                }
-            };
-            prev = Some(a);
-            phase[k] = unwrapped;
-        }
-        let (mut sw, mut sx, mut sy) = (T::zero(), T::zero(), T::zero());
-        for k in (0..ratio.len()).filter(|k| usable(*k)) {
-            let w = self.phase_weight[k];
-            sw += w;
-            sx += w * omega[k];
-            sy += w * phase[k];
-        }
-        if !(sw > T::zero()) {
-            return None;
-        }
-        let (mx, my) = (sx / sw, sy / sw);
-        let (mut sxx, mut sxy) = (T::zero(), T::zero());
-        for k in (0..ratio.len()).filter(|k| usable(*k)) {
-            let w = self.phase_weight[k];
-            let dx = omega[k] - mx;
-            sxx += w * dx * dx;
-            sxy += w * dx * (phase[k] - my);
-        }
-        let slope = sxy / sxx;
-        if Float::is_finite(slope) {
-            Some(slope)
-        } else {
-            None
-        }
-    }
-}
-
-impl<M: Clone> Delayed<M> {
-    /// Fits the delayed model end to end:
-    /// 1. τ₀ from [`delay_start`] (phase slope and candidate search, within the bounds);
-    /// 2. `pipeline` (Levy → SK → ML) for the inner model on the delay-compensated data
-    ///    Y e^{iωτ₀} ([`remove_delay`]), which gives θ_M (and, for a partial-fraction model,
-    ///    the basis relocated to its poles);
-    /// 3. output-error maximum likelihood ([`MaximumLikelihood`], McKelvey eq. 23, with the
-    ///    pipeline's weighting) of the full model G_M(θ_M) e^{−iωτ} on the original data by
-    ///    Levenberg–Marquardt (the pipeline's, or the default when it has none) from
-    ///    [θ_M, τ₀].
-    ///
-    /// The statistics are those of [`Fit::new`] with the pipeline's weighting; the stages
-    /// are `delay` (θ = \[τ₀\], the search's cost, its number of fits), the inner pipeline's
-    /// stages on the compensated data, and `ml-delayed`.
-    ///
-    /// # Errors
-    /// As [`delay_start`] and [`Pipeline::fit`]; [`FdidError::InvalidArgument`] naming τ̂
-    /// when the fitted delay lies outside the bounds.
-    pub fn fit<T: Real>(
-        &self,
-        pipeline: &Pipeline,
-        data: &FrequencyData<T>,
-    ) -> Result<Fit<T, Delayed<M>>>
-    where
-        M: EquationError<T>,
-    {
-        let start = delay_start(pipeline, self, data)?;
-        let tau0 = start.tau;
-        let mut stages = vec![Stage {
-            name: "delay".into(),
-            solution: Solution {
-                theta: vec![tau0],
-                cost: start.cost,
-                iterations: start.fits,
-                termination: Termination::Converged,
-            },
-        }];
-        let inner = pipeline.fit(&self.inner, &remove_delay(data, tau0)?)?;
-        stages.extend(inner.stages().iter().cloned());
-        let model = Delayed {
-            inner: inner.model().clone(),
-            bounds: self.bounds,
-        };
-        let theta0 = Delayed::<M>::theta(inner.theta(), tau0);
-        let lm = pipeline.ml.unwrap_or_default();
-        let ml = MaximumLikelihood {
-            weighting: pipeline.weighting,
-        };
-        let solution = estimate(&model, data, &ml, &lm, Some(&theta0))?;
-        let theta = solution.theta.clone();
-        stages.push(Stage {
-            name: "ml-delayed".into(),
-            solution,
-        });
-        model.check_delay(theta[theta.len() - 1])?;
-        Fit::new(model, data, theta, pipeline.weighting, stages)
-    }
-}
-
-/// Fits `model` followed by an unbounded delay τ end to end: [`Delayed::fit`] of
-/// `Delayed::new(model.clone())` (McKelvey section 4, G_θ(iω)e^{−iωτ}, by eq. 23).
-///
-/// # Errors
-/// As [`Delayed::fit`].
-pub fn fit_delayed<T: Real, M: EquationError<T> + Clone>(
-    pipeline: &Pipeline,
-    model: &M,
-    data: &FrequencyData<T>,
-) -> Result<Fit<T, Delayed<M>>> {
-    Delayed::new(model.clone()).fit(pipeline, data)
 }

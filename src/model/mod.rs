@@ -5,14 +5,14 @@
 //! criteria (Levy, Sanathanan–Koerner, TLS) require; models with poles and zeros implement
 //! [`PolesZeros`].
 
-mod delay;
+pub(crate) mod delay;
 mod modal;
 mod noise;
 mod output;
 mod rational;
 
-pub use delay::{DelayStart, Delayed, delay_start, fit_delayed, remove_delay};
-pub use modal::{Modal, ModalDomain, ModalOptions, ModalParts, fit_modal};
+pub use delay::{Delayed, remove_delay};
+pub use modal::{Modal, ModalDomain, ModalParts};
 pub use noise::{NoiseModel, WithNoiseModel};
 pub use output::Output;
 pub use rational::{Domain, Rational};
@@ -20,7 +20,7 @@ pub(crate) use rational::{log_spread_poles, positive_band};
 
 use crate::data::FrequencyData;
 use crate::error::Result;
-use crate::{Complex, Real};
+use crate::scalar::{Complex, Real};
 use nalgebra::DMatrix;
 
 /// A parameterisation θ ∈ ℝᵖ ↦ G(θ, ω) evaluated at angular frequencies ω (rad/s).
@@ -97,7 +97,7 @@ pub(crate) const MAX_DEGREE: usize = usize::MAX / 8;
 pub(crate) fn check_degrees(na: usize, nb: usize) -> Result<()> {
     for (name, d) in [("na", na), ("nb", nb)] {
         if d > MAX_DEGREE {
-            return Err(crate::FdidError::InvalidArgument {
+            return Err(crate::error::FdidError::InvalidArgument {
                 name,
                 value: d.to_string(),
                 reason: format!("a model degree must be at most {MAX_DEGREE}"),
@@ -114,7 +114,7 @@ pub(crate) fn check_degrees(na: usize, nb: usize) -> Result<()> {
 pub(crate) fn check_degrees_on_grid(na: usize, nb: usize, lines: usize) -> Result<()> {
     check_degrees(na, nb)?;
     if na.max(nb) > 2 * lines {
-        return Err(crate::FdidError::TooFewFrequencies {
+        return Err(crate::error::FdidError::TooFewFrequencies {
             lines,
             equations: 2 * lines,
             parameters: na + nb + 1,
@@ -127,7 +127,7 @@ pub(crate) fn check_degrees_on_grid(na: usize, nb: usize, lines: usize) -> Resul
 /// real equations than `parameters`.
 pub(crate) fn check_line_count(parameters: usize, lines: usize) -> Result<()> {
     if 2 * lines < parameters {
-        return Err(crate::FdidError::TooFewFrequencies {
+        return Err(crate::error::FdidError::TooFewFrequencies {
             lines,
             equations: 2 * lines,
             parameters,
@@ -203,26 +203,6 @@ pub trait EquationError<T: Real>: ModelStructure<T> {
         Self: Sized,
     {
         let _ = theta;
-        None
-    }
-
-    /// Further starts for a fit of this model that [`crate::Pipeline::fit`] reached from
-    /// its automatic start: the lowest-cost fit they reach, or `None` when this structure
-    /// has no further starts or judges `fit` not worth them. `suspicious` carries the
-    /// chain's own evidence that `fit` may be a local minimum (Sanathanan–Koerner or ML at
-    /// its iteration cap, a cost the noise does not explain); the implementation may add
-    /// its own (e.g. poles the data cannot resolve). The default has no further starts.
-    fn restart(
-        &self,
-        pipeline: &crate::pipeline::Pipeline,
-        data: &FrequencyData<T>,
-        fit: &crate::fit::Fit<T, Self>,
-        suspicious: bool,
-    ) -> Option<crate::fit::Fit<T, Self>>
-    where
-        Self: Sized,
-    {
-        let _ = (pipeline, data, fit, suspicious);
         None
     }
 

@@ -6,7 +6,7 @@ use crate::basis::PolyBasis;
 use crate::data::FrequencyData;
 use crate::error::{FdidError, Result};
 use crate::roots::roots;
-use crate::{Complex, Real};
+use crate::scalar::{Complex, Real};
 use nalgebra::DMatrix;
 use num_traits::Float;
 

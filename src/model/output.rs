@@ -4,7 +4,7 @@
 
 use super::ModelStructure;
 use crate::data::FrequencyData;
-use crate::{Complex, Real};
+use crate::scalar::{Complex, Real};
 use nalgebra::DMatrix;
 
 /// Buffers for G(θ, ω_k), Ŷ_k(θ) = G U_k + T_k and their Jacobians, reused across

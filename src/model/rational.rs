@@ -5,7 +5,7 @@ use crate::basis::PolyBasis;
 use crate::data::FrequencyData;
 use crate::error::{FdidError, Result};
 use crate::roots::roots;
-use crate::{Complex, Real};
+use crate::scalar::{Complex, Real};
 use nalgebra::DMatrix;
 use num_traits::Float;
 
@@ -59,10 +59,10 @@ pub struct Rational<T: Real> {
     /// parameters cᵀQᵏb, k < na − nb − 1 (relative degree na − nb).
     numerator_map: Option<DMatrix<T>>,
     /// Z of `numerator_map` as its Householder reflectors, which give ψ = φZ in O(m·n)
-    /// per line (see [`crate::householder`]); `None` in a model read from a file written
+    /// per line (see [`crate::linalg::householder`]); `None` in a model read from a file written
     /// without them, which then applies Z as a matrix.
     #[cfg_attr(feature = "serde", serde(default))]
-    numerator_reflectors: Option<crate::householder::Complement<T>>,
+    numerator_reflectors: Option<crate::linalg::householder::Complement<T>>,
     /// Sample time of the transient term, when the model has one.
     transient: Option<T>,
 }
@@ -726,19 +726,6 @@ impl<T: Real> EquationError<T> for Rational<T> {
     /// ones reflected); `None` for the polynomial bases.
     fn relocated(&self, theta: &[T]) -> Option<Result<Self>> {
         self.relocate(theta)
-    }
-
-    /// See [`crate::multistart`]: on evidence of a local minimum, the starts of
-    /// [`crate::multistart::fit_multistart`] (continuous time) or
-    /// [`crate::multistart::fit_multistart_discrete`] (discrete time).
-    fn restart(
-        &self,
-        pipeline: &crate::pipeline::Pipeline,
-        data: &FrequencyData<T>,
-        fit: &crate::fit::Fit<T, Self>,
-        suspicious: bool,
-    ) -> Option<crate::fit::Fit<T, Self>> {
-        crate::multistart::restart(self, pipeline, data, fit, suspicious)
     }
 
     fn normalising_index(&self) -> usize {

@@ -2,9 +2,9 @@
 //! analytic derivatives.
 
 use crate::error::{FdidError, Result, check_finite};
+use crate::scalar::{Complex, Real};
 use crate::simulate::Excitation;
 use crate::simulate::rng::SplitMix64;
-use crate::{Complex, Real};
 use std::f64::consts::TAU;
 
 /// Which DFT lines inside the band a [`Multisine`] excites.

@@ -1,7 +1,7 @@
 //! Seeded coloured Gaussian noise and its scaling to a signal-to-noise ratio.
 
-use crate::Real;
 use crate::error::{FdidError, Result, check_finite};
+use crate::scalar::Real;
 use crate::simulate::rng::SplitMix64;
 use nalgebra::DMatrix;
 
@@ -91,12 +91,12 @@ impl DtFilter {
     }
 
     /// `H(e^{jθ})` at the normalised angular frequency `θ = ω T_s` (rad/sample).
-    pub fn response(&self, theta: f64) -> crate::Complex<f64> {
+    pub fn response(&self, theta: f64) -> crate::scalar::Complex<f64> {
         let ev = |c: &[f64]| {
             c.iter()
                 .enumerate()
-                .map(|(i, ci)| crate::Complex::from_polar(*ci, -(i as f64) * theta))
-                .sum::<crate::Complex<f64>>()
+                .map(|(i, ci)| crate::scalar::Complex::from_polar(*ci, -(i as f64) * theta))
+                .sum::<crate::scalar::Complex<f64>>()
         };
         ev(&self.b) / ev(&self.a)
     }

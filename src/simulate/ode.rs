@@ -1,9 +1,9 @@
 //! Time-varying linear ODEs `Σ αₙ(t) y⁽ⁿ⁾ = Σ βₙ(t) u⁽ⁿ⁾` integrated by an adaptive
 //! Dormand–Prince 5(4) method.
 
-use crate::Real;
 use crate::data::TimeData;
 use crate::error::{FdidError, Result};
+use crate::scalar::Real;
 use crate::simulate::Excitation;
 use crate::simulate::multisine::Multisine;
 use std::fmt;

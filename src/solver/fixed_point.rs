@@ -1,9 +1,9 @@
 //! The fixed-point loop of iteratively re-weighted least squares (Sanathanan–Koerner).
 
 use super::{Solution, Solver, Termination, least_squares};
-use crate::Real;
 use crate::error::Result;
 use crate::problem::ReweightedProblem;
+use crate::scalar::Real;
 
 /// Repeats weighted linear least-squares solves θ^(m) = argmin V_m(θ; θ^(m−1)) until the
 /// relative change of the model, [`ReweightedProblem::change`], drops below `tolerance`,

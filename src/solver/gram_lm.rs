@@ -1,10 +1,10 @@
 //! Levenberg–Marquardt with the step from the guarded normal equations.
 
-use super::gram::{max_condition, scaled_cholesky};
 use super::{LevenbergMarquardt, Solution, Solver, Termination};
-use crate::Real;
 use crate::error::{FdidError, Result};
+use crate::linalg::gram::{max_condition, scaled_cholesky};
 use crate::problem::NonlinearProblem;
+use crate::scalar::Real;
 use nalgebra::{DMatrix, DVector};
 use num_traits::Float;
 

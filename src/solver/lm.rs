@@ -1,9 +1,9 @@
 //! Levenberg–Marquardt through the `levenberg-marquardt` crate.
 
 use super::{Solution, Solver, Termination};
-use crate::Real;
 use crate::error::{FdidError, Result};
 use crate::problem::NonlinearProblem;
+use crate::scalar::Real;
 use levenberg_marquardt::{LeastSquaresProblem, TerminationReason};
 use nalgebra::{DMatrix, DVector, Dyn, Owned};
 

@@ -9,18 +9,18 @@
 //! | [`GramLevenbergMarquardt`] | [`NonlinearProblem`](crate::problem::NonlinearProblem) | damped Gauss–Newton with the step from the guarded, equilibrated normal equations (fails rather than lose accuracy when they are ill-conditioned) |
 
 mod fixed_point;
-pub(crate) mod gram;
 mod gram_lm;
 mod linear;
 mod lm;
 
+pub use crate::linalg::least_squares;
 pub use fixed_point::FixedPoint;
 pub use gram_lm::GramLevenbergMarquardt;
-pub use linear::{LinearLeastSquares, SvdNullVector, least_squares};
+pub use linear::{LinearLeastSquares, SvdNullVector};
 pub use lm::LevenbergMarquardt;
 
-use crate::Real;
 use crate::error::Result;
+use crate::scalar::Real;
 
 /// A method that minimises problems of kind `P`.
 pub trait Solver<T: Real, P: ?Sized> {

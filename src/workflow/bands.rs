@@ -2,8 +2,8 @@
 //! normalised residual power exceeds what the noise explains.
 use super::finding::residual_power;
 use super::spec::SpecFit;
+use crate::error::{FdidError, Result};
 use crate::stats::chi2_sf;
-use crate::{FdidError, Result};
 
 /// A band of consecutive lines where the residual exceeds the noise.
 #[derive(Debug, Clone, PartialEq)]

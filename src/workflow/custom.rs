@@ -4,21 +4,23 @@
 //! **Why one concrete augmented type.** The structure grows at run time (a delay, one
 //! mode, another mode), so the fitted model is an [`Augmented<M>`]: the user's model times
 //! [`FlexibleModes`] (any number, zero included) in a [`Product`], followed by an optional
-//! [`crate::Delayed`]. One type keeps the report's fit (and [`crate::greybox::physical_values`]
+//! [`crate::Delayed`]. One type keeps the report's fit (and [`crate::estimate::greybox::physical_values`]
 //! for described models) independent of the steps taken.
 use super::finding::{Context, Effect, Finding, Remedy};
 use super::spec::{ModelSpec, SpecFit, causal_delay_limit};
 use super::{Report, Step, Workflow, better, consistent, lr_accept};
 use crate::criterion::MaximumLikelihood;
+use crate::data::FrequencyData;
+use crate::error::{FdidError, Result};
+use crate::estimate::estimate;
+use crate::estimate::greybox::PhysicalValue;
 use crate::fit::{Fit, Stage};
 use crate::greybox::{
-    AutoDiff, FlexibleModes, GreyBox, Parameter, PhysicalParameters, PhysicalValue, Product, Scale,
-    Slot,
+    AutoDiff, FlexibleModes, GreyBox, Parameter, PhysicalParameters, Product, Scale, Slot,
 };
 use crate::model::{Delayed, ModelStructure};
-use crate::pipeline::estimate;
+use crate::scalar::{Complex, Real};
 use crate::solver::LevenbergMarquardt;
-use crate::{Complex, FdidError, FrequencyData, Real, Result};
 use nalgebra::DMatrix;
 
 /// A user's model with the augmentations the workflow adds by composition:

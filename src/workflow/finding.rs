@@ -2,7 +2,8 @@
 //! that would explain it.
 use super::spec::{ModelSpec, SpecFit};
 use crate::data::DistortionAnalysis;
-use crate::{FdidError, FrequencyData, TimeData};
+use crate::data::{FrequencyData, TimeData};
+use crate::error::FdidError;
 use std::sync::Arc;
 
 /// The effects the workflow names (issue names via [`Effect::as_str`]).
@@ -130,7 +131,7 @@ impl PeriodicRecord {
     /// [`FdidError::InvalidArgument`] named `"periods"` when `periods < 2` or the record
     /// length is not a multiple of it; [`FdidError::TooShort`] when a period has fewer
     /// than 4 samples.
-    pub fn new(record: TimeData<f64>, periods: usize) -> crate::Result<Self> {
+    pub fn new(record: TimeData<f64>, periods: usize) -> crate::error::Result<Self> {
         if periods < 2 || !record.len().is_multiple_of(periods) {
             return Err(FdidError::InvalidArgument {
                 name: "periods",
@@ -278,7 +279,11 @@ impl Context {
     ///
     /// # Errors
     /// As [`PeriodicRecord::new`].
-    pub fn with_record(mut self, record: TimeData<f64>, periods: usize) -> crate::Result<Self> {
+    pub fn with_record(
+        mut self,
+        record: TimeData<f64>,
+        periods: usize,
+    ) -> crate::error::Result<Self> {
         self.record = Some(Arc::new(PeriodicRecord::new(record, periods)?));
         Ok(self)
     }

@@ -119,16 +119,16 @@ pub fn lr_test(
     p1: usize,
     n_lines: usize,
     noise_known: bool,
-) -> crate::Result<LrTest> {
+) -> crate::error::Result<LrTest> {
     if p1 <= p0 {
-        return Err(crate::FdidError::InvalidArgument {
+        return Err(crate::error::FdidError::InvalidArgument {
             name: "p1",
             value: p1.to_string(),
             reason: format!("the larger model needs more parameters than p0 = {p0}"),
         });
     }
     if 2 * n_lines <= p1 {
-        return Err(crate::FdidError::InvalidArgument {
+        return Err(crate::error::FdidError::InvalidArgument {
             name: "n_lines",
             value: n_lines.to_string(),
             reason: format!("2N must exceed p1 = {p1}"),
@@ -136,7 +136,7 @@ pub fn lr_test(
     }
     for (name, v) in [("v0", v0), ("v1", v1)] {
         if !(v >= 0.0 && v.is_finite()) {
-            return Err(crate::FdidError::InvalidArgument {
+            return Err(crate::error::FdidError::InvalidArgument {
                 name,
                 value: v.to_string(),
                 reason: "a cost is finite and non-negative".into(),
@@ -184,16 +184,16 @@ pub fn concentrated_lr_test(
     w1: f64,
     p1: usize,
     n_lines: usize,
-) -> crate::Result<LrTest> {
+) -> crate::error::Result<LrTest> {
     if p1 <= p0 {
-        return Err(crate::FdidError::InvalidArgument {
+        return Err(crate::error::FdidError::InvalidArgument {
             name: "p1",
             value: p1.to_string(),
             reason: format!("the larger model needs more parameters than p0 = {p0}"),
         });
     }
     if !(w0.is_finite() && w1.is_finite()) {
-        return Err(crate::FdidError::InvalidArgument {
+        return Err(crate::error::FdidError::InvalidArgument {
             name: "w",
             value: format!("{w0}, {w1}"),
             reason: "the concentrated costs must be finite".into(),

@@ -73,7 +73,8 @@ pub use finding::{Context, Detail, Detector, Effect, Finding, PeriodicRecord, Re
 pub use segments::{SegmentResult, segment_disagreement};
 pub use spec::{ModelSpec, SpecCriterion, SpecDomain, SpecFit, fit_spec};
 
-use crate::{FdidError, FrequencyData, Result};
+use crate::data::FrequencyData;
+use crate::error::{FdidError, Result};
 
 /// One accepted augmentation.
 #[derive(Debug, Clone, PartialEq)]

@@ -16,7 +16,7 @@
 use super::finding::{Context, Effect};
 use super::spec::{ModelSpec, SpecFit, fit_spec};
 use super::{Step, Workflow, lrt};
-use crate::FrequencyData;
+use crate::data::FrequencyData;
 
 /// The effects that add one parameter to the system part and can stand in for each other.
 fn swappable(effect: Effect) -> bool {

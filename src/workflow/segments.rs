@@ -4,7 +4,8 @@
 use super::lrt::f_sf;
 use super::spec::{ModelSpec, SpecCriterion, SpecDomain, SpecFit, fit_spec};
 use crate::data::dft_lines;
-use crate::{FdidError, FrequencyData, NoiseVariances, Result, TimeData};
+use crate::data::{FrequencyData, NoiseVariances, TimeData};
+use crate::error::{FdidError, Result};
 use nalgebra::{DMatrix, DVector};
 use num_complex::Complex;
 
@@ -215,7 +216,7 @@ pub(crate) fn fixed_model_cost(fit: &SpecFit, piece: &Piece, n_t: usize) -> f64 
     }
     // bounded iterations: a basis with non-finite entries fails instead of looping
     let iterations = 100 * basis.ncols().max(10);
-    let Some(svd) = crate::problem::try_svd(basis.clone(), true, true, iterations) else {
+    let Some(svd) = crate::linalg::try_svd(basis.clone(), true, true, iterations) else {
         return r0.norm_squared();
     };
     match svd.solve(&r0, 1e-12 * svd.singular_values.max()) {

@@ -1,8 +1,15 @@
 //! A model description (domain, orders, delay, transient, noise model, criterion) and its
 //! fit by the composed estimators, reduced to what the detectors need.
-use crate::criterion::{NoiseWeighting, fit_eiv_delayed, interior_lines, refine_noise_model};
+use crate::criterion::{NoiseWeighting, interior_lines};
+use crate::data::FrequencyData;
+use crate::error::{FdidError, Result};
+use crate::estimate::{Pipeline, fit_eiv, fit_noise_model};
+use crate::estimate::{fit_eiv_delayed, refine_noise_model};
+use crate::fit::Fit;
+use crate::model::{Delayed, ModelStructure, PolesZeros, Rational};
 use crate::model::{NoiseModel, Output};
-use crate::prelude::*;
+use crate::scalar::Complex;
+use crate::solver::LevenbergMarquardt;
 use nalgebra::DMatrix;
 
 /// The model's domain.

@@ -1,8 +1,8 @@
-//! `fdid::batch`: many independent fits, in parallel with the `rayon` feature, give the
+//! `fdid::estimate::batch`: many independent fits, in parallel with the `rayon` feature, give the
 //! results of the sequential loop bit for bit, in order, and a failing item does not stop
 //! the batch.
 
-use fdid::batch::{fit_each, fit_each_sequential, fit_many, fit_many_sequential};
+use fdid::estimate::batch::{fit_each, fit_each_sequential, fit_many, fit_many_sequential};
 use fdid::prelude::*;
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};

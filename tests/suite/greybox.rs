@@ -6,13 +6,12 @@
 use crate::common;
 
 use common::{Noise, central_difference, logspace};
-use fdid::criterion::refine_noise_model;
+use fdid::estimate::greybox::{fit_eiv, fit_ml, physical_values};
+use fdid::estimate::refine_noise_model;
 use fdid::greybox::physical::{
     DcMotor, DriveOutput, MassSpringDamper, Rlc, RlcOutput, TwoMassDrive,
 };
-use fdid::greybox::{
-    AutoDiff, DualScalar, Fixed, GreyBox, PhysicalParameters, fit_eiv, fit_ml, physical_values,
-};
+use fdid::greybox::{AutoDiff, DualScalar, Fixed, GreyBox, PhysicalParameters};
 use fdid::model::NoiseModel;
 use fdid::prelude::*;
 use nalgebra::DMatrix;

@@ -13,12 +13,12 @@
 use crate::common;
 
 use common::{Noise, central_difference, lfilter};
+use fdid::estimate::greybox::{fit_ml, physical_values};
 use fdid::greybox::physical::{
     DcMotor, DriveOutput, MassSpringDamper, Rlc, RlcOutput, TwoMassDrive,
 };
 use fdid::greybox::{
-    AutoDiff, DualScalar, FlexibleModes, GreyBox, Parameter, PhysicalParameters, Transient, fit_ml,
-    physical_values,
+    AutoDiff, DualScalar, FlexibleModes, GreyBox, Parameter, PhysicalParameters, Transient,
 };
 use fdid::model::Output;
 use fdid::prelude::*;

@@ -19,6 +19,7 @@ mod drifting;
 #[path = "../common/measurement.rs"]
 mod measurement;
 
+mod architecture;
 mod batch;
 mod cli;
 mod cli_diagnose;

@@ -19,7 +19,8 @@ use common::{
     random_dt_system,
 };
 use fdid::criterion::MlProblem;
-use fdid::model::{DelayStart, Output, delay_start, remove_delay};
+use fdid::estimate::{DelayStart, delay_start};
+use fdid::model::{Output, remove_delay};
 use fdid::prelude::*;
 use fdid::problem::NonlinearProblem;
 use nalgebra::DMatrix;

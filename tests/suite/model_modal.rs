@@ -5,7 +5,8 @@
 use crate::common;
 
 use common::Noise;
-use fdid::model::{Modal, ModalOptions, ModalParts, Output, fit_modal};
+use fdid::estimate::{ModalOptions, fit_modal};
+use fdid::model::{Modal, ModalParts, Output};
 use fdid::prelude::*;
 use quickcheck::{Arbitrary, Gen, QuickCheck};
 use rand::rngs::StdRng;

@@ -13,9 +13,10 @@
 //! --all-features --test suite robustness_garbage::` for a long run.
 
 use fdid::data::{PeriodicAverage, merge};
+use fdid::estimate::ModalOptions;
 use fdid::io::parse_csv;
 use fdid::ltv::{FrequencyBasis, Lines};
-use fdid::model::{ModalOptions, remove_delay};
+use fdid::model::remove_delay;
 use fdid::prelude::*;
 use fdid::workflow::{Context, ModelSpec, SpecCriterion, SpecDomain, Workflow, fit_spec};
 use quickcheck::{Arbitrary, Gen, QuickCheck, TestResult};

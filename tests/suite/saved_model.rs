@@ -61,7 +61,7 @@ fn whole_fit_and_data_round_trip() {
     assert_eq!(back, data);
 
     let model = Delayed::new(Rational::continuous(2, 1, data.omega()).unwrap());
-    let fit = fdid::model::fit_delayed(&Pipeline::default(), model.inner(), &data).unwrap();
+    let fit = fdid::estimate::fit_delayed(&Pipeline::default(), model.inner(), &data).unwrap();
     let text = serde_json::to_string(&fit).unwrap();
     let back: Fit<f64, Delayed<Rational<f64>>> = serde_json::from_str(&text).unwrap();
     assert_eq!(back.theta(), fit.theta());

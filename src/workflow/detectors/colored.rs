@@ -1,4 +1,4 @@
-use crate::FrequencyData;
+use crate::data::FrequencyData;
 use crate::stats::chi2_sf;
 use crate::workflow::finding::{Context, Detail, Detector, Effect, Finding};
 use crate::workflow::spec::SpecFit;

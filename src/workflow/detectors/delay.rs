@@ -1,7 +1,8 @@
 use super::score::ScoreTest;
+use crate::data::FrequencyData;
+use crate::scalar::Complex;
 use crate::workflow::finding::{Context, Detail, Detector, Effect, Finding};
 use crate::workflow::spec::SpecFit;
-use crate::{Complex, FrequencyData};
 
 /// A linear phase trend of Y/(ĜU) in ω: a missing delay e^{−iωτ}.
 ///

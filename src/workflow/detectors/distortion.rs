@@ -1,7 +1,7 @@
 use crate::data::DistortionAnalysis;
+use crate::data::{FrequencyData, NoiseVariances};
 use crate::workflow::finding::{Context, Detail, Detector, Effect, Finding, Remedy};
 use crate::workflow::spec::SpecFit;
-use crate::{FrequencyData, NoiseVariances};
 use std::sync::Arc;
 
 /// Energy above the noise at the non-excited lines of an odd random-phase multisine:

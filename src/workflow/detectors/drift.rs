@@ -1,11 +1,12 @@
+use crate::data::{FrequencyData, NoiseVariances, TimeData};
 use crate::data::{PeriodicAverage, dft_lines};
+use crate::error::{FdidError, Result};
 use crate::workflow::finding::{Context, Detail, Detector, Effect, Finding, Remedy};
 use crate::workflow::lrt::f_sf;
 use crate::workflow::segments::{
     check_rational, fixed_model_cost, segment_spec, split, system_params, transient_params,
 };
 use crate::workflow::spec::{SpecDomain, SpecFit, fit_spec};
-use crate::{FdidError, FrequencyData, NoiseVariances, Result, TimeData};
 use nalgebra::{DMatrix, DVector};
 use num_complex::Complex;
 

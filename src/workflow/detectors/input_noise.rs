@@ -1,9 +1,10 @@
+use crate::data::FrequencyData;
+use crate::scalar::Complex;
 use crate::stats::chi2_sf;
 use crate::workflow::finding::{
     Context, Detail, Detector, Effect, Finding, Remedy, residual_power,
 };
 use crate::workflow::spec::{SpecCriterion, SpecFit};
-use crate::{Complex, FrequencyData};
 use nalgebra::DMatrix;
 
 /// Significant input noise in a periodic measurement: switch from output-error ML

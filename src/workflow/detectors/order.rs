@@ -1,7 +1,8 @@
 use super::score::ScoreTest;
+use crate::data::FrequencyData;
+use crate::scalar::Complex;
 use crate::workflow::finding::{Context, Detail, Detector, Effect, Finding};
 use crate::workflow::spec::{SpecDomain, SpecFit};
-use crate::{Complex, FrequencyData};
 
 /// Which coefficient an [`OrderIncrease`] test adds.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

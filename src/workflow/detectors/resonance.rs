@@ -1,4 +1,4 @@
-use crate::FrequencyData;
+use crate::data::FrequencyData;
 use crate::workflow::bands::scan_windows;
 use crate::workflow::finding::{Context, Detail, Detector, Effect, Finding, residual_power};
 use crate::workflow::spec::SpecFit;

@@ -1,7 +1,7 @@
 //! The score (Lagrange-multiplier) test of one added parameter, shared by the detectors
 //! whose effect enters the residual linearly at first order.
 
-use crate::Complex;
+use crate::scalar::Complex;
 use crate::stats::erfc;
 use crate::workflow::finding::{noise_scale, residual_power};
 use crate::workflow::spec::SpecFit;
@@ -78,7 +78,7 @@ pub(crate) fn column_space(j: &DMatrix<f64>) -> Option<DMatrix<f64>> {
     }
     // bounded iterations: a J with non-finite entries fails instead of looping
     let iterations = 100 * js.ncols().max(10);
-    let svd = crate::problem::try_svd(js, true, false, iterations)?;
+    let svd = crate::linalg::try_svd(js, true, false, iterations)?;
     let u = svd.u?;
     let smax = svd.singular_values.max();
     let keep: Vec<usize> = (0..svd.singular_values.len())

@@ -1,4 +1,4 @@
-use crate::FrequencyData;
+use crate::data::FrequencyData;
 use crate::workflow::finding::{Context, Detail, Detector, Effect, Finding, Remedy};
 use crate::workflow::lrt::f_sf;
 use crate::workflow::spec::SpecFit;

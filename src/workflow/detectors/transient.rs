@@ -1,8 +1,9 @@
+use crate::data::FrequencyData;
+use crate::scalar::Complex;
 use crate::stats::chi2_sf;
 use crate::workflow::finding::{Context, Detail, Detector, Effect, Finding, residual_power};
 use crate::workflow::lrt::f_sf;
 use crate::workflow::spec::{SpecDomain, SpecFit};
-use crate::{Complex, FrequencyData};
 use nalgebra::{DMatrix, DVector};
 
 /// A smooth residual of a non-periodic record: the missing transient term T = I/A.

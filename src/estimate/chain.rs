@@ -1,13 +1,13 @@
 //! The standard estimation chain Levy → Sanathanan–Koerner → ML, and the generic
 //! [`estimate`] that composes any criterion with any solver that accepts its problem.
 
-use crate::Real;
 use crate::criterion::MlProblem;
 use crate::criterion::{Criterion, Levy, MaximumLikelihood, NoiseWeighting, SanathananKoerner};
 use crate::data::FrequencyData;
 use crate::error::Result;
 use crate::fit::{Fit, Stage};
 use crate::model::{EquationError, ModelStructure};
+use crate::scalar::Real;
 use crate::solver::{
     FixedPoint, GramLevenbergMarquardt, LevenbergMarquardt, LinearLeastSquares, Solution, Solver,
 };
@@ -66,7 +66,7 @@ const LONG_ML: usize = 30;
 /// Buffers of the Levy/SK solves of one fit.
 struct LevyWork<T: Real> {
     weights: Option<Option<Vec<T>>>,
-    regressor: nalgebra::DMatrix<crate::Complex<T>>,
+    regressor: nalgebra::DMatrix<crate::scalar::Complex<T>>,
     a: nalgebra::DMatrix<T>,
     b: nalgebra::DVector<T>,
 }
@@ -104,14 +104,14 @@ impl<T: Real> Default for LevyWork<T> {
 ///   path from the start through a non-convex cost);
 /// - with known noise variances, the cost test (V against ½χ²(2N − p)) or the
 ///   whiteness test of [`Fit::validation`] below the 1 % level;
-/// - the model's own checks in [`EquationError::restart`] — for [`crate::Rational`]:
+/// - the model's own checks in [`FurtherStarts::further_starts`] — for [`crate::Rational`]:
 ///   unstable poles, poles the data cannot resolve ([`Fit::unresolved_poles`]), a zero
 ///   within 10 % of a pole and inside its half-power band (|s_p − s_z| < |Re s_p|).
 ///
 /// Only then does the model run its further starts (for [`crate::Rational`] of
-/// denominator order up to [`crate::multistart::MAX_RESTART_ORDER`], those of
-/// [`crate::multistart::fit_multistart`] or
-/// [`crate::multistart::fit_multistart_discrete`], about ten fits' work), and the fit of
+/// denominator order up to [`crate::estimate::multistart::MAX_RESTART_ORDER`], those of
+/// [`crate::estimate::multistart::fit_multistart`] or
+/// [`crate::estimate::multistart::fit_multistart_discrete`], about ten fits' work), and the fit of
 /// lowest cost is returned; a fit without such evidence costs what the chain costs, plus
 /// the roots of its numerator and denominator.
 ///
@@ -133,7 +133,7 @@ pub struct Pipeline {
     pub sk: Option<FixedPoint>,
     /// ML refinement (`None`: skip).
     pub ml: Option<LevenbergMarquardt>,
-    /// After ML, the model's further starts ([`EquationError::restart`]) when the fit
+    /// After ML, the model's further starts ([`FurtherStarts::further_starts`]) when the fit
     /// shows evidence of a local minimum (see [`Pipeline::fit`]).
     pub restarts: bool,
 }
@@ -173,32 +173,40 @@ impl Pipeline {
     ///
     /// # Errors
     /// Invalid data for the model, singular linear problems, numerical failure.
-    pub fn fit<T: Real, M: EquationError<T> + Clone>(
+    pub fn fit<T: Real, M: FurtherStarts<T>>(
         &self,
         model: &M,
         data: &FrequencyData<T>,
     ) -> Result<Fit<T, M>> {
-        self.run(model, data, self.restarts)
+        let (fit, suspicious) = self.run(model, data)?;
+        Ok(match suspicious {
+            Some(suspicious) if self.restarts => {
+                match fit.model().further_starts(self, data, &fit, suspicious) {
+                    Some(better) if better.cost() < fit.cost() => better,
+                    _ => fit,
+                }
+            }
+            _ => fit,
+        })
     }
 
-    /// The chain without the further starts of [`EquationError::restart`] (the starts of
-    /// the multistart fits themselves).
+    /// The chain without the further starts of [`FurtherStarts`] (the starts of the
+    /// multistart fits themselves).
     pub(crate) fn chain<T: Real, M: EquationError<T> + Clone>(
         &self,
         model: &M,
         data: &FrequencyData<T>,
     ) -> Result<Fit<T, M>> {
-        self.run(model, data, false)
+        self.run(model, data).map(|(fit, _)| fit)
     }
 
-    /// The chain, then (`restarts`, ML) the model's further starts on evidence of a local
-    /// minimum.
+    /// The chain, with (when ML ran) the evidence that its fit may be a local minimum: a
+    /// cap, a long ML path, or residuals the noise does not explain.
     fn run<T: Real, M: EquationError<T> + Clone>(
         &self,
         model: &M,
         data: &FrequencyData<T>,
-        restarts: bool,
-    ) -> Result<Fit<T, M>> {
+    ) -> Result<(Fit<T, M>, Option<bool>)> {
         let w = self.weighting;
         let mut work = LevyWork::default();
         let levy = self.levy_solve(model, data, &self.linear, &mut work)?;
@@ -290,22 +298,14 @@ impl Pipeline {
                 None => Fit::from_ml_problem(model.clone(), data, current, &problem, stages)?,
                 Some(m) => Fit::new(m, data, current, w, stages)?,
             };
-            if !restarts {
-                return Ok(fit);
-            }
             // evidence of a local minimum: a cap, or residuals the noise does not explain
             // (cost or whiteness test at the 1 % level; only with known noise variances)
             let v = fit.validation();
             let poor = v.cost_p.is_some_and(|p| p < SUSPICIOUS_P)
                 || (fit.noise_known() && v.whiteness_p.is_some_and(|p| p < SUSPICIOUS_P));
-            return Ok(
-                match fit.model().restart(self, data, &fit, capped || poor) {
-                    Some(better) if better.cost() < fit.cost() => better,
-                    _ => fit,
-                },
-            );
+            return Ok((fit, Some(capped || poor)));
         }
-        Fit::new(model, data, current, w, stages)
+        Ok((Fit::new(model, data, current, w, stages)?, None))
     }
 
     /// One Levy solve: through the guarded normal equations when ML follows (falling back
@@ -348,7 +348,7 @@ impl Pipeline {
         work: &mut LevyWork<T>,
         want_cost: bool,
     ) -> Result<(Vec<T>, Option<T>)> {
-        use crate::solver::gram;
+        use crate::linalg::gram;
         model.check_data(data)?;
         crate::criterion::check_input(data)?;
         if work.weights.is_none() {
@@ -362,7 +362,7 @@ impl Pipeline {
                 work.regressor = nalgebra::DMatrix::zeros(n, q);
             }
             model.regressor_into(data, &mut work.regressor);
-            crate::criterion::normalised_into(
+            crate::linalg::normalised_into(
                 &work.regressor,
                 work.weights.as_ref().and_then(|w| w.as_deref()),
                 norm,
@@ -375,7 +375,7 @@ impl Pipeline {
             gram::least_squares_gram(&work.a, &work.b, max_cond).map(|(t, c)| (t, Some(c)))
         } else {
             let weights = work.weights.as_ref().and_then(|w| w.as_deref());
-            let fill = |k0: usize, rows: &mut nalgebra::DMatrix<crate::Complex<T>>| {
+            let fill = |k0: usize, rows: &mut nalgebra::DMatrix<crate::scalar::Complex<T>>| {
                 model.regressor_lines_into(data, k0, rows);
             };
             gram::lines_least_squares_gram(n, q, fill, weights, norm, max_cond).map(|t| {
@@ -389,7 +389,7 @@ impl Pipeline {
             None => {
                 stack(work);
                 let (theta, cost) =
-                    crate::solver::least_squares(work.a.clone(), work.b.clone(), linear.rcond_eps)?;
+                    crate::linalg::least_squares(work.a.clone(), work.b.clone(), linear.rcond_eps)?;
                 (theta.as_slice().to_vec(), Some(cost))
             }
         })
@@ -415,7 +415,7 @@ impl Pipeline {
         let weights = w.weights(data)?;
         // one set of response buffers for every iterate: G of the latest in `g_old`
         let mut out = crate::model::Output::new(data.len(), model.n_params());
-        let mut oe_cost = |m: &M, theta: &[T], g: &mut Vec<crate::Complex<T>>| {
+        let mut oe_cost = |m: &M, theta: &[T], g: &mut Vec<crate::scalar::Complex<T>>| {
             let cost = crate::criterion::output_error_cost_in(
                 &mut out,
                 m,
@@ -479,5 +479,31 @@ impl Pipeline {
                 termination: crate::solver::Termination::MaxIterations,
             },
         ))
+    }
+}
+
+/// Structures whose fits [`Pipeline::fit`] may search from further starts.
+///
+/// The ML cost of a rational model is not convex: from the chain's automatic start a
+/// fraction of high-order fits end in a local minimum. After the chain, [`Pipeline::fit`]
+/// hands its fit to [`FurtherStarts::further_starts`] with the chain's own evidence of a
+/// local minimum; the structure may add its own checks and run a search. The default has
+/// no further starts, so a user's [`EquationError`] structure needs only
+/// `impl FurtherStarts<f64> for MyModel {}`; [`crate::model::Rational`] runs the searches
+/// of [`crate::estimate::multistart`].
+pub trait FurtherStarts<T: Real>: EquationError<T> + Clone {
+    /// The lowest-cost fit that further starts reach, or `None` when this structure has
+    /// no further starts or judges `fit` not worth them. `suspicious` carries the chain's
+    /// evidence that `fit` may be a local minimum (Sanathanan–Koerner or ML at its
+    /// iteration cap, a long ML path, a cost the noise does not explain).
+    fn further_starts(
+        &self,
+        pipeline: &Pipeline,
+        data: &FrequencyData<T>,
+        fit: &Fit<T, Self>,
+        suspicious: bool,
+    ) -> Option<Fit<T, Self>> {
+        let _ = (pipeline, data, fit, suspicious);
+        None
     }
 }

@@ -6,7 +6,7 @@
 //! last n − m columns of Q are an orthonormal basis Z of the complement of span U, and a
 //! row vector x maps to xZ = (x H₁ H₂ ⋯ H_m)[m..], two passes over n entries per reflector.
 
-use crate::{Complex, Real};
+use crate::scalar::{Complex, Real};
 use nalgebra::DMatrix;
 use num_traits::Float;
 

@@ -10,6 +10,7 @@
 //! evidence of a local minimum (see [`crate::Pipeline`]).
 //! [`Fit::unresolved_poles`] names poles whose damping the frequency grid cannot determine.
 
+use super::{FurtherStarts, Pipeline, estimate};
 use crate::basis::PolyBasis;
 use crate::criterion::MaximumLikelihood;
 use crate::data::FrequencyData;
@@ -18,8 +19,7 @@ use crate::fit::{Fit, Stage};
 use crate::model::{
     Domain, EquationError, ModelStructure, Rational, log_spread_poles, positive_band,
 };
-use crate::pipeline::{Pipeline, estimate};
-use crate::{Complex, Real};
+use crate::scalar::{Complex, Real};
 use nalgebra::{DMatrix, DVector};
 use num_traits::Float;
 
@@ -558,7 +558,7 @@ pub fn fit_multistart_discrete<T: Real>(
 /// every start fails. The caller keeps `fit` unless the returned fit has a lower cost.
 ///
 /// [`EquationError::restart`]: crate::model::EquationError::restart
-pub(crate) fn restart<T: Real>(
+fn restart<T: Real>(
     model: &Rational<T>,
     pipeline: &Pipeline,
     data: &FrequencyData<T>,
@@ -712,27 +712,24 @@ fn discrete_start<T: Real>(
         rhs[2 * k] = y.re;
         rhs[2 * k + 1] = y.im;
     }
-    let (b, _) = crate::solver::least_squares(m, rhs, 1e3).ok()?;
+    let (b, _) = crate::linalg::least_squares(m, rhs, 1e3).ok()?;
     theta[na..].copy_from_slice(b.as_slice());
     Some(theta)
 }
 
-impl<T: Real> Fit<T, Rational<T>> {
-    /// Poles whose half-power band holds no data line, so that the data do not determine
-    /// their damping ([`crate::validation::unresolved_poles`]): with s = p (continuous
-    /// time) or s = ln(p)/Ts (discrete time), s = σ + iω_p, a pole is unresolved when ω_p
-    /// lies inside the band of the data and no line ω_k satisfies |ω_k − |ω_p|| ≤ |σ|.
-    /// Such a pole is typically spurious — a resonance fitted between two lines (e.g. in
-    /// place of poles closer together than the noise resolves) — even when the cost looks
-    /// right; one conjugate of each pair is listed.
-    ///
-    /// # Errors
-    /// As [`crate::model::PolesZeros::poles`].
-    pub fn unresolved_poles(&self) -> Result<Vec<Complex<T>>> {
-        Ok(crate::validation::unresolved_poles(
-            &self.poles()?,
-            self.model().domain(),
-            self.omega(),
-        ))
+/// On evidence of a local minimum, the starts of [`fit_multistart`] (continuous time) or
+/// [`fit_multistart_discrete`] (discrete time), for denominator orders up to
+/// [`MAX_RESTART_ORDER`]; the fit's own evidence is added to the chain's: unstable poles,
+/// poles the data cannot resolve ([`Fit::unresolved_poles`]), a zero within 10 % of a pole
+/// and inside its half-power band.
+impl<T: Real> FurtherStarts<T> for Rational<T> {
+    fn further_starts(
+        &self,
+        pipeline: &Pipeline,
+        data: &FrequencyData<T>,
+        fit: &Fit<T, Self>,
+        suspicious: bool,
+    ) -> Option<Fit<T, Self>> {
+        restart(self, pipeline, data, fit, suspicious)
     }
 }

@@ -11,11 +11,10 @@
 //! so both give bit-identical results; [`fit_many_sequential`] and [`fit_each_sequential`]
 //! are the sequential versions whatever the features.
 
+use super::{FurtherStarts, Pipeline};
 use crate::data::FrequencyData;
 use crate::error::Result;
 use crate::fit::Fit;
-use crate::model::EquationError;
-use crate::pipeline::Pipeline;
 use crate::scalar::Real;
 
 /// Fits every data set of `data` with the same `model` structure, in parallel with the
@@ -56,7 +55,7 @@ pub fn fit_many<T, M>(
 ) -> Vec<Result<Fit<T, M>>>
 where
     T: Real,
-    M: EquationError<T> + Clone + Send + Sync,
+    M: FurtherStarts<T> + Send + Sync,
 {
     #[cfg(feature = "rayon")]
     {
@@ -77,7 +76,7 @@ pub fn fit_many_sequential<T, M>(
 ) -> Vec<Result<Fit<T, M>>>
 where
     T: Real,
-    M: EquationError<T> + Clone + Send + Sync,
+    M: FurtherStarts<T> + Send + Sync,
 {
     data.iter().map(|d| pipeline.fit(model, d)).collect()
 }
@@ -114,7 +113,7 @@ pub fn fit_each<T, M>(
 ) -> Vec<Result<Fit<T, M>>>
 where
     T: Real,
-    M: EquationError<T> + Clone + Send + Sync,
+    M: FurtherStarts<T> + Send + Sync,
 {
     #[cfg(feature = "rayon")]
     {
@@ -134,7 +133,7 @@ pub fn fit_each_sequential<T, M>(
 ) -> Vec<Result<Fit<T, M>>>
 where
     T: Real,
-    M: EquationError<T> + Clone + Send + Sync,
+    M: FurtherStarts<T> + Send + Sync,
 {
     items.iter().map(|(m, d)| pipeline.fit(m, d)).collect()
 }

@@ -6,7 +6,7 @@
 //! a QR loses. These kernels are used only where that loss cannot reach a result:
 //!
 //! - the *step* of a Gauss–Newton / Levenberg–Marquardt iteration
-//!   ([`super::GramLevenbergMarquardt`]): the fixed point of the iteration is set by the
+//!   ([`crate::solver::GramLevenbergMarquardt`]): the fixed point of the iteration is set by the
 //!   residuals and the gradient Jᵀr, which are computed directly; an inexact step only
 //!   slows convergence near the optimum, it does not move it;
 //! - the linear solves of Sanathanan–Koerner relocations that are followed by maximum
@@ -19,7 +19,7 @@
 //! solve keeps at least about half the digits of the scalar type, and the caller falls back
 //! to the QR path otherwise.
 
-use crate::Real;
+use crate::scalar::Real;
 use nalgebra::{Cholesky, DMatrix, DVector, Dyn};
 use num_traits::Float;
 
@@ -210,13 +210,13 @@ pub(crate) fn small_problem(n: usize, p: usize) -> bool {
 /// from the residuals w_k R_k c themselves. `None` under the conditions of
 /// [`least_squares_gram`] (then solve the stacked system by QR).
 pub(crate) fn regressor_least_squares_gram<T: Real>(
-    regressor: &DMatrix<crate::Complex<T>>,
+    regressor: &DMatrix<crate::scalar::Complex<T>>,
     w: Option<&[T]>,
     normalising: usize,
     max_cond: T,
 ) -> Option<(DVector<T>, T)> {
     let (n, q) = regressor.shape();
-    let fill = |k0: usize, rows: &mut DMatrix<crate::Complex<T>>| {
+    let fill = |k0: usize, rows: &mut DMatrix<crate::scalar::Complex<T>>| {
         rows.copy_from(&regressor.rows(k0, rows.nrows()));
     };
     let theta = lines_least_squares_gram(n, q, fill, w, normalising, max_cond)?;
@@ -231,7 +231,7 @@ pub(crate) fn regressor_least_squares_gram<T: Real>(
 pub(crate) fn lines_least_squares_gram<T: Real>(
     n: usize,
     q: usize,
-    mut fill: impl FnMut(usize, &mut DMatrix<crate::Complex<T>>),
+    mut fill: impl FnMut(usize, &mut DMatrix<crate::scalar::Complex<T>>),
     w: Option<&[T]>,
     normalising: usize,
     max_cond: T,
@@ -246,7 +246,7 @@ pub(crate) fn lines_least_squares_gram<T: Real>(
     let mut atb = DVector::zeros(p);
     let mut block = DMatrix::<T>::zeros(0, 0);
     let mut rhs = DVector::<T>::zeros(0);
-    let mut rows = DMatrix::<crate::Complex<T>>::zeros(0, 0);
+    let mut rows = DMatrix::<crate::scalar::Complex<T>>::zeros(0, 0);
     let mut wb = Vec::new();
     let lines = block_lines(p);
     for k0 in (0..n).step_by(lines) {
@@ -300,14 +300,14 @@ pub(crate) fn lines_least_squares_gram<T: Real>(
 pub(crate) fn lines_least_squares_cost<T: Real>(
     n: usize,
     q: usize,
-    mut fill: impl FnMut(usize, &mut DMatrix<crate::Complex<T>>),
+    mut fill: impl FnMut(usize, &mut DMatrix<crate::scalar::Complex<T>>),
     w: Option<&[T]>,
     normalising: usize,
     theta: &DVector<T>,
 ) -> T {
     let c = with_normalising(theta, normalising);
     let lines = block_lines(q.saturating_sub(1));
-    let mut rows = DMatrix::<crate::Complex<T>>::zeros(0, 0);
+    let mut rows = DMatrix::<crate::scalar::Complex<T>>::zeros(0, 0);
     let mut e = Vec::new();
     let mut cost = T::zero();
     for k0 in (0..n).step_by(lines) {
@@ -317,7 +317,7 @@ pub(crate) fn lines_least_squares_cost<T: Real>(
         }
         fill(k0, &mut rows);
         e.clear();
-        e.resize(len, crate::Complex::new(T::zero(), T::zero()));
+        e.resize(len, crate::scalar::Complex::new(T::zero(), T::zero()));
         for (col, cj) in rows.as_slice().chunks_exact(len).zip(&c) {
             for (e, v) in e.iter_mut().zip(col) {
                 *e += *v * *cj;
@@ -338,7 +338,7 @@ fn with_normalising<T: Real>(theta: &DVector<T>, normalising: usize) -> Vec<T> {
 }
 
 /// Σ_k |w_k e_k|² (w empty: unit weights).
-fn weighted_norm_sqr<T: Real>(e: &[crate::Complex<T>], w: &[T]) -> T {
+fn weighted_norm_sqr<T: Real>(e: &[crate::scalar::Complex<T>], w: &[T]) -> T {
     if w.is_empty() {
         e.iter().fold(T::zero(), |s, v| s + v.norm_sqr())
     } else {
@@ -398,7 +398,7 @@ mod tests {
         let mut s = 5;
         let b = DVector::from_fn(500, |_, _| lcg(&mut s));
         let (x, r) = least_squares_gram(&a, &b, 1e8).expect("well conditioned");
-        let (xq, rq) = crate::solver::least_squares(a.clone(), b.clone(), 1e3).expect("qr");
+        let (xq, rq) = crate::linalg::least_squares(a.clone(), b.clone(), 1e3).expect("qr");
         assert!((&x - &xq).norm() <= 1e-10 * xq.norm(), "{x} vs {xq}");
         assert!((r - rq).abs() <= 1e-10 * rq);
         // f32 on the same problem, with the f32 guard
@@ -414,7 +414,7 @@ mod tests {
         let (n, q) = (700, 8);
         let mut s = 41;
         let reg = DMatrix::from_fn(n, q, |_, j| {
-            crate::Complex::new(lcg(&mut s), lcg(&mut s)) * 10f64.powi(j as i32 - 4)
+            crate::scalar::Complex::new(lcg(&mut s), lcg(&mut s)) * 10f64.powi(j as i32 - 4)
         });
         let w: Vec<f64> = (0..n).map(|k| 1.0 + 0.5 * (k as f64).sin()).collect();
         for (norm, w) in [
@@ -424,7 +424,7 @@ mod tests {
         ] {
             let mut a = DMatrix::zeros(0, 0);
             let mut b = DVector::zeros(0);
-            crate::criterion::normalised_into(&reg, w, norm, &mut a, &mut b);
+            crate::linalg::normalised_into(&reg, w, norm, &mut a, &mut b);
             let (x, r) = least_squares_gram(&a, &b, 1e8).expect("stacked");
             let (xr, rr) = regressor_least_squares_gram(&reg, w, norm, 1e8).expect("blocks");
             assert!((&x - &xr).norm() <= 1e-12 * x.norm(), "{x} vs {xr}");

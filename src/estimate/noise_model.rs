@@ -1,0 +1,157 @@
+//! Fits with an estimated noise model H = C/D (McKelvey eqs. 23–26): the output-error chain
+//! gives G's start, then the joint ML of G and H.
+
+use super::{FurtherStarts, Pipeline, estimate};
+use crate::criterion::{
+    NoiseModelMl, NoiseModelProblem, NoiseModelResiduals, NoiseWeighting, interior_lines,
+};
+use crate::data::FrequencyData;
+use crate::error::{FdidError, Result};
+use crate::fit::{Fit, NoiseLevel, Stage};
+use crate::model::{ModelStructure, NoiseModel, WithNoiseModel};
+use crate::scalar::Real;
+use crate::solver::LevenbergMarquardt;
+
+/// Fits `model` with a monic noise model H = C/D of orders `nc`, `nd` to the DFT `data` of
+/// a time record by maximum likelihood (McKelvey eq. 26, [`NoiseModelMl`]):
+///
+/// 1. keeps the [`interior_lines`] (DC and Nyquist dropped);
+/// 2. starts G from `pipeline` with flat weighting (H ≡ 1, eq. 25) on the lines with
+///    U_k ≠ 0 (its model is used, with the basis the pipeline may have relocated), and H
+///    from η = 0 (H = 1);
+/// 3. minimises W with Levenberg–Marquardt (`pipeline.ml`, or the default);
+/// 4. makes H stable and inversely stable ([`NoiseModel::stabilised`]: W is unchanged) and,
+///    if a root was reflected, polishes once more from there;
+/// 5. evaluates the statistics with [`Fit::from_problem`] on the innovation residuals
+///    r_k = (Y_k − Ŷ_k)/H_k at θ̂ ([`NoiseModelResiduals::Innovations`],
+///    [`NoiseLevel::Estimated`]).
+///
+/// In the result, `noise_variance` is λ̂ = (1/N) Σ|Y_k − Ŷ_k|²/|Ĥ_k|² (eq. 25, the
+/// innovation variance per line) and `covariance` is (λ/2)(JᵀJ)⁻¹ of the innovation
+/// residuals with λ = V/(N − p/2). Its system block is, to first order, λ̂R⁻¹ with R of
+/// eq. 33 weighted by 1/|Ĥ|² (eq. 34 with the noise model estimated: the efficient
+/// covariance); the coupling of the system and noise columns, Σ Re(∂Ŷ/H · conj(ε ∂log H)),
+/// has mean zero and vanishes relative to the blocks as N grows. The noise block, with
+/// columns −ε_k ∂log H_k/∂η (ε the innovations), approximates (1/2)(Σ_k Re ∂log H_k ∂log
+/// H_k^*)⁻¹ = (N·mean Re ∂log H ∂log H^*)⁻¹, which on the full DFT grid of a record of N
+/// samples is the asymptotic ML (and prediction-error) covariance of the noise
+/// parameters. `response_std` is the uncertainty of Ĝ.
+///
+/// | setting | from | meaning |
+/// |---|---|---|
+/// | `pipeline.linear`, `pipeline.sk` | `pipeline` | the start for G (weighting forced flat) |
+/// | `pipeline.ml` | `pipeline` | the LM of the start and of the noise-model fit (`None`: skip in the start; default LM for the fit) |
+///
+/// # Errors
+/// Data without a sample time, or with no line between DC and Nyquist;
+/// [`FdidError::TooFewFrequencies`] when nc + nd + 1 exceeds the number of lines; the
+/// errors of the start fit (e.g. too few excited lines for `model`) and of
+/// Levenberg–Marquardt.
+///
+/// ```
+/// use fdid::prelude::*;
+/// use fdid::criterion::fit_noise_model;
+/// // noise-free DFT lines of G(z) = 0.5 / (1 − 0.8 z⁻¹), Ts = 1
+/// let n = 64;
+/// let omega: Vec<f64> = (0..=n / 2).map(|k| std::f64::consts::TAU * k as f64 / n as f64).collect();
+/// let u: Vec<Complex<f64>> = (0..omega.len())
+///     .map(|k| Complex::from_polar(1.0, 0.7 * (k * k) as f64))
+///     .collect();
+/// let y = omega
+///     .iter()
+///     .zip(&u)
+///     .map(|(w, u)| u * 0.5 / (1.0 - 0.8 * Complex::new(0.0, -*w).exp()))
+///     .collect();
+/// let data = FrequencyData::new(omega, y, u, Some(1.0)).unwrap();
+/// let model = Rational::discrete(1, 0, 1.0).unwrap();
+/// let fit = fit_noise_model(&Pipeline::default(), &model, &data, 1, 1).unwrap();
+/// assert!((fit.theta()[0] + 0.8).abs() < 1e-9 && (fit.theta()[1] - 0.5).abs() < 1e-9);
+/// assert_eq!(fit.theta().len(), 4); // [a₁, b₀, c₁, d₁]
+/// ```
+pub fn fit_noise_model<T: Real, M: FurtherStarts<T>>(
+    pipeline: &Pipeline,
+    model: &M,
+    data: &FrequencyData<T>,
+    nc: usize,
+    nd: usize,
+) -> Result<Fit<T, WithNoiseModel<M>>> {
+    let ts = data.ts().ok_or_else(|| FdidError::InvalidArgument {
+        name: "ts",
+        value: "none".into(),
+        reason: "a noise model H(z) is discrete time: the data need a sample time".into(),
+    })?;
+    let noise = NoiseModel::new(nc, nd, ts)?;
+    let data = interior_lines(data)?;
+    if data.len() < nc + nd + 1 {
+        return Err(FdidError::TooFewFrequencies {
+            lines: data.len(),
+            equations: data.len(),
+            parameters: nc + nd + 1,
+        });
+    }
+    let excited: Vec<bool> = data.u().iter().map(|u| u.norm_sqr() > T::zero()).collect();
+    let start_fit = {
+        let flat = Pipeline {
+            weighting: NoiseWeighting::Flat,
+            ..*pipeline
+        };
+        let start_data = data.select_lines(&excited)?.without_noise();
+        flat.fit(model, &start_data)?
+    };
+    refine_noise_model(&start_fit, &data, noise, &pipeline.ml.unwrap_or_default())
+}
+
+/// The noise-model stage of [`fit_noise_model`] for any model structure: from a fitted
+/// system model `start` (e.g. a [`crate::model::Delayed`] fit), ML on the concentrated
+/// criterion (26) over [θ_G, η] from [θ̂_G, 0] with Levenberg–Marquardt; H is then made
+/// stable and inversely stable ([`NoiseModel::stabilised`], which leaves the criterion
+/// unchanged) and polished once more when a root was reflected; the statistics come from
+/// the innovations (Y − Ŷ)/H with λ estimated. `data` should hold the interior lines
+/// ([`interior_lines`]).
+///
+/// # Errors
+/// As [`NoiseModelProblem::new`] and the solver.
+pub fn refine_noise_model<T: Real, M: ModelStructure<T> + Clone>(
+    start: &Fit<T, M>,
+    data: &FrequencyData<T>,
+    noise: NoiseModel<T>,
+    lm: &LevenbergMarquardt,
+) -> Result<Fit<T, WithNoiseModel<M>>> {
+    let mut stages = start.stages().to_vec();
+    let full = WithNoiseModel::new(start.model().clone(), noise);
+    let p = start.model().n_params();
+    let mut theta = start.theta().to_vec();
+    theta.extend(std::iter::repeat_n(T::zero(), noise.n_params()));
+    let sol = estimate(&full, data, &NoiseModelMl, lm, Some(&theta))?;
+    theta = sol.theta.clone();
+    stages.push(Stage {
+        name: "noise-model ml".into(),
+        solution: sol,
+    });
+    let stabilise = |theta: &mut Vec<T>| -> Result<bool> {
+        let eta = noise.stabilised(&theta[p..])?;
+        let changed = eta != theta[p..];
+        theta.truncate(p);
+        theta.extend(eta);
+        Ok(changed)
+    };
+    if stabilise(&mut theta)? {
+        let sol = estimate(&full, data, &NoiseModelMl, lm, Some(&theta))?;
+        theta = sol.theta.clone();
+        stages.push(Stage {
+            name: "noise-model ml (H stabilised)".into(),
+            solution: sol,
+        });
+        stabilise(&mut theta)?;
+    }
+    let problem =
+        NoiseModelProblem::new(&full, data)?.with_residuals(NoiseModelResiduals::Innovations);
+    Fit::from_problem(
+        full.clone(),
+        data,
+        theta,
+        &problem,
+        NoiseLevel::Estimated,
+        stages,
+    )
+}
