@@ -72,6 +72,8 @@ pub mod error;
 pub mod fit;
 pub mod fitted;
 pub mod greybox;
+#[cfg(doctest)]
+mod guide;
 pub(crate) mod householder;
 #[cfg(feature = "csv")]
 pub mod io;
