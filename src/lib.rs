@@ -72,6 +72,8 @@ pub mod estimate;
 pub mod fit;
 pub mod fitted;
 pub mod greybox;
+#[cfg(doctest)]
+mod guide;
 #[cfg(feature = "csv")]
 pub mod io;
 pub mod linalg;
