@@ -64,7 +64,7 @@ fn report(
     let stages: Vec<String> = fit
         .stages()
         .iter()
-        .map(|s| format!("{} {} it", s.name, s.solution.iterations))
+        .map(|s| format!("{} {} it", s.kind, s.solution.iterations))
         .collect();
     eprintln!(
         "[accuracy] {label}: rel_rms vs truth {:.3e}, cost {:.1} for {} lines ({}; one fit {:.1?})",

@@ -110,7 +110,7 @@ fn main() {
         let stages: Vec<Value> = fit
             .stages()
             .iter()
-            .map(|s| json!({"name": s.name, "iterations": s.solution.iterations}))
+            .map(|s| json!({"name": s.kind.name(), "iterations": s.solution.iterations}))
             .collect();
         let doc = json!({
             "time_s": median, "times_s": times, "omega": data.omega(),

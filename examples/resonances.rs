@@ -30,7 +30,7 @@ fn main() -> Result<()> {
     for stage in fit.stages() {
         println!(
             "{:>5}: cost {:.4e} after {} iterations ({:?})",
-            stage.name, stage.solution.cost, stage.solution.iterations, stage.solution.termination
+            stage.kind, stage.solution.cost, stage.solution.iterations, stage.solution.termination
         );
     }
     println!("fit time {elapsed:?}");

@@ -38,7 +38,7 @@ mod run {
     use fdid::data::DistortionAnalysis;
     use fdid::io::{Measurement, read_csv};
     use fdid::prelude::*;
-    use fdid::workflow::{Context, ModelSpec, Report, SpecDomain, Workflow};
+    use fdid::workflow::{Context, ModelSpec, Report, Workflow};
     use std::f64::consts::TAU;
     use std::path::Path;
 
@@ -88,12 +88,12 @@ mod run {
 
     /// Natural frequency (Hz) and damping of the complex pole pair of a fit (s-plane
     /// poles as they are; z-plane poles through s = ln z / Ts).
-    fn resonance(domain: SpecDomain, poles: &[Complex<f64>]) -> Option<(f64, f64)> {
+    fn resonance(domain: Domain<f64>, poles: &[Complex<f64>]) -> Option<(f64, f64)> {
         let s = poles
             .iter()
             .map(|p| match domain {
-                SpecDomain::S => *p,
-                SpecDomain::Z { ts } => p.ln() / ts,
+                Domain::Continuous => *p,
+                Domain::Discrete { ts } => p.ln() / ts,
             })
             .filter(|s| s.im > 0.0)
             .min_by(|a, b| a.re.abs().total_cmp(&b.re.abs()))?;
@@ -113,8 +113,8 @@ mod run {
             fit.spec.domain, fit.spec.na, fit.spec.nb, fit.spec.delay
         );
         let stable = fit.poles.iter().all(|p| match fit.spec.domain {
-            SpecDomain::S => p.re < 0.0,
-            SpecDomain::Z { .. } => p.norm() < 1.0,
+            Domain::Continuous => p.re < 0.0,
+            Domain::Discrete { .. } => p.norm() < 1.0,
         });
         println!(
             "  poles: {}  ({})",

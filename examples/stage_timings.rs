@@ -92,7 +92,7 @@ fn main() {
     let st: Vec<String> = fit
         .stages()
         .iter()
-        .map(|s| format!("{} {}", s.name, s.solution.iterations))
+        .map(|s| format!("{} {}", s.kind, s.solution.iterations))
         .collect();
     println!(
         "full ct10: {t:.2} ms cost {:.6} rel_rms {:.4e} {st:?}",
@@ -141,7 +141,7 @@ fn main() {
         let st: Vec<String> = fit
             .stages()
             .iter()
-            .map(|s| format!("{} {}", s.name, s.solution.iterations))
+            .map(|s| format!("{} {}", s.kind, s.solution.iterations))
             .collect();
         println!(
             "lines_ct4/{n}: {t:.2} ms cost {:.6} rel_rms {:.4e} {st:?}",

@@ -16,10 +16,119 @@ use num_traits::Float;
 #[derive(Debug, Clone, PartialEq)]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct Stage<T: Real> {
-    /// Name of the stage (`levy`, `sk`, `ml`, `tls`, `eiv`, `delay`, `ml-delayed`, …).
-    pub name: String,
+    /// The kind of stage (serialised as its name, e.g. `"levy"`).
+    #[cfg_attr(feature = "serde", serde(rename = "name"))]
+    pub kind: StageKind,
     /// The solver's outcome.
     pub solution: Solution<T>,
+}
+
+/// The kinds of estimation stage, named in reports by [`StageKind::name`].
+#[derive(Debug, Clone, PartialEq, Eq)]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize),
+    serde(into = "String", try_from = "String")
+)]
+pub enum StageKind {
+    /// Levy's linear least squares (`levy`, McKelvey eq. 39).
+    Levy,
+    /// Sanathanan–Koerner iterations or pole relocation (`sk`, eq. 41).
+    Sk,
+    /// Output-error maximum likelihood (`ml`, eq. 23).
+    Ml,
+    /// Total least squares (`tls`).
+    Tls,
+    /// Errors-in-variables maximum likelihood (`eiv`, eq. 42).
+    Eiv,
+    /// The starting-delay search (`delay`; θ = \[τ₀\]).
+    Delay,
+    /// ML of the delayed model (`ml-delayed`).
+    MlDelayed,
+    /// ML polishing the best start of a multistart search (`ml-polish`).
+    MlPolish,
+    /// ML after replacing spurious poles (`ml-replaced`).
+    MlReplaced,
+    /// ML from a reduced higher-order fit (`ml-reduced`).
+    MlReduced,
+    /// ML from log-spread starting poles (`ml-spread`).
+    MlSpread,
+    /// The least-squares residues of a modal start (`modal ls`).
+    ModalLs,
+    /// ML with a noise model (`noise-model ml`, eq. 26).
+    NoiseModelMl,
+    /// The noise-model ML after H was made stable (`noise-model ml (H stabilised)`).
+    NoiseModelStabilised,
+    /// A stage of the rational fit that started a modal fit (`rational ml`, …).
+    RationalStart(Box<StageKind>),
+}
+
+impl StageKind {
+    /// The name reports use (`levy`, `sk`, `ml`, `ml-delayed`, `rational ml`, …).
+    pub fn name(&self) -> String {
+        let plain = match self {
+            StageKind::Levy => "levy",
+            StageKind::Sk => "sk",
+            StageKind::Ml => "ml",
+            StageKind::Tls => "tls",
+            StageKind::Eiv => "eiv",
+            StageKind::Delay => "delay",
+            StageKind::MlDelayed => "ml-delayed",
+            StageKind::MlPolish => "ml-polish",
+            StageKind::MlReplaced => "ml-replaced",
+            StageKind::MlReduced => "ml-reduced",
+            StageKind::MlSpread => "ml-spread",
+            StageKind::ModalLs => "modal ls",
+            StageKind::NoiseModelMl => "noise-model ml",
+            StageKind::NoiseModelStabilised => "noise-model ml (H stabilised)",
+            StageKind::RationalStart(inner) => return format!("rational {}", inner.name()),
+        };
+        plain.to_string()
+    }
+
+    /// The kind named `name` ([`StageKind::name`]'s inverse), `None` for an unknown name.
+    pub fn from_name(name: &str) -> Option<Self> {
+        if let Some(inner) = name.strip_prefix("rational ") {
+            return Self::from_name(inner).map(|k| StageKind::RationalStart(Box::new(k)));
+        }
+        Some(match name {
+            "levy" => StageKind::Levy,
+            "sk" => StageKind::Sk,
+            "ml" => StageKind::Ml,
+            "tls" => StageKind::Tls,
+            "eiv" => StageKind::Eiv,
+            "delay" => StageKind::Delay,
+            "ml-delayed" => StageKind::MlDelayed,
+            "ml-polish" => StageKind::MlPolish,
+            "ml-replaced" => StageKind::MlReplaced,
+            "ml-reduced" => StageKind::MlReduced,
+            "ml-spread" => StageKind::MlSpread,
+            "modal ls" => StageKind::ModalLs,
+            "noise-model ml" => StageKind::NoiseModelMl,
+            "noise-model ml (H stabilised)" => StageKind::NoiseModelStabilised,
+            _ => return None,
+        })
+    }
+}
+
+impl std::fmt::Display for StageKind {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.name())
+    }
+}
+
+impl From<StageKind> for String {
+    fn from(kind: StageKind) -> Self {
+        kind.name()
+    }
+}
+
+impl TryFrom<String> for StageKind {
+    type Error = String;
+
+    fn try_from(name: String) -> std::result::Result<Self, String> {
+        StageKind::from_name(&name).ok_or_else(|| format!("unknown stage {name:?}"))
+    }
 }
 
 /// A fitted model with its statistics, all evaluated with the normalised residuals r_k of

@@ -115,7 +115,7 @@ pub mod prelude {
     pub use crate::estimate::{ModalOptions, fit_modal};
     pub use crate::estimate::{fit_delayed, fit_eiv, fit_noise_model};
     pub use crate::estimate::{fit_multistart, fit_multistart_discrete};
-    pub use crate::fit::{Fit, NoiseLevel};
+    pub use crate::fit::{Fit, NoiseLevel, StageKind};
     pub use crate::greybox::{AutoDiff, Fixed, GreyBox, PhysicalParameters};
     pub use crate::ltv::{LtvFit, LtvOde};
     pub use crate::model::Delayed;

@@ -18,8 +18,8 @@ use crate::cli::args::CriterionArg;
 use fdid::data::Lpm;
 use fdid::prelude::*;
 use fdid::workflow::{
-    Context, Effect, Finding, ModelSpec, SpecCriterion, SpecDomain, SpecFit, Step, Workflow,
-    disagreement_bands, segment_disagreement,
+    Context, Effect, Finding, Method, ModelSpec, SpecFit, Step, Workflow, disagreement_bands,
+    segment_disagreement,
 };
 use serde_json::{Map, Value, json};
 use std::fmt::Write as _;
@@ -177,8 +177,8 @@ pub fn diagnose(args: &DiagnoseArgs) -> Result<String, Failure> {
         ),
     };
     let domain = match (c.domain, prepared.ts) {
-        (DomainArg::S, _) => SpecDomain::S,
-        (DomainArg::Z, Some(ts)) => SpecDomain::Z { ts },
+        (DomainArg::S, _) => Domain::Continuous,
+        (DomainArg::Z, Some(ts)) => Domain::Discrete { ts },
         (DomainArg::Z, None) => {
             return Err(Failure::usage(
                 "--domain z needs a sample time: pass --ts SECONDS".into(),
@@ -192,7 +192,7 @@ pub fn diagnose(args: &DiagnoseArgs) -> Result<String, Failure> {
         delay: c.delay,
         transient: c.transient,
         noise_order: None,
-        criterion: SpecCriterion::Ml,
+        ..ModelSpec::continuous(c.na, c.nb)
     };
 
     let Run {
@@ -426,8 +426,8 @@ fn max_residual(fit: &SpecFit) -> f64 {
 /// The model structure in words: domain, orders and factors.
 fn describe(spec: &ModelSpec) -> String {
     let mut s = match spec.domain {
-        SpecDomain::S => "s".to_string(),
-        SpecDomain::Z { ts } => format!("z (Ts = {} s)", g(ts)),
+        Domain::Continuous => "s".to_string(),
+        Domain::Discrete { ts } => format!("z (Ts = {} s)", g(ts)),
     };
     let _ = write!(s, ", na = {}, nb = {}", spec.na, spec.nb);
     if spec.delay {
@@ -439,7 +439,7 @@ fn describe(spec: &ModelSpec) -> String {
     if let Some(n) = spec.noise_order {
         let _ = write!(s, ", noise model ({n}, {n})");
     }
-    if spec.criterion == SpecCriterion::Eiv {
+    if spec.criterion == Method::Eiv {
         s.push_str(", errors-in-variables");
     }
     s

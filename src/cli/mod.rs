@@ -13,7 +13,7 @@ use data::Prepared;
 use fdid::estimate::fit_eiv_delayed;
 use fdid::fit::Stage;
 use fdid::prelude::*;
-use fdid::workflow::{ModelSpec, SpecCriterion, SpecDomain};
+use fdid::workflow::ModelSpec;
 use report::Parts;
 pub use report::Report;
 use std::result::Result;
@@ -93,8 +93,8 @@ impl FitSpec {
     pub fn of_model_spec(spec: &ModelSpec) -> Self {
         Self {
             domain: match spec.domain {
-                SpecDomain::S => DomainArg::S,
-                SpecDomain::Z { .. } => DomainArg::Z,
+                Domain::Continuous => DomainArg::S,
+                Domain::Discrete { .. } => DomainArg::Z,
             },
             na: spec.na,
             nb: spec.nb,
@@ -102,8 +102,11 @@ impl FitSpec {
             transient: spec.transient,
             noise_order: spec.noise_order,
             criterion: match spec.criterion {
-                SpecCriterion::Ml => CriterionArg::Ml,
-                SpecCriterion::Eiv => CriterionArg::Eiv,
+                fdid::estimate::Method::Ml => CriterionArg::Ml,
+                fdid::estimate::Method::Eiv => CriterionArg::Eiv,
+                fdid::estimate::Method::Levy => CriterionArg::Levy,
+                fdid::estimate::Method::Sk => CriterionArg::Sk,
+                fdid::estimate::Method::Tls => CriterionArg::Tls,
             },
         }
     }
@@ -437,7 +440,7 @@ fn estimate_with(
             let solution = estimate(model, data, &tls, &SvdNullVector, None)?;
             let theta = solution.theta.clone();
             let stages = vec![Stage {
-                name: "tls".into(),
+                kind: StageKind::Tls,
                 solution,
             }];
             Fit::new(model.clone(), data, theta, tls.weighting, stages)?

@@ -274,7 +274,7 @@ impl Report {
             .stages()
             .iter()
             .map(|s| StageRow {
-                name: s.name.clone(),
+                name: s.kind.name(),
                 iterations: s.solution.iterations,
                 termination: match s.solution.termination {
                     Termination::Direct => "direct",

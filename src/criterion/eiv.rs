@@ -79,7 +79,7 @@ use std::cell::RefCell;
 /// let fit = fit_eiv(&Pipeline::default(), &model, &data).unwrap();
 /// let truth = [-0.8, 0.0, 0.5];
 /// assert!(fit.theta().iter().zip(truth).all(|(a, b)| (a - b).abs() < 1e-9));
-/// assert_eq!(fit.stages().last().unwrap().name, "eiv");
+/// assert_eq!(fit.stages().last().unwrap().kind, StageKind::Eiv);
 /// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ErrorsInVariables {

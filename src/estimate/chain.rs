@@ -5,7 +5,7 @@ use crate::criterion::MlProblem;
 use crate::criterion::{Criterion, Levy, MaximumLikelihood, NoiseWeighting, SanathananKoerner};
 use crate::data::FrequencyData;
 use crate::error::Result;
-use crate::fit::{Fit, Stage};
+use crate::fit::{Fit, Stage, StageKind};
 use crate::model::{EquationError, ModelStructure};
 use crate::scalar::Real;
 use crate::solver::{
@@ -211,7 +211,7 @@ impl Pipeline {
         let mut work = LevyWork::default();
         let levy = self.levy_solve(model, data, &self.linear, &mut work)?;
         let mut stages = vec![Stage {
-            name: "levy".into(),
+            kind: StageKind::Levy,
             solution: levy.clone(),
         }];
         let mut current = levy.theta.clone();
@@ -223,7 +223,7 @@ impl Pipeline {
             model = m;
             current = sk.theta.clone();
             stages.push(Stage {
-                name: "sk".into(),
+                kind: StageKind::Sk,
                 solution: sk,
             });
         } else if let Some(fp) = &self.sk {
@@ -232,7 +232,7 @@ impl Pipeline {
             let sk = fp.solve_with(&problem, Some(&levy.theta), self.ml.is_some())?;
             current = sk.theta.clone();
             stages.push(Stage {
-                name: "sk".into(),
+                kind: StageKind::Sk,
                 solution: sk,
             });
         }
@@ -290,7 +290,7 @@ impl Pipeline {
             let capped = capped || !best.converged() || best.iterations >= LONG_ML;
             current = best.theta.clone();
             stages.push(Stage {
-                name: "ml".into(),
+                kind: StageKind::Ml,
                 solution: best,
             });
             let fit = match replaced {

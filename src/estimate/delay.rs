@@ -6,7 +6,7 @@ use super::{FurtherStarts, Pipeline, estimate};
 use crate::criterion::MaximumLikelihood;
 use crate::data::FrequencyData;
 use crate::error::{FdidError, Result};
-use crate::fit::{Fit, Stage};
+use crate::fit::{Fit, Stage, StageKind};
 use crate::model::delay::delay_factor;
 use crate::model::{Delayed, ModelStructure, remove_delay};
 use crate::scalar::{Complex, Real};
@@ -464,7 +464,7 @@ impl<M: Clone> Delayed<M> {
         let start = delay_start(pipeline, self, data)?;
         let tau0 = start.tau;
         let mut stages = vec![Stage {
-            name: "delay".into(),
+            kind: StageKind::Delay,
             solution: Solution {
                 theta: vec![tau0],
                 cost: start.cost,
@@ -486,7 +486,7 @@ impl<M: Clone> Delayed<M> {
         let solution = estimate(&model, data, &ml, &lm, Some(&theta0))?;
         let theta = solution.theta.clone();
         stages.push(Stage {
-            name: "ml-delayed".into(),
+            kind: StageKind::MlDelayed,
             solution,
         });
         model.check_delay(theta[theta.len() - 1])?;

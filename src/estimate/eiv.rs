@@ -5,7 +5,7 @@ use super::{FurtherStarts, Pipeline};
 use crate::criterion::{Criterion, ErrorsInVariables};
 use crate::data::FrequencyData;
 use crate::error::Result;
-use crate::fit::{Fit, NoiseLevel, Stage};
+use crate::fit::{Fit, NoiseLevel, Stage, StageKind};
 use crate::model::{Delayed, ModelStructure};
 use crate::scalar::Real;
 use crate::solver::Solver;
@@ -69,7 +69,7 @@ fn refine_eiv<T: Real, M: ModelStructure<T> + Clone>(
     let sol = lm.solve(&problem, Some(start.theta()))?;
     let theta = sol.theta.clone();
     stages.push(Stage {
-        name: "eiv".into(),
+        kind: StageKind::Eiv,
         solution: sol,
     });
     Fit::from_problem(

@@ -5,7 +5,7 @@ use super::estimate;
 use crate::criterion::{ErrorsInVariables, MaximumLikelihood};
 use crate::data::FrequencyData;
 use crate::error::Result;
-use crate::fit::{Fit, NoiseLevel, Stage};
+use crate::fit::{Fit, NoiseLevel, Stage, StageKind};
 use crate::greybox::{Parameter, PhysicalParameters, Scale, Slot, check_theta_common};
 use crate::model::ModelStructure;
 use crate::scalar::Real;
@@ -49,7 +49,7 @@ pub fn fit_ml<T: Real, M: ModelStructure<T> + PhysicalParameters + Clone>(
     let t: Vec<f64> = theta.iter().map(|v| v.to_f64_lossless()).collect();
     model.check_theta(&t)?;
     let stages = vec![Stage {
-        name: "ml".into(),
+        kind: StageKind::Ml,
         solution: sol,
     }];
     Fit::new(model.clone(), data, theta, ml.weighting, stages)
@@ -76,7 +76,7 @@ pub fn fit_eiv<T: Real, M: ModelStructure<T> + PhysicalParameters + Clone>(
     let t: Vec<f64> = theta.iter().map(|v| v.to_f64_lossless()).collect();
     model.check_theta(&t)?;
     let stages = vec![Stage {
-        name: "eiv".into(),
+        kind: StageKind::Eiv,
         solution: sol,
     }];
     Fit::from_problem(

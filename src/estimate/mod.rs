@@ -7,6 +7,7 @@
 //!
 //! | strategy | entry point |
 //! |---|---|
+//! | one specification (domain, orders, factors, criterion) → the strategy it needs | [`ModelSpec::fit`] |
 //! | Levy → Sanathanan–Koerner → ML chain, with relocation and further starts | [`Pipeline`] |
 //! | any criterion with any solver | [`estimate()`] |
 //! | several automatic starts (s and z) | [`multistart`] |
@@ -25,6 +26,7 @@ pub mod greybox;
 mod modal;
 pub mod multistart;
 mod noise_model;
+mod spec;
 
 pub use chain::{FurtherStarts, Pipeline, estimate};
 pub use delay::{DelayStart, delay_start, fit_delayed};
@@ -32,3 +34,4 @@ pub use eiv::{fit_eiv, fit_eiv_delayed};
 pub use modal::{ModalOptions, fit_modal};
 pub use multistart::{MAX_RESTART_ORDER, fit_multistart, fit_multistart_discrete};
 pub use noise_model::{fit_noise_model, refine_noise_model};
+pub use spec::{DelayRange, Method, ModelSpec, RationalFit, causal_delay_limit};

@@ -6,7 +6,7 @@ use crate::basis::PolyBasis;
 use crate::criterion::MaximumLikelihood;
 use crate::data::FrequencyData;
 use crate::error::{FdidError, Result};
-use crate::fit::{Fit, Stage};
+use crate::fit::{Fit, Stage, StageKind};
 use crate::model::{Modal, ModalDomain, ModelStructure, Rational};
 use crate::scalar::Real;
 use crate::solver::{Solution, Termination};
@@ -141,14 +141,14 @@ pub fn fit_modal<T: Real>(
         .stages()
         .iter()
         .map(|s| Stage {
-            name: format!("rational {}", s.name),
+            kind: StageKind::RationalStart(Box::new(s.kind.clone())),
             solution: s.solution.clone(),
         })
         .collect();
     let ml = MaximumLikelihood { weighting: w };
     let start_cost = crate::criterion::MlProblem::new(&model, data, w)?.cost(&start);
     stages.push(Stage {
-        name: "modal ls".into(),
+        kind: StageKind::ModalLs,
         solution: Solution {
             theta: start.clone(),
             cost: start_cost,
@@ -174,7 +174,7 @@ pub fn fit_modal<T: Real>(
         }
         theta = sol.theta.clone();
         stages.push(Stage {
-            name: "ml".into(),
+            kind: StageKind::Ml,
             solution: sol,
         });
     }

@@ -15,7 +15,7 @@ use crate::basis::PolyBasis;
 use crate::criterion::MaximumLikelihood;
 use crate::data::FrequencyData;
 use crate::error::{FdidError, Result};
-use crate::fit::{Fit, Stage};
+use crate::fit::{Fit, Stage, StageKind};
 use crate::model::{
     Domain, EquationError, ModelStructure, Rational, log_spread_poles, positive_band,
 };
@@ -203,7 +203,7 @@ impl<T: Real> Search<T> {
             }
             let mut stages = b.stages().to_vec();
             stages.push(Stage {
-                name: "ml-polish".into(),
+                kind: StageKind::MlPolish,
                 solution: sol.clone(),
             });
             match Fit::new(
@@ -392,7 +392,7 @@ impl<T: Real> Search<T> {
                             && self.best.as_ref().is_none_or(|b| sol.cost < b.cost())
                         {
                             let stages = vec![Stage {
-                                name: "ml-replaced".into(),
+                                kind: StageKind::MlReplaced,
                                 solution: sol.clone(),
                             }];
                             if let Ok(f) =
@@ -455,9 +455,9 @@ impl<T: Real> Search<T> {
         let Some(lm) = pipeline.ml else {
             return;
         };
-        // (start, stage name): the reductions of the fit at degrees na + 2, then the
+        // (start, stage kind): the reductions of the fit at degrees na + 2, then the
         // pole sets of `starting_poles` mapped to z = exp(s Ts)
-        let mut starts: Vec<(Vec<Complex<T>>, &str)> = vec![];
+        let mut starts: Vec<(Vec<Complex<T>>, StageKind)> = vec![];
         if let Ok(big) =
             Rational::discrete(na + 2, nb + 2, ts).and_then(|m| pipeline.chain(&m, data))
             && let Ok(poles) = big.poles()
@@ -465,7 +465,7 @@ impl<T: Real> Search<T> {
             starts.extend(
                 reduced_poles_z(&poles)
                     .into_iter()
-                    .map(|p| (p, "ml-reduced")),
+                    .map(|p| (p, StageKind::MlReduced)),
             );
         }
         for set in starting_poles(na, data.omega()) {
@@ -479,7 +479,7 @@ impl<T: Real> Search<T> {
                     z.push(Complex::new(q.re, T::zero()));
                 }
             }
-            starts.push((z, "ml-spread"));
+            starts.push((z, StageKind::MlSpread));
         }
         let Ok(weights) = pipeline.weighting.weights(data) else {
             return;
@@ -496,7 +496,7 @@ impl<T: Real> Search<T> {
             };
             if self.best.as_ref().is_none_or(|b| sol.cost < b.cost()) {
                 let stages = vec![Stage {
-                    name: name.into(),
+                    kind: name,
                     solution: sol.clone(),
                 }];
                 if let Ok(f) = Fit::new(model.clone(), data, sol.theta, pipeline.weighting, stages)

@@ -7,7 +7,7 @@ use crate::criterion::{
 };
 use crate::data::FrequencyData;
 use crate::error::{FdidError, Result};
-use crate::fit::{Fit, NoiseLevel, Stage};
+use crate::fit::{Fit, NoiseLevel, Stage, StageKind};
 use crate::model::{ModelStructure, NoiseModel, WithNoiseModel};
 use crate::scalar::Real;
 use crate::solver::LevenbergMarquardt;
@@ -125,7 +125,7 @@ pub fn refine_noise_model<T: Real, M: ModelStructure<T> + Clone>(
     let sol = estimate(&full, data, &NoiseModelMl, lm, Some(&theta))?;
     theta = sol.theta.clone();
     stages.push(Stage {
-        name: "noise-model ml".into(),
+        kind: StageKind::NoiseModelMl,
         solution: sol,
     });
     let stabilise = |theta: &mut Vec<T>| -> Result<bool> {
@@ -139,7 +139,7 @@ pub fn refine_noise_model<T: Real, M: ModelStructure<T> + Clone>(
         let sol = estimate(&full, data, &NoiseModelMl, lm, Some(&theta))?;
         theta = sol.theta.clone();
         stages.push(Stage {
-            name: "noise-model ml (H stabilised)".into(),
+            kind: StageKind::NoiseModelStabilised,
             solution: sol,
         });
         stabilise(&mut theta)?;

@@ -7,14 +7,15 @@
 //! [`crate::Delayed`]. One type keeps the report's fit (and [`crate::estimate::greybox::physical_values`]
 //! for described models) independent of the steps taken.
 use super::finding::{Context, Effect, Finding, Remedy};
-use super::spec::{ModelSpec, SpecFit, causal_delay_limit};
+use super::spec::SpecFit;
 use super::{Report, Step, Workflow, better, consistent, lr_accept};
 use crate::criterion::MaximumLikelihood;
 use crate::data::FrequencyData;
 use crate::error::{FdidError, Result};
 use crate::estimate::estimate;
 use crate::estimate::greybox::PhysicalValue;
-use crate::fit::{Fit, Stage};
+use crate::estimate::{ModelSpec, causal_delay_limit};
+use crate::fit::{Fit, Stage, StageKind};
 use crate::greybox::{
     AutoDiff, FlexibleModes, GreyBox, Parameter, PhysicalParameters, Product, Scale, Slot,
 };
@@ -424,6 +425,7 @@ impl Workflow {
                     .filter(|f| f.p_value < level && !addable(f.effect)),
             );
         }
+        let remaining = self.findings(&data, &current.summary, &ctx);
         Ok(ModelReport {
             report: Report {
                 effects: steps.iter().map(|s| s.effect).collect(),
@@ -435,6 +437,7 @@ impl Workflow {
                 final_data: (data.noise() != original.noise()).then_some(data),
                 final_fit: current.summary,
                 time_varying: None,
+                remaining,
             },
             not_added,
             fit: current.fit,
@@ -667,7 +670,7 @@ fn fit_state<M: ModelStructure<f64> + Clone>(
     };
     let theta = solution.theta.clone();
     let stages = vec![Stage {
-        name: "ml".into(),
+        kind: StageKind::Ml,
         solution,
     }];
     let fit = Fit::new(model.clone(), data, theta, ml.weighting, stages)?;

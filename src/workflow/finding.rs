@@ -1,9 +1,10 @@
 //! Findings: a named effect, its test statistic and p-value, and the model augmentation
 //! that would explain it.
-use super::spec::{ModelSpec, SpecFit};
+use super::spec::SpecFit;
 use crate::data::DistortionAnalysis;
 use crate::data::{FrequencyData, TimeData};
 use crate::error::FdidError;
+use crate::estimate::ModelSpec;
 use std::sync::Arc;
 
 /// The effects the workflow names (issue names via [`Effect::as_str`]).

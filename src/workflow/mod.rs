@@ -66,12 +66,13 @@ mod revise;
 mod segments;
 mod spec;
 
+pub use crate::estimate::{DelayRange, Method, ModelSpec};
 pub use bands::{Band, disagreement_bands};
 pub use custom::{Augmented, ModelReport};
 pub use detectors::TimeVarying;
 pub use finding::{Context, Detail, Detector, Effect, Finding, PeriodicRecord, Remedy};
 pub use segments::{SegmentResult, segment_disagreement};
-pub use spec::{ModelSpec, SpecCriterion, SpecDomain, SpecFit, fit_spec};
+pub use spec::{SpecFit, fit_spec};
 
 use crate::data::FrequencyData;
 use crate::error::{FdidError, Result};
@@ -204,6 +205,10 @@ pub struct Report {
     /// `unmodelled` when that verdict is positive (the piecewise model absorbs it).
     #[cfg_attr(feature = "serde", serde(default))]
     pub time_varying: Option<TimeVarying>,
+    /// Every detector's finding on the final fit and the final data, significant or not
+    /// (what is left to explain). Not serialised.
+    #[cfg_attr(feature = "serde", serde(skip))]
+    pub remaining: Vec<Finding>,
 }
 
 /// The workflow's settings.
@@ -421,6 +426,7 @@ impl Workflow {
             }
         }
         let time_varying = time_varying.map(|(tv, _)| tv);
+        let remaining = self.findings(&data, &current, &ctx);
         Ok(Report {
             effects: steps.iter().map(|s| s.effect).collect(),
             steps,
@@ -434,7 +440,21 @@ impl Workflow {
             final_data: (data.noise() != original.noise()).then_some(data),
             final_fit: current,
             time_varying,
+            remaining,
         })
+    }
+
+    /// Every detector's finding on `fit`.
+    pub(crate) fn findings(
+        &self,
+        data: &FrequencyData<f64>,
+        fit: &SpecFit,
+        ctx: &Context,
+    ) -> Vec<Finding> {
+        self.detectors
+            .iter()
+            .filter_map(|d| d.detect(data, fit, ctx))
+            .collect()
     }
 
     /// The most significant measurement-level finding not acted on yet whose remedy

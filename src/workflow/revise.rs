@@ -14,9 +14,10 @@
 //! detector's p-value on the reduced fit, the reduced and new costs, and the
 //! likelihood-ratio p-value of the augmentation.
 use super::finding::{Context, Effect};
-use super::spec::{ModelSpec, SpecFit, fit_spec};
+use super::spec::{SpecFit, fit_spec};
 use super::{Step, Workflow, lrt};
 use crate::data::FrequencyData;
+use crate::estimate::ModelSpec;
 
 /// The effects that add one parameter to the system part and can stand in for each other.
 fn swappable(effect: Effect) -> bool {

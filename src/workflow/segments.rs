@@ -2,10 +2,13 @@
 //! contiguous segments of the time record, each against a refit of the same structure on
 //! that segment alone.
 use super::lrt::f_sf;
-use super::spec::{ModelSpec, SpecCriterion, SpecDomain, SpecFit, fit_spec};
+use super::spec::{SpecFit, fit_spec};
 use crate::data::dft_lines;
 use crate::data::{FrequencyData, NoiseVariances, TimeData};
 use crate::error::{FdidError, Result};
+use crate::estimate::Method;
+use crate::estimate::ModelSpec;
+use crate::model::Domain;
 use nalgebra::{DMatrix, DVector};
 use num_complex::Complex;
 
@@ -62,7 +65,7 @@ pub(crate) fn segment_spec(spec: &ModelSpec, transient: bool) -> ModelSpec {
     ModelSpec {
         transient,
         noise_order: None,
-        criterion: SpecCriterion::Ml,
+        criterion: Method::Ml,
         ..spec.clone()
     }
 }
@@ -77,8 +80,8 @@ pub(crate) fn system_params(spec: &ModelSpec) -> usize {
 /// max(na, nb) in discrete time (McKelvey eq. 5), na in continuous time (eq. 10).
 pub(crate) fn transient_params(spec: &ModelSpec) -> usize {
     match spec.domain {
-        SpecDomain::Z { .. } => spec.na.max(spec.nb),
-        SpecDomain::S => spec.na,
+        Domain::Discrete { .. } => spec.na.max(spec.nb),
+        Domain::Continuous => spec.na,
     }
 }
 
@@ -178,8 +181,8 @@ pub(crate) fn split(
 /// in continuous time (the transient of sampled data, eq. 10).
 fn z_poles(fit: &SpecFit, ts: f64) -> Vec<Complex<f64>> {
     match fit.spec.domain {
-        SpecDomain::Z { .. } => fit.poles.clone(),
-        SpecDomain::S => fit.poles.iter().map(|p| (p * ts).exp()).collect(),
+        Domain::Discrete { .. } => fit.poles.clone(),
+        Domain::Continuous => fit.poles.iter().map(|p| (p * ts).exp()).collect(),
     }
 }
 

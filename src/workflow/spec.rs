@@ -1,93 +1,12 @@
-//! A model description (domain, orders, delay, transient, noise model, criterion) and its
-//! fit by the composed estimators, reduced to what the detectors need.
-use crate::criterion::{NoiseWeighting, interior_lines};
+//! The fit of a [`ModelSpec`] reduced to what the detectors and the likelihood-ratio test
+//! need.
 use crate::data::FrequencyData;
 use crate::error::{FdidError, Result};
-use crate::estimate::{Pipeline, fit_eiv, fit_noise_model};
-use crate::estimate::{fit_eiv_delayed, refine_noise_model};
+use crate::estimate::{ModelSpec, RationalFit};
 use crate::fit::Fit;
-use crate::model::{Delayed, ModelStructure, PolesZeros, Rational};
-use crate::model::{NoiseModel, Output};
+use crate::model::{Domain, ModelStructure, Output, PolesZeros};
 use crate::scalar::Complex;
-use crate::solver::LevenbergMarquardt;
 use nalgebra::DMatrix;
-
-/// The model's domain.
-#[derive(Debug, Clone, Copy, PartialEq)]
-#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
-#[cfg_attr(feature = "serde", serde(rename_all = "lowercase"))]
-pub enum SpecDomain {
-    /// Continuous time, G(s) = B(s)/A(s) at s = iω.
-    S,
-    /// Discrete time with sample time `ts` (s), G(z) = B(z⁻¹)/A(z⁻¹) at z = e^{iωts}.
-    Z {
-        /// Sample time (s).
-        ts: f64,
-    },
-}
-
-/// The estimation criterion.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
-#[cfg_attr(feature = "serde", serde(rename_all = "lowercase"))]
-pub enum SpecCriterion {
-    /// Output-error maximum likelihood (McKelvey eq. 23), started by Levy → SK.
-    Ml,
-    /// Errors-in-variables maximum likelihood (eq. 42).
-    Eiv,
-}
-
-/// A model structure as the workflow manipulates it.
-///
-/// | field | meaning |
-/// |---|---|
-/// | `domain` | s, or z with its sample time |
-/// | `na`, `nb` | denominator and numerator degrees |
-/// | `delay` | multiply by e^{−iωτ} with τ estimated ([`Delayed`]) |
-/// | `transient` | add the transient term T(ω) of a non-periodic record (Ŷ = GU + T) |
-/// | `noise_order` | a noise model H = C/D of orders (n, n) (eq. 26) |
-/// | `criterion` | ML (eq. 23) or EIV (eq. 42) |
-#[derive(Debug, Clone, PartialEq)]
-#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
-pub struct ModelSpec {
-    /// The model's domain.
-    pub domain: SpecDomain,
-    /// Denominator degree.
-    pub na: usize,
-    /// Numerator degree.
-    pub nb: usize,
-    /// With an estimated time delay.
-    pub delay: bool,
-    /// With a transient term (non-periodic records).
-    pub transient: bool,
-    /// Order of a parametric noise model H = C/D, if any.
-    pub noise_order: Option<usize>,
-    /// The criterion.
-    pub criterion: SpecCriterion,
-}
-
-impl ModelSpec {
-    /// A plain discrete-time ML spec of orders (`na`, `nb`) with sample time `ts`.
-    pub fn discrete(na: usize, nb: usize, ts: f64) -> Self {
-        Self {
-            domain: SpecDomain::Z { ts },
-            na,
-            nb,
-            delay: false,
-            transient: false,
-            noise_order: None,
-            criterion: SpecCriterion::Ml,
-        }
-    }
-
-    /// A plain continuous-time ML spec of orders (`na`, `nb`).
-    pub fn continuous(na: usize, nb: usize) -> Self {
-        Self {
-            domain: SpecDomain::S,
-            ..Self::discrete(na, nb, 1.0)
-        }
-    }
-}
 
 /// The result of [`fit_spec`]: the statistics the detectors and the likelihood-ratio test
 /// use. Residuals are the normalised r_k = (Y_k − Ŷ_k)/σ_k of the criterion (eq. 23 or 42;
@@ -139,6 +58,10 @@ pub struct SpecFit {
     pub poles: Vec<Complex<f64>>,
     /// The estimated delay τ (s) with its standard deviation, for `delay` specs.
     pub delay: Option<(f64, Option<f64>)>,
+    /// The fitted rational model of `spec`, `None` for a user's model structure. Not
+    /// serialised.
+    #[cfg_attr(feature = "serde", serde(skip))]
+    pub fit: Option<RationalFit>,
     /// The label of a user's model structure ([`crate::workflow::Workflow::run_model`]),
     /// `None` for a fit of `spec`. For a user model `spec` only carries the delay flag
     /// (`na = nb = 0`, continuous domain) and `poles` is empty.
@@ -190,6 +113,13 @@ impl SpecFit {
         self
     }
 
+    /// The fit with the rational model it reduces.
+    #[must_use]
+    pub fn with_fit(mut self, fit: RationalFit) -> Self {
+        self.fit = Some(fit);
+        self
+    }
+
     /// The fit marked as one of the user's model structure `label`.
     #[must_use]
     pub fn with_custom(mut self, label: &str) -> Self {
@@ -201,8 +131,8 @@ impl SpecFit {
     /// Re p < 0 in continuous time.
     pub fn is_stable(&self) -> bool {
         match self.spec.domain {
-            SpecDomain::Z { .. } => self.poles.iter().all(|p| p.norm() < 1.0),
-            SpecDomain::S => self.poles.iter().all(|p| p.re < 0.0),
+            Domain::Discrete { .. } => self.poles.iter().all(|p| p.norm() < 1.0),
+            Domain::Continuous => self.poles.iter().all(|p| p.re < 0.0),
         }
     }
 
@@ -216,102 +146,21 @@ impl SpecFit {
     }
 }
 
-/// Fits `spec` to `data` with the composed estimators: Levy → SK → ML ([`Pipeline`]);
-/// [`Delayed::fit`] for a delay (bounded to causal delays, 0 ≤ τ < 2π/Δω); [`fit_noise_model`] for a noise model; [`fit_eiv`] for EIV.
+/// Fits `spec` to `data` ([`ModelSpec::fit`], which chooses the strategy) and reduces the
+/// fit to what the detectors need, on the lines it was made on ([`RationalFit::lines`]).
 ///
 /// # Errors
-/// [`FdidError::InvalidArgument`] for combinations that do not exist (a noise model with
-/// EIV; a continuous-time transient without a sample time; a z-domain spec with a
-/// non-positive sample time); the estimators' errors.
+/// As [`ModelSpec::fit`].
 pub fn fit_spec(spec: &ModelSpec, data: &FrequencyData<f64>) -> Result<SpecFit> {
-    let mut model = match spec.domain {
-        SpecDomain::S => Rational::continuous(spec.na, spec.nb, data.omega())?,
-        SpecDomain::Z { ts } => Rational::discrete(spec.na, spec.nb, ts)?,
-    };
-    if spec.transient {
-        model = match spec.domain {
-            SpecDomain::Z { .. } => model.with_transient()?,
-            SpecDomain::S => {
-                let ts = data.ts().ok_or_else(|| FdidError::InvalidArgument {
-                    name: "transient",
-                    value: "continuous-time spec, data without sample time".into(),
-                    reason: "the sampled transient needs the record's sample time".into(),
-                })?;
-                model.with_sampled_transient(ts)?
-            }
-        };
-    }
-    let pipeline = Pipeline::default();
-    match (spec.delay, spec.noise_order, spec.criterion) {
-        (_, Some(n), SpecCriterion::Eiv) => Err(FdidError::InvalidArgument {
-            name: "noise_order",
-            value: n.to_string(),
-            reason: "a noise model is estimated by ML, not with the EIV criterion".into(),
-        }),
-        (false, None, SpecCriterion::Ml) => summarise(spec, data, &pipeline.fit(&model, data)?),
-        (false, None, SpecCriterion::Eiv) => {
-            summarise(spec, data, &fit_eiv(&pipeline, &model, data)?)
-        }
-        (true, None, SpecCriterion::Ml) => summarise(
-            spec,
-            data,
-            &causal_delay(&model, data)?.fit(&pipeline, data)?,
-        ),
-        (true, None, SpecCriterion::Eiv) => summarise(
-            spec,
-            data,
-            &fit_eiv_delayed(&pipeline, &causal_delay(&model, data)?, data)?,
-        ),
-        (false, Some(n), SpecCriterion::Ml) => {
-            // the noise-model fit keeps the interior lines: summarise on those
-            let fit = fit_noise_model(&pipeline, &model, data, n, n)?;
-            summarise(spec, &interior_lines(data)?, &fit)
-        }
-        (true, Some(n), SpecCriterion::Ml) => {
-            let excited: Vec<bool> = data.u().iter().map(|u| u.norm_sqr() > 0.0).collect();
-            let flat = Pipeline {
-                weighting: NoiseWeighting::Flat,
-                ..Pipeline::default()
-            };
-            let excited = data.select_lines(&excited)?.without_noise();
-            let start = causal_delay(&model, &excited)?.fit(&flat, &excited)?;
-            let ts = data.ts().ok_or_else(|| FdidError::InvalidArgument {
-                name: "ts",
-                value: "none".into(),
-                reason: "a noise model H(z) is discrete time: the data need a sample time".into(),
-            })?;
-            let noise = NoiseModel::new(n, n, ts)?;
-            let fit = refine_noise_model(&start, data, noise, &LevenbergMarquardt::default())?;
-            summarise(spec, data, &fit)
-        }
-    }
-}
-
-/// `model` followed by a delay bounded to the causal, identifiable range
-/// 0 ≤ τ < 2π/Δω (Δω the smallest line spacing: beyond it the phase e^{−iωτ} repeats on
-/// a uniform grid; 1000 periods of the highest frequency without spacing). A fit whose
-/// τ̂ leaves the range is an error, so the workflow never proposes an advance.
-fn causal_delay(
-    model: &Rational<f64>,
-    data: &FrequencyData<f64>,
-) -> Result<Delayed<Rational<f64>>> {
-    Delayed::new(model.clone()).with_bounds(0.0, causal_delay_limit(data))
-}
-
-/// The upper end 2π/Δω of the causal, identifiable delay range of [`causal_delay`].
-pub(crate) fn causal_delay_limit(data: &FrequencyData<f64>) -> f64 {
-    let omega = data.omega();
-    let spacing = omega
-        .windows(2)
-        .map(|w| w[1] - w[0])
-        .filter(|d| *d > 0.0)
-        .fold(f64::INFINITY, f64::min);
-    let w_max = omega.iter().copied().fold(0.0, f64::max);
-    if spacing.is_finite() {
-        2.0 * std::f64::consts::PI / spacing
-    } else {
-        2000.0 * std::f64::consts::PI / w_max
-    }
+    let fit = spec.fit(data)?;
+    let lines = fit.lines(data)?;
+    let summary = match &fit {
+        RationalFit::Plain(f) => summarise(spec, &lines, f),
+        RationalFit::Delayed(f) => summarise(spec, &lines, f),
+        RationalFit::NoiseModel(f) => summarise(spec, &lines, f),
+        RationalFit::DelayedNoiseModel(f) => summarise(spec, &lines, f),
+    }?;
+    Ok(summary.with_fit(fit))
 }
 
 /// Reduces a fit with poles to a [`SpecFit`].
@@ -396,6 +245,7 @@ fn reduce<M: ModelStructure<f64>>(
         response_std: fit.response_std().map(<[f64]>::to_vec),
         poles: Vec::new(),
         delay,
+        fit: None,
         custom: None,
     })
 }

@@ -37,10 +37,14 @@ const LAYERS: &[(&str, &[&str])] = &[
     ("workflow", &["workflow"]),
 ];
 
-/// Files outside the layers: the crate root (its re-exports and prelude name every layer)
-/// and the command, a crate of its own.
+/// Files outside the layers: the crate root (its re-exports and prelude name every layer),
+/// the guide's doc tests (`guide.rs`, compiled only for them) and the command, a crate of
+/// its own.
 fn outside_layers(rel: &Path) -> bool {
-    rel == Path::new("lib.rs") || rel == Path::new("main.rs") || rel.starts_with("cli")
+    ["lib.rs", "main.rs", "guide.rs"]
+        .iter()
+        .any(|f| rel == Path::new(f))
+        || rel.starts_with("cli")
 }
 
 fn layer_of(module: &str) -> Option<usize> {

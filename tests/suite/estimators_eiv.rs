@@ -321,7 +321,7 @@ fn eiv_error<T: Real>(sys: &RandomSystem, seed: u64) -> fdid::Result<f64> {
     )))?;
     let model = Rational::discrete(sys.na, sys.nb, T::lit(sys.zpk.ts.unwrap()))?;
     let fit = fit_eiv(&Pipeline::default(), &model, &data)?;
-    assert_eq!(fit.stages().last().map(|s| s.name.as_str()), Some("eiv"));
+    assert_eq!(fit.stages().last().map(|s| &s.kind), Some(&StageKind::Eiv));
     Ok(rel_rms(fit.response(), &sys.frf()))
 }
 

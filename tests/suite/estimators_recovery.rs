@@ -128,7 +128,7 @@ fn sk_outcome<T: Real>(sys: &RandomSystem) -> fdid::Result<(f64, Termination)> {
     let sk = fit
         .stages()
         .iter()
-        .find(|s| s.name == "sk")
+        .find(|s| s.kind == StageKind::Sk)
         .expect("the SK pipeline has an SK stage");
     Ok((rel_rms(fit.response(), &sys.frf()), sk.solution.termination))
 }

@@ -498,7 +498,7 @@ fn errors_in_variables_with_delayed_grey_box() {
         .unwrap();
     start.push(0.04);
     let fit = fit_eiv(&model, &data, &start).unwrap();
-    assert_eq!(fit.stages().last().unwrap().name, "eiv");
+    assert_eq!(fit.stages().last().unwrap().kind, StageKind::Eiv);
     for (a, b) in fit.theta().iter().zip(&truth) {
         assert!((a - b).abs() < 1e-9 * b.abs().max(1.0), "{a} vs {b}");
     }

@@ -333,7 +333,7 @@ fn recovers_ct_a_ct4_with_delay() {
     for (p, q) in poles.iter().zip(&truth) {
         assert!((p - q).norm() < 1e-9 * q.norm(), "pole {p} vs {q}");
     }
-    let names: Vec<&str> = fit.stages().iter().map(|s| s.name.as_str()).collect();
+    let names: Vec<String> = fit.stages().iter().map(|s| s.kind.name()).collect();
     assert_eq!(names, ["delay", "levy", "sk", "ml", "ml-delayed"]);
     assert!(fit.stages()[0].solution.theta[0].is_finite());
 }

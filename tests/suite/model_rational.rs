@@ -243,7 +243,7 @@ fn blocked_levy_stage_on(lines: usize) {
     let chain = Pipeline::default().fit(&model, &data).unwrap();
     let qr = Pipeline::levy().fit(&model, &data).unwrap();
     let (a, b) = (&chain.stages()[0].solution, &qr.stages()[0].solution);
-    assert_eq!(chain.stages()[0].name, "levy");
+    assert_eq!(chain.stages()[0].kind, StageKind::Levy);
     assert!(
         (a.cost - b.cost).abs() <= 1e-6 * b.cost,
         "{} vs {}",

@@ -13,12 +13,13 @@
 //! --all-features --test suite robustness_garbage::` for a long run.
 
 use fdid::data::{PeriodicAverage, merge};
+use fdid::estimate::Method;
 use fdid::estimate::ModalOptions;
 use fdid::io::parse_csv;
 use fdid::ltv::{FrequencyBasis, Lines};
 use fdid::model::remove_delay;
 use fdid::prelude::*;
-use fdid::workflow::{Context, ModelSpec, SpecCriterion, SpecDomain, Workflow, fit_spec};
+use fdid::workflow::{Context, ModelSpec, Workflow, fit_spec};
 use quickcheck::{Arbitrary, Gen, QuickCheck, TestResult};
 use std::fmt::Debug;
 use std::panic::{AssertUnwindSafe, catch_unwind};
@@ -395,19 +396,20 @@ fn workflow_entries(x: FreqInput) -> TestResult {
     let ts = x.ts.unwrap_or(x.band.1);
     let spec = ModelSpec {
         domain: if x.na.is_multiple_of(2) {
-            SpecDomain::Z { ts }
+            Domain::Discrete { ts }
         } else {
-            SpecDomain::S
+            Domain::Continuous
         },
         na,
         nb,
         delay: x.nb.is_multiple_of(3),
+        delay_range: Default::default(),
         transient: x.na % 3 == 1,
         noise_order: (x.nb % 4 == 1).then_some(1),
         criterion: if x.var.is_some() && x.na % 2 == 1 {
-            SpecCriterion::Eiv
+            Method::Eiv
         } else {
-            SpecCriterion::Ml
+            Method::Ml
         },
     };
     let alpha = x.band.0;

@@ -7,7 +7,7 @@ use fdid::io::parse_csv;
 use fdid::ltv::{Lines, LtvOde};
 use fdid::model::{ModalDomain, NoiseModel};
 use fdid::prelude::*;
-use fdid::workflow::{Context, ModelSpec, SpecDomain, Workflow, fit_spec};
+use fdid::workflow::{Context, ModelSpec, Workflow, fit_spec};
 use std::fmt::Debug;
 
 fn c(re: f64, im: f64) -> Complex<f64> {
@@ -703,7 +703,7 @@ fn workflow_rejects_bad_levels_and_sample_times() {
         );
     }
     let spec = ModelSpec {
-        domain: SpecDomain::Z { ts: -0.5 },
+        domain: Domain::Discrete { ts: -0.5 },
         ..ModelSpec::discrete(1, 0, 1.0)
     };
     check(

@@ -7,7 +7,8 @@
 
 use fdid::data::DistortionAnalysis;
 use fdid::io::{Measurement, read_csv};
-use fdid::workflow::{Context, ModelSpec, SpecDomain, SpecFit, Workflow, fit_spec};
+use fdid::model::Domain;
+use fdid::workflow::{Context, ModelSpec, SpecFit, Workflow, fit_spec};
 use fdid::{Complex, FdidError, FrequencyData, NoiseVariances, Real, TimeData};
 use quickcheck::{QuickCheck, TestResult};
 use std::f64::consts::TAU;
@@ -120,8 +121,8 @@ fn resonance(fit: &SpecFit) -> (f64, f64) {
         .poles
         .iter()
         .map(|p| match fit.spec.domain {
-            SpecDomain::S => *p,
-            SpecDomain::Z { ts } => p.ln() / ts,
+            Domain::Continuous => *p,
+            Domain::Discrete { ts } => p.ln() / ts,
         })
         .filter(|s| s.im > 0.0)
         .min_by(|a, b| a.re.abs().total_cmp(&b.re.abs()))
@@ -131,8 +132,8 @@ fn resonance(fit: &SpecFit) -> (f64, f64) {
 
 fn stable(fit: &SpecFit) -> bool {
     fit.poles.iter().all(|p| match fit.spec.domain {
-        SpecDomain::S => p.re < 0.0,
-        SpecDomain::Z { .. } => p.norm() < 1.0,
+        Domain::Continuous => p.re < 0.0,
+        Domain::Discrete { .. } => p.norm() < 1.0,
     })
 }
 

@@ -9,10 +9,11 @@
 
 use crate::measurement::{ALPHA, BAND, CLEAN, M, Sim, context, run, simulate, truth};
 use fdid::data::OddMultisineDesign;
+use fdid::estimate::Method;
 use fdid::prelude::*;
 use fdid::workflow::detectors::{InputNoise, NonlinearDistortion, TimeVariation};
 use fdid::workflow::{
-    Acceptance, Context, Detector, Effect, ModelSpec, Report, SpecCriterion, Workflow, fit_spec,
+    Acceptance, Context, Detector, Effect, ModelSpec, Report, Workflow, fit_spec,
 };
 use quickcheck::{Arbitrary, Gen, QuickCheck, TestResult};
 
@@ -57,7 +58,7 @@ fn hidden_input_noise_is_named_first() {
             first += 1;
             assert_eq!(report.steps[0].acceptance(), Acceptance::Criterion);
         }
-        assert_eq!(report.final_fit.spec.criterion, SpecCriterion::Eiv);
+        assert_eq!(report.final_fit.spec.criterion, Method::Eiv);
         assert!(cov >= 0.9, "seed {seed}: coverage {cov}");
         if report.consistent_with_noise {
             consistent += 1;
@@ -94,7 +95,7 @@ fn input_noise_monte_carlo(runs: usize) {
     let mut omega = vec![];
     for r in 0..runs {
         let (report, _) = run(&sim, 5000 + r as u64);
-        assert_eq!(report.final_fit.spec.criterion, SpecCriterion::Eiv);
+        assert_eq!(report.final_fit.spec.criterion, Method::Eiv);
         omega = report.final_fit.omega.clone();
         let rel = |g: &[Complex<f64>]| {
             omega
@@ -347,7 +348,7 @@ fn detectors_without_their_information_do_not_apply() {
     };
     let (_, data) = simulate(&noisy, 2);
     let spec = ModelSpec {
-        criterion: SpecCriterion::Eiv,
+        criterion: Method::Eiv,
         ..ModelSpec::discrete(2, 2, 1.0)
     };
     let fit = fit_spec(&spec, &data).unwrap();

@@ -2,13 +2,14 @@
 //! inputs, the calibration of each detector on correct models, the delay's Monte Carlo
 //! spread against its predicted standard deviation, and the JSON form of a report.
 use crate::common;
+use fdid::estimate::Method;
 
 use common::{Noise, random_dt_system, rel_rms};
 use fdid::prelude::*;
 use fdid::workflow::detectors::{
     Added, ColoredNoise, MissingResonance, OrderIncrease, TimeDelay, Transient,
 };
-use fdid::workflow::{Context, Detector, ModelSpec, SpecCriterion, SpecDomain, Workflow, fit_spec};
+use fdid::workflow::{Context, Detector, ModelSpec, Workflow, fit_spec};
 use quickcheck::TestResult;
 use rand::{Rng, SeedableRng, rngs::StdRng};
 
@@ -87,7 +88,7 @@ fn bad_specs_are_typed_errors() {
     let data = data_of(&omega, &g, 1.0);
     let eiv_noise = ModelSpec {
         noise_order: Some(1),
-        criterion: SpecCriterion::Eiv,
+        criterion: Method::Eiv,
         ..ModelSpec::discrete(1, 1, 1.0)
     };
     match fit_spec(&eiv_noise, &data) {
@@ -104,13 +105,13 @@ fn bad_specs_are_typed_errors() {
         other => panic!("{other:?}"),
     }
     let bad_ts = ModelSpec {
-        domain: SpecDomain::Z { ts: -1.0 },
+        domain: Domain::Discrete { ts: -1.0 },
         ..ModelSpec::discrete(1, 1, 1.0)
     };
     assert!(fit_spec(&bad_ts, &data).is_err());
     // EIV without input noise variances
     let eiv = ModelSpec {
-        criterion: SpecCriterion::Eiv,
+        criterion: Method::Eiv,
         ..ModelSpec::discrete(1, 1, 1.0)
     };
     assert!(fit_spec(&eiv, &data).is_err());

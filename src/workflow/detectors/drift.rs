@@ -1,12 +1,13 @@
 use crate::data::{FrequencyData, NoiseVariances, TimeData};
 use crate::data::{PeriodicAverage, dft_lines};
 use crate::error::{FdidError, Result};
+use crate::model::Domain;
 use crate::workflow::finding::{Context, Detail, Detector, Effect, Finding, Remedy};
 use crate::workflow::lrt::f_sf;
 use crate::workflow::segments::{
     check_rational, fixed_model_cost, segment_spec, split, system_params, transient_params,
 };
-use crate::workflow::spec::{SpecDomain, SpecFit, fit_spec};
+use crate::workflow::spec::{SpecFit, fit_spec};
 use nalgebra::{DMatrix, DVector};
 use num_complex::Complex;
 
@@ -932,5 +933,5 @@ fn segmentable(fit: &SpecFit, segments: usize) -> Result<bool> {
         });
     }
     check_rational(fit)?;
-    Ok(matches!(fit.spec.domain, SpecDomain::Z { .. }))
+    Ok(matches!(fit.spec.domain, Domain::Discrete { .. }))
 }

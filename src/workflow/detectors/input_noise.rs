@@ -1,10 +1,11 @@
 use crate::data::FrequencyData;
+use crate::estimate::Method;
 use crate::scalar::Complex;
 use crate::stats::chi2_sf;
 use crate::workflow::finding::{
     Context, Detail, Detector, Effect, Finding, Remedy, residual_power,
 };
-use crate::workflow::spec::{SpecCriterion, SpecFit};
+use crate::workflow::spec::SpecFit;
 use nalgebra::DMatrix;
 
 /// Significant input noise in a periodic measurement: switch from output-error ML
@@ -65,10 +66,7 @@ impl Detector for InputNoise {
     }
 
     fn detect(&self, data: &FrequencyData<f64>, fit: &SpecFit, _ctx: &Context) -> Option<Finding> {
-        if fit.spec.criterion != SpecCriterion::Ml
-            || fit.spec.noise_order.is_some()
-            || !fit.noise_known
-        {
+        if fit.spec.criterion != Method::Ml || fit.spec.noise_order.is_some() || !fit.noise_known {
             return None;
         }
         let noise = data.noise()?;
@@ -131,7 +129,7 @@ impl Detector for InputNoise {
         let u_power = data.u().iter().map(Complex::norm_sqr).sum::<f64>() / n as f64;
         let u_noise = var_u.iter().sum::<f64>() / n as f64;
         let proposal = crate::workflow::ModelSpec {
-            criterion: SpecCriterion::Eiv,
+            criterion: Method::Eiv,
             ..fit.spec.clone()
         };
         Some(Finding {

@@ -1,8 +1,9 @@
 use super::score::ScoreTest;
 use crate::data::FrequencyData;
+use crate::model::Domain;
 use crate::scalar::Complex;
 use crate::workflow::finding::{Context, Detail, Detector, Effect, Finding};
-use crate::workflow::spec::{SpecDomain, SpecFit};
+use crate::workflow::spec::SpecFit;
 
 /// Which coefficient an [`OrderIncrease`] test adds.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -46,14 +47,14 @@ impl Detector for OrderIncrease {
         // x_k: z_k⁻¹ in discrete time; iω_k/ω_max in continuous time (scaled so that the
         // powers stay O(1); the t statistic does not depend on the scale)
         let (x, poles): (Vec<Complex<f64>>, Vec<Complex<f64>>) = match fit.spec.domain {
-            SpecDomain::Z { ts } => (
+            Domain::Discrete { ts } => (
                 fit.omega
                     .iter()
                     .map(|w| Complex::new(0.0, -w * ts).exp())
                     .collect(),
                 fit.poles.clone(),
             ),
-            SpecDomain::S => {
+            Domain::Continuous => {
                 let w_max = fit.omega.iter().fold(0.0_f64, |m, w| m.max(w.abs()));
                 if !(w_max > 0.0) {
                     return None;
@@ -67,7 +68,7 @@ impl Detector for OrderIncrease {
                 )
             }
         };
-        let discrete = matches!(fit.spec.domain, SpecDomain::Z { .. });
+        let discrete = matches!(fit.spec.domain, Domain::Discrete { .. });
         // d_k = ∂Ŷ_k/∂θ_new / c_k
         let direction: Vec<Complex<f64>> = (0..fit.residuals.len())
             .map(|k| {

@@ -1,9 +1,10 @@
 use crate::data::FrequencyData;
+use crate::model::Domain;
 use crate::scalar::Complex;
 use crate::stats::chi2_sf;
 use crate::workflow::finding::{Context, Detail, Detector, Effect, Finding, residual_power};
 use crate::workflow::lrt::f_sf;
-use crate::workflow::spec::{SpecDomain, SpecFit};
+use crate::workflow::spec::SpecFit;
 use nalgebra::{DMatrix, DVector};
 
 /// A smooth residual of a non-periodic record: the missing transient term T = I/A.
@@ -33,8 +34,8 @@ impl Detector for Transient {
             return None;
         }
         let (ts, discrete) = match fit.spec.domain {
-            SpecDomain::Z { ts } => (ts, true),
-            SpecDomain::S => (data.ts()?, false),
+            Domain::Discrete { ts } => (ts, true),
+            Domain::Continuous => (data.ts()?, false),
         };
         let poles: Vec<Complex<f64>> = fit
             .poles

@@ -1,0 +1,406 @@
+//! One model specification — domain, orders, factors (delay, transient, noise model) and
+//! criterion — and its fit by the strategies of this layer. The command parses its flags
+//! into a [`ModelSpec`]; the discrepancy workflow augments one step by step. Nobody else
+//! dispatches on the settings.
+
+use super::{Pipeline, estimate, fit_delayed, fit_eiv, fit_eiv_delayed};
+use super::{fit_noise_model, refine_noise_model};
+use crate::criterion::{TotalLeastSquares, interior_lines};
+use crate::data::{FrequencyData, NoiseWeighting};
+use crate::error::{FdidError, Result};
+use crate::fit::{Fit, Stage, StageKind};
+use crate::model::WithNoiseModel;
+use crate::model::{Delayed, Domain, ModelStructure, NoiseModel, Rational};
+use crate::scalar::Complex;
+use crate::solver::{LevenbergMarquardt, SvdNullVector};
+use std::borrow::Cow;
+
+/// The criterion of a [`ModelSpec`] and the chain that minimises it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(rename_all = "lowercase"))]
+pub enum Method {
+    /// Levy's linear least squares (McKelvey eq. 39) alone.
+    Levy,
+    /// Levy, then Sanathanan–Koerner iterations (eq. 41).
+    Sk,
+    /// Output-error maximum likelihood (eq. 23), started by Levy → SK ([`Pipeline`]).
+    #[default]
+    Ml,
+    /// Total least squares of the equation error (SVD null vector).
+    Tls,
+    /// Errors-in-variables maximum likelihood (eq. 42), started by the ML chain.
+    Eiv,
+}
+
+impl Method {
+    /// The lowercase name (`levy`, `sk`, `ml`, `tls`, `eiv`).
+    pub fn name(self) -> &'static str {
+        match self {
+            Method::Levy => "levy",
+            Method::Sk => "sk",
+            Method::Ml => "ml",
+            Method::Tls => "tls",
+            Method::Eiv => "eiv",
+        }
+    }
+}
+
+/// The range a [`ModelSpec`]'s delay τ may take.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(rename_all = "lowercase"))]
+pub enum DelayRange {
+    /// The causal, identifiable range 0 ≤ τ < 2π/Δω ([`causal_delay_limit`]); a fit whose
+    /// τ̂ leaves it is an error.
+    #[default]
+    Causal,
+    /// Any τ (an advance included).
+    Unbounded,
+}
+
+impl DelayRange {
+    fn is_causal(&self) -> bool {
+        *self == DelayRange::Causal
+    }
+}
+
+/// A rational model structure with its factors and criterion.
+///
+/// | field | default | meaning |
+/// |---|---|---|
+/// | `domain` | — | s, or z with its sample time |
+/// | `na`, `nb` | — | denominator and numerator degrees |
+/// | `delay` | false | multiply by e^{−iωτ} with τ estimated ([`Delayed`], section 4) |
+/// | `delay_range` | [`DelayRange::Causal`] | where τ may lie |
+/// | `transient` | false | add the transient term T(ω) of a non-periodic record (eqs. 4–5, 9–10) |
+/// | `noise_order` | `None` | a noise model H = C/D of orders (n, n) (eq. 26) |
+/// | `criterion` | [`Method::Ml`] | levy, sk, ml (eq. 23), tls or eiv (eq. 42) |
+///
+/// [`ModelSpec::fit`] is the one dispatch from settings to estimator.
+///
+/// ```
+/// use fdid::prelude::*;
+/// use fdid::estimate::ModelSpec;
+/// # fn main() -> fdid::Result<()> {
+/// // G(z) = 0.5 z⁻¹/(1 − 0.8 z⁻¹), noise-free
+/// let omega: Vec<f64> = (1..=64).map(|k| k as f64 * std::f64::consts::PI / 65.0).collect();
+/// let y: Vec<Complex<f64>> = omega
+///     .iter()
+///     .map(|w| {
+///         let zi = Complex::new(0.0, -w).exp();
+///         zi * 0.5 / (Complex::new(1.0, 0.0) - zi * 0.8)
+///     })
+///     .collect();
+/// let data = FrequencyData::from_frf(omega, y, Some(1.0))?;
+/// let fit = ModelSpec::discrete(1, 1, 1.0).fit(&data)?;
+/// assert!((fit.poles()?[0].re - 0.8).abs() < 1e-9);
+/// # Ok(())
+/// # }
+/// ```
+#[derive(Debug, Clone, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+pub struct ModelSpec {
+    /// The model's domain.
+    pub domain: Domain<f64>,
+    /// Denominator degree.
+    pub na: usize,
+    /// Numerator degree.
+    pub nb: usize,
+    /// With an estimated time delay.
+    pub delay: bool,
+    /// Where the delay may lie.
+    #[cfg_attr(
+        feature = "serde",
+        serde(default, skip_serializing_if = "DelayRange::is_causal")
+    )]
+    pub delay_range: DelayRange,
+    /// With a transient term (non-periodic records).
+    pub transient: bool,
+    /// Order of a parametric noise model H = C/D, if any.
+    pub noise_order: Option<usize>,
+    /// The criterion.
+    pub criterion: Method,
+}
+
+impl ModelSpec {
+    /// A plain discrete-time ML spec of orders (`na`, `nb`) with sample time `ts`.
+    pub fn discrete(na: usize, nb: usize, ts: f64) -> Self {
+        Self {
+            domain: Domain::Discrete { ts },
+            na,
+            nb,
+            delay: false,
+            delay_range: DelayRange::Causal,
+            transient: false,
+            noise_order: None,
+            criterion: Method::Ml,
+        }
+    }
+
+    /// A plain continuous-time ML spec of orders (`na`, `nb`).
+    pub fn continuous(na: usize, nb: usize) -> Self {
+        Self {
+            domain: Domain::Continuous,
+            ..Self::discrete(na, nb, 1.0)
+        }
+    }
+
+    /// The rational model of the spec on `data`'s grid, with the transient term when asked
+    /// for (a continuous-time transient is sampled with the data's sample time).
+    ///
+    /// # Errors
+    /// A continuous-time transient on data without a sample time; the model's own checks.
+    pub fn model(&self, data: &FrequencyData<f64>) -> Result<Rational<f64>> {
+        let model = match self.domain {
+            Domain::Continuous => Rational::continuous(self.na, self.nb, data.omega())?,
+            Domain::Discrete { ts } => Rational::discrete(self.na, self.nb, ts)?,
+        };
+        if !self.transient {
+            return Ok(model);
+        }
+        match self.domain {
+            Domain::Discrete { .. } => model.with_transient(),
+            Domain::Continuous => {
+                let ts = data.ts().ok_or_else(|| FdidError::InvalidArgument {
+                    name: "transient",
+                    value: "continuous-time spec, data without sample time".into(),
+                    reason: "the sampled transient needs the record's sample time".into(),
+                })?;
+                model.with_sampled_transient(ts)
+            }
+        }
+    }
+
+    /// Fits the spec to `data`, choosing the strategy from its settings:
+    ///
+    /// | delay | noise model | criterion | strategy |
+    /// |---|---|---|---|
+    /// | no | no | levy, sk, ml | [`Pipeline::levy`], [`Pipeline::sk`], [`Pipeline::default`] |
+    /// | no | no | tls | [`TotalLeastSquares`] by [`SvdNullVector`] |
+    /// | no | no | eiv | [`fit_eiv`] |
+    /// | yes | no | ml | [`Delayed::fit`] (delay search, then joint ML) |
+    /// | yes | no | eiv | [`fit_eiv_delayed`] |
+    /// | no | yes | ml | [`fit_noise_model`] (on the [`interior_lines`]) |
+    /// | yes | yes | ml | the delayed fit with flat weighting on the excited lines, then [`refine_noise_model`] |
+    ///
+    /// # Errors
+    /// [`FdidError::TooFewFrequencies`] when 2·lines < na + nb + 1;
+    /// [`FdidError::InvalidArgument`] for combinations that do not exist (a noise model with
+    /// another criterion than ML; a delay with levy, sk or tls; a noise model on data
+    /// without a sample time); the estimators' errors.
+    pub fn fit(&self, data: &FrequencyData<f64>) -> Result<RationalFit> {
+        let p = self.na + self.nb + 1;
+        if 2 * data.len() < p {
+            return Err(FdidError::TooFewFrequencies {
+                lines: data.len(),
+                equations: 2 * data.len(),
+                parameters: p,
+            });
+        }
+        let model = self.model(data)?;
+        let pipeline = Pipeline::default();
+        match (self.delay, self.noise_order, self.criterion) {
+            (_, Some(n), c) if c != Method::Ml => Err(FdidError::InvalidArgument {
+                name: "noise_order",
+                value: n.to_string(),
+                reason: format!(
+                    "a noise model is estimated by ML, not with the {} criterion",
+                    c.name()
+                ),
+            }),
+            (false, None, Method::Ml) => Ok(RationalFit::Plain(pipeline.fit(&model, data)?)),
+            (false, None, Method::Levy) => {
+                Ok(RationalFit::Plain(Pipeline::levy().fit(&model, data)?))
+            }
+            (false, None, Method::Sk) => Ok(RationalFit::Plain(Pipeline::sk().fit(&model, data)?)),
+            (false, None, Method::Tls) => Ok(RationalFit::Plain(fit_tls(&model, data)?)),
+            (false, None, Method::Eiv) => Ok(RationalFit::Plain(fit_eiv(&pipeline, &model, data)?)),
+            (true, None, Method::Ml) => Ok(RationalFit::Delayed(
+                self.delayed(&model, data)?.fit(&pipeline, data)?,
+            )),
+            (true, None, Method::Eiv) => Ok(RationalFit::Delayed(fit_eiv_delayed(
+                &pipeline,
+                &self.delayed(&model, data)?,
+                data,
+            )?)),
+            (true, Some(n), Method::Ml) => self.fit_delayed_noise_model(&model, data, n),
+            (true, _, c) => Err(FdidError::InvalidArgument {
+                name: "delay",
+                value: c.name().into(),
+                reason: "the delay enters nonlinearly and is fitted by the ml or eiv criterion"
+                    .into(),
+            }),
+            (false, Some(n), _) => Ok(RationalFit::NoiseModel(fit_noise_model(
+                &pipeline, &model, data, n, n,
+            )?)),
+        }
+    }
+
+    /// `model` followed by a delay in the spec's range.
+    fn delayed(
+        &self,
+        model: &Rational<f64>,
+        data: &FrequencyData<f64>,
+    ) -> Result<Delayed<Rational<f64>>> {
+        let delayed = Delayed::new(model.clone());
+        match self.delay_range {
+            DelayRange::Causal => delayed.with_bounds(0.0, causal_delay_limit(data)),
+            DelayRange::Unbounded => Ok(delayed),
+        }
+    }
+
+    /// The delayed model with a noise model H = C/D of orders (n, n), as
+    /// [`fit_noise_model`] does for an undelayed one: the delayed fit with flat weighting
+    /// on the excited lines as the start (η = 0, H = 1), then the concentrated ML criterion
+    /// of McKelvey eq. 26 ([`refine_noise_model`]).
+    fn fit_delayed_noise_model(
+        &self,
+        model: &Rational<f64>,
+        data: &FrequencyData<f64>,
+        n: usize,
+    ) -> Result<RationalFit> {
+        let excited: Vec<bool> = data.u().iter().map(|u| u.norm_sqr() > 0.0).collect();
+        let flat = Pipeline {
+            weighting: NoiseWeighting::Flat,
+            ..Pipeline::default()
+        };
+        let excited = data.select_lines(&excited)?.without_noise();
+        let start = match self.delay_range {
+            DelayRange::Causal => self.delayed(model, &excited)?.fit(&flat, &excited)?,
+            DelayRange::Unbounded => fit_delayed(&flat, model, &excited)?,
+        };
+        let ts = data.ts().ok_or_else(|| FdidError::InvalidArgument {
+            name: "ts",
+            value: "none".into(),
+            reason: "a noise model H(z) is discrete time: the data need a sample time".into(),
+        })?;
+        let noise = NoiseModel::new(n, n, ts)?;
+        let fit = refine_noise_model(&start, data, noise, &LevenbergMarquardt::default())?;
+        let delayed = fit.model().system();
+        if let Some(tau) = delayed.delay(fit.model().split(fit.theta()).0) {
+            delayed.check_delay(tau)?;
+        }
+        Ok(RationalFit::DelayedNoiseModel(fit))
+    }
+}
+
+/// Total least squares of the equation error ([`TotalLeastSquares`], SVD null vector),
+/// with the statistics of [`Fit::new`].
+fn fit_tls(model: &Rational<f64>, data: &FrequencyData<f64>) -> Result<Fit<f64, Rational<f64>>> {
+    let tls = TotalLeastSquares::default();
+    let solution = estimate(model, data, &tls, &SvdNullVector, None)?;
+    let theta = solution.theta.clone();
+    let stages = vec![Stage {
+        kind: StageKind::Tls,
+        solution,
+    }];
+    Fit::new(model.clone(), data, theta, tls.weighting, stages)
+}
+
+/// The upper end 2π/Δω of the causal, identifiable delay range (Δω the smallest line
+/// spacing: beyond it the phase e^{−iωτ} repeats on a uniform grid; 1000 periods of the
+/// highest frequency without spacing).
+pub fn causal_delay_limit(data: &FrequencyData<f64>) -> f64 {
+    let omega = data.omega();
+    let spacing = omega
+        .windows(2)
+        .map(|w| w[1] - w[0])
+        .filter(|d| *d > 0.0)
+        .fold(f64::INFINITY, f64::min);
+    let w_max = omega.iter().copied().fold(0.0, f64::max);
+    if spacing.is_finite() {
+        2.0 * std::f64::consts::PI / spacing
+    } else {
+        2000.0 * std::f64::consts::PI / w_max
+    }
+}
+
+/// The fit of a [`ModelSpec`]: the rational model with the factors the spec asked for.
+#[derive(Debug, Clone)]
+pub enum RationalFit {
+    /// G = B/A (with its transient term, if any).
+    Plain(Fit<f64, Rational<f64>>),
+    /// G e^{−iωτ}.
+    Delayed(Fit<f64, Delayed<Rational<f64>>>),
+    /// G with a noise model H = C/D.
+    NoiseModel(Fit<f64, WithNoiseModel<Rational<f64>>>),
+    /// G e^{−iωτ} with a noise model H = C/D.
+    DelayedNoiseModel(Fit<f64, WithNoiseModel<Delayed<Rational<f64>>>>),
+}
+
+/// Applies `$body` to the typed fit of every variant.
+macro_rules! each_fit {
+    ($self:expr, $fit:ident => $body:expr) => {
+        match $self {
+            RationalFit::Plain($fit) => $body,
+            RationalFit::Delayed($fit) => $body,
+            RationalFit::NoiseModel($fit) => $body,
+            RationalFit::DelayedNoiseModel($fit) => $body,
+        }
+    };
+}
+
+impl RationalFit {
+    /// The rational part B/A (without delay and noise model).
+    pub fn rational(&self) -> &Rational<f64> {
+        match self {
+            RationalFit::Plain(f) => f.model(),
+            RationalFit::Delayed(f) => f.model().inner(),
+            RationalFit::NoiseModel(f) => f.model().system(),
+            RationalFit::DelayedNoiseModel(f) => f.model().system().inner(),
+        }
+    }
+
+    /// Whether the model has a delay factor.
+    pub fn has_delay(&self) -> bool {
+        matches!(
+            self,
+            RationalFit::Delayed(_) | RationalFit::DelayedNoiseModel(_)
+        )
+    }
+
+    /// The noise model H = C/D, if any.
+    pub fn noise_model(&self) -> Option<NoiseModel<f64>> {
+        match self {
+            RationalFit::NoiseModel(f) => Some(f.model().noise()),
+            RationalFit::DelayedNoiseModel(f) => Some(f.model().noise()),
+            _ => None,
+        }
+    }
+
+    /// The estimate θ̂ in the fitted model's layout.
+    pub fn theta(&self) -> &[f64] {
+        each_fit!(self, f => f.theta())
+    }
+
+    /// The cost V at θ̂.
+    pub fn cost(&self) -> f64 {
+        each_fit!(self, f => f.cost())
+    }
+
+    /// Poles of the system part.
+    ///
+    /// # Errors
+    /// As [`crate::model::PolesZeros::poles`].
+    pub fn poles(&self) -> Result<Vec<Complex<f64>>> {
+        each_fit!(self, f => f.poles())
+    }
+
+    /// The number of estimated parameters p.
+    pub fn n_params(&self) -> usize {
+        each_fit!(self, f => f.model().n_params())
+    }
+
+    /// The lines the fit was made on: the [`interior_lines`] of `data` for a noise model
+    /// without delay ([`fit_noise_model`] drops DC and Nyquist), else `data` itself.
+    ///
+    /// # Errors
+    /// As [`interior_lines`].
+    pub fn lines<'d>(&self, data: &'d FrequencyData<f64>) -> Result<Cow<'d, FrequencyData<f64>>> {
+        match self {
+            RationalFit::NoiseModel(_) => Ok(Cow::Owned(interior_lines(data)?)),
+            _ => Ok(Cow::Borrowed(data)),
+        }
+    }
+}
