@@ -119,8 +119,8 @@ pub mod prelude {
     pub use crate::greybox::{AutoDiff, Fixed, GreyBox, PhysicalParameters};
     pub use crate::ltv::{LtvFit, LtvOde};
     pub use crate::model::Delayed;
+    pub use crate::model::Modal;
     pub use crate::model::{Domain, EquationError, ModelStructure, PolesZeros, Rational};
-    pub use crate::model::{Modal, ModalDomain};
     pub use crate::model::{NoiseModel, WithNoiseModel};
     pub use crate::scalar::{Complex, Real};
     pub use crate::solver::{

@@ -3,6 +3,7 @@
 
 mod distortion;
 mod frequency;
+mod grid;
 mod lpm;
 mod merge;
 mod periodic;
@@ -11,6 +12,7 @@ mod weighting;
 
 pub use distortion::{DetectionLine, DetectionTest, DistortionAnalysis, OddMultisineDesign};
 pub use frequency::{FrequencyData, NoiseVariances};
+pub use grid::{SAMPLE_TIME_TOLERANCE, nyquist_slack};
 pub use lpm::{Lpm, LpmEstimate, lpm};
 pub use merge::merge;
 pub use periodic::PeriodicAverage;

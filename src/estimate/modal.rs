@@ -7,7 +7,7 @@ use crate::criterion::MaximumLikelihood;
 use crate::data::FrequencyData;
 use crate::error::{FdidError, Result};
 use crate::fit::{Fit, Stage, StageKind};
-use crate::model::{Modal, ModalDomain, ModelStructure, Rational};
+use crate::model::{Domain, Modal, ModelStructure, Rational};
 use crate::scalar::Real;
 use crate::solver::{Solution, Termination};
 
@@ -15,13 +15,13 @@ use crate::solver::{Solution, Termination};
 ///
 /// | setting | default | meaning |
 /// |---|---|---|
-/// | `domain` | [`ModalDomain::Continuous`] | s = iω (band-limited data) or ZOH-sampled |
+/// | `domain` | [`Domain::Continuous`] | s = iω (band-limited data) or ZOH-sampled |
 /// | `direct` | false | estimate a direct term d |
 /// | `transient` | false | estimate the transient term T (McKelvey eqs. 4–5, 9–10) |
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ModalOptions<T: Real> {
     /// Continuous-time or ZOH-sampled evaluation.
-    pub domain: ModalDomain<T>,
+    pub domain: Domain<T>,
     /// Estimate a direct term d.
     pub direct: bool,
     /// Estimate the transient term; its sample time is the ZOH model's or, in continuous
@@ -39,7 +39,7 @@ impl<T: Real> ModalOptions<T> {
     /// Continuous time (s = iω), no direct term, no transient.
     pub fn continuous() -> Self {
         Self {
-            domain: ModalDomain::Continuous,
+            domain: Domain::Continuous,
             direct: false,
             transient: false,
         }
@@ -48,7 +48,7 @@ impl<T: Real> ModalOptions<T> {
     /// ZOH-sampled with sample time `ts` (s), no direct term, no transient.
     pub fn zoh(ts: T) -> Self {
         Self {
-            domain: ModalDomain::Zoh { ts },
+            domain: Domain::Discrete { ts },
             ..Self::continuous()
         }
     }
@@ -72,8 +72,8 @@ impl<T: Real> ModalOptions<T> {
 ///
 /// 1. the matching rational model by `pipeline`'s Levy and SK stages (its ML stage is
 ///    left for the modal model): [`Rational::continuous`] of order n = n_real + 2 n_pairs
-///    for [`ModalDomain::Continuous`], [`Rational::discrete`] of order n with Ts for
-///    [`ModalDomain::Zoh`] (numerator degree n: the ZOH model of a strictly proper mode
+///    for [`Domain::Continuous`], [`Rational::discrete`] of order n with Ts for
+///    [`Domain::Discrete`] (numerator degree n: the ZOH model of a strictly proper mode
 ///    starts with z⁻¹, with d the constant term), without transient;
 /// 2. its poles converted to s and the residues, d and τ by linear least squares
 ///    ([`Modal::start_from_rational`]; a discrete-time pole z on the negative real axis,
@@ -99,8 +99,8 @@ pub fn fit_modal<T: Real>(
     let mut model = Modal::new(n_real, n_pairs, options.direct, options.domain)?;
     if options.transient {
         let ts = match options.domain {
-            ModalDomain::Zoh { ts } => ts,
-            ModalDomain::Continuous => data.ts().ok_or_else(|| FdidError::InvalidArgument {
+            Domain::Discrete { ts } => ts,
+            Domain::Continuous => data.ts().ok_or_else(|| FdidError::InvalidArgument {
                 name: "ts",
                 value: "none".into(),
                 reason: "the transient term of a continuous-time model needs the data's \
@@ -115,7 +115,7 @@ pub fn fit_modal<T: Real>(
     // the rational start carries the transient too (it shares the poles), so that the
     // leakage of a short record does not bend the starting poles
     let rational = match (options.domain, model.transient_ts()) {
-        (ModalDomain::Continuous, t) => {
+        (Domain::Continuous, t) => {
             let r = Rational::continuous(n, if options.direct { n } else { n - 1 }, data.omega())?;
             match t {
                 Some(ts)
@@ -127,8 +127,8 @@ pub fn fit_modal<T: Real>(
                 _ => r,
             }
         }
-        (ModalDomain::Zoh { ts }, Some(_)) => Rational::discrete(n, n, ts)?.with_transient()?,
-        (ModalDomain::Zoh { ts }, None) => Rational::discrete(n, n, ts)?,
+        (Domain::Discrete { ts }, Some(_)) => Rational::discrete(n, n, ts)?.with_transient()?,
+        (Domain::Discrete { ts }, None) => Rational::discrete(n, n, ts)?,
     };
     let linear_stages = Pipeline {
         ml: None,

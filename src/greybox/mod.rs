@@ -515,25 +515,7 @@ fn check_sample_time<T: Real>(ts: f64, data: &FrequencyData<T>) -> Result<()> {
                 .into(),
         });
     }
-    if let Some(dts) = data.ts() {
-        let d = dts.to_f64_lossless();
-        if (d - ts).abs() > 1e-6 * ts {
-            return Err(FdidError::InvalidArgument {
-                name: "ts",
-                value: format!("{d}"),
-                reason: format!("the data's sample time differs from the model's ({ts})"),
-            });
-        }
-    }
-    let nyquist = std::f64::consts::PI / ts * (1.0 + 1e-6);
-    if let Some(w) = data.omega().iter().find(|w| w.to_f64_lossless() > nyquist) {
-        return Err(FdidError::InvalidArgument {
-            name: "omega",
-            value: format!("{w} rad/s"),
-            reason: format!("above the Nyquist frequency of Ts = {ts} s"),
-        });
-    }
-    Ok(())
+    data.check_sampled_grid(T::lit(ts), "model")
 }
 
 impl<T: Real, G: GreyBox> ModelStructure<T> for AutoDiff<G> {

@@ -12,7 +12,7 @@ mod output;
 mod rational;
 
 pub use delay::{Delayed, remove_delay};
-pub use modal::{Modal, ModalDomain, ModalParts};
+pub use modal::{Modal, ModalParts};
 pub use noise::{NoiseModel, WithNoiseModel};
 pub use output::Output;
 pub use rational::{Domain, Rational};

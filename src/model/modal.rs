@@ -13,27 +13,6 @@ use crate::scalar::{Complex, Real};
 use nalgebra::{DMatrix, DVector};
 use num_traits::Float;
 
-/// How a [`Modal`] model is matched to the data.
-#[derive(Debug, Clone, Copy, PartialEq)]
-#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
-pub enum ModalDomain<T: Real> {
-    /// G_c evaluated at s = iω: the route for band-limited (e.g. multisine) excitation,
-    /// McKelvey eq. 9.
-    Continuous,
-    /// The ZOH-sampled discrete-time model, exact at the samples for an input held
-    /// constant between them (McKelvey section 2.3): each mode r/(s − p) becomes
-    ///
-    /// ```text
-    /// G_d(z) = (r/p)(e^{pTs} − 1) z⁻¹ / (1 − e^{pTs} z⁻¹),   z = e^{iωTs},
-    /// ```
-    ///
-    /// (→ r Ts z⁻¹/(1 − z⁻¹) as p → 0), the direct term d unchanged.
-    Zoh {
-        /// Sample time (s).
-        ts: T,
-    },
-}
-
 /// A continuous-time model in pole–residue (modal) form,
 ///
 /// ```text
@@ -41,8 +20,19 @@ pub enum ModalDomain<T: Real> {
 /// ```
 ///
 /// with `n_real` real poles, `n_pairs` complex-conjugate pairs and an optional direct term
-/// d, evaluated in the [`ModalDomain`]: at s = iω (McKelvey eq. 9) or ZOH-sampled
-/// (section 2.3). Parameter layout:
+/// d, evaluated in its [`Domain`]:
+/// - [`Domain::Continuous`]: G_c at s = iω, the route for band-limited (e.g. multisine)
+///   excitation (McKelvey eq. 9);
+/// - [`Domain::Discrete`]: the ZOH-sampled discrete-time model, exact at the samples for an
+///   input held constant between them (section 2.3): each mode r/(s − p) becomes
+///
+///   ```text
+///   G_d(z) = (r/p)(e^{pTs} − 1) z⁻¹ / (1 − e^{pTs} z⁻¹),   z = e^{iωTs},
+///   ```
+///
+///   (→ r Ts z⁻¹/(1 − z⁻¹) as p → 0), the direct term d unchanged.
+///
+/// Parameter layout:
 ///
 /// ```text
 /// θ = [p₁, r₁, …, p_{n_real}, r_{n_real},            per real pole
@@ -98,7 +88,7 @@ pub struct Modal<T: Real> {
     n_real: usize,
     n_pairs: usize,
     direct: bool,
-    domain: ModalDomain<T>,
+    domain: Domain<T>,
     /// Sample time of the transient term, when there is one.
     transient: Option<T>,
 }
@@ -226,13 +216,8 @@ impl<T: Real> Modal<T> {
     ///
     /// # Errors
     /// No pole (`n_real + n_pairs = 0`), an order `n_real + 2·n_pairs` above
-    /// `usize::MAX / 8`; for [`ModalDomain::Zoh`], `ts` not positive and finite.
-    pub fn new(
-        n_real: usize,
-        n_pairs: usize,
-        direct: bool,
-        domain: ModalDomain<T>,
-    ) -> Result<Self> {
+    /// `usize::MAX / 8`; for [`Domain::Discrete`], `ts` not positive and finite.
+    pub fn new(n_real: usize, n_pairs: usize, direct: bool, domain: Domain<T>) -> Result<Self> {
         let order = n_pairs.checked_mul(2).and_then(|p| p.checked_add(n_real));
         if order.is_none_or(|o| o > super::MAX_DEGREE) {
             return Err(FdidError::InvalidArgument {
@@ -248,7 +233,7 @@ impl<T: Real> Modal<T> {
                 reason: "a modal model needs at least one pole".into(),
             });
         }
-        if let ModalDomain::Zoh { ts } = domain {
+        if let Domain::Discrete { ts } = domain {
             check_sample_time("ts", ts)?;
         }
         Ok(Self {
@@ -260,20 +245,20 @@ impl<T: Real> Modal<T> {
         })
     }
 
-    /// A model evaluated at s = iω ([`ModalDomain::Continuous`]).
+    /// A model evaluated at s = iω ([`Domain::Continuous`]).
     ///
     /// # Errors
     /// As [`Modal::new`].
     pub fn continuous(n_real: usize, n_pairs: usize, direct: bool) -> Result<Self> {
-        Self::new(n_real, n_pairs, direct, ModalDomain::Continuous)
+        Self::new(n_real, n_pairs, direct, Domain::Continuous)
     }
 
-    /// A ZOH-sampled model with sample time `ts` ([`ModalDomain::Zoh`]).
+    /// A ZOH-sampled model with sample time `ts` ([`Domain::Discrete`]).
     ///
     /// # Errors
     /// As [`Modal::new`].
     pub fn zoh(n_real: usize, n_pairs: usize, direct: bool, ts: T) -> Result<Self> {
-        Self::new(n_real, n_pairs, direct, ModalDomain::Zoh { ts })
+        Self::new(n_real, n_pairs, direct, Domain::Discrete { ts })
     }
 
     /// The same model with the transient term T(z) = Σ τ/(1 − e^{pTs}z⁻¹) of a record
@@ -284,8 +269,8 @@ impl<T: Real> Modal<T> {
     /// `ts` not positive and finite, or, for a ZOH model, different from its sample time.
     pub fn with_transient(mut self, ts: T) -> Result<Self> {
         check_sample_time("ts", ts)?;
-        if let ModalDomain::Zoh { ts: own } = self.domain
-            && !(Float::abs(ts - own) <= own * T::lit(1e-6))
+        if let Domain::Discrete { ts: own } = self.domain
+            && !(Float::abs(ts - own) <= own * T::lit(crate::data::SAMPLE_TIME_TOLERANCE))
         {
             return Err(FdidError::InvalidArgument {
                 name: "ts",
@@ -318,7 +303,7 @@ impl<T: Real> Modal<T> {
     }
 
     /// The domain.
-    pub fn domain(&self) -> ModalDomain<T> {
+    pub fn domain(&self) -> Domain<T> {
         self.domain
     }
 
@@ -459,16 +444,16 @@ impl<T: Real> Modal<T> {
     fn pole_terms(&self, p: Complex<T>) -> PoleTerms<T> {
         let one = Complex::new(T::one(), T::zero());
         let (e, de, lam) = match self.domain {
-            ModalDomain::Zoh { ts } => {
+            Domain::Discrete { ts } => {
                 let (f, fp, em1) = zoh_kernel(p * ts);
                 (f * ts, fp * (ts * ts), em1 + one)
             }
-            ModalDomain::Continuous => (one, Complex::new(T::zero(), T::zero()), one),
+            Domain::Continuous => (one, Complex::new(T::zero(), T::zero()), one),
         };
         let lam_t = match (self.domain, self.transient) {
-            (ModalDomain::Zoh { .. }, _) => lam,
-            (ModalDomain::Continuous, Some(ts)) => expm1_complex(p * ts) + one,
-            (ModalDomain::Continuous, None) => one,
+            (Domain::Discrete { .. }, _) => lam,
+            (Domain::Continuous, Some(ts)) => expm1_complex(p * ts) + one,
+            (Domain::Continuous, None) => one,
         };
         PoleTerms {
             p,
@@ -516,8 +501,8 @@ impl<T: Real> Modal<T> {
         Vars {
             s: Complex::new(T::zero(), omega),
             w: match self.domain {
-                ModalDomain::Zoh { ts } => zinv(ts),
-                ModalDomain::Continuous => one,
+                Domain::Discrete { ts } => zinv(ts),
+                Domain::Continuous => one,
             },
             w_t: self.transient.map_or(one, zinv),
         }
@@ -529,11 +514,11 @@ impl<T: Real> Modal<T> {
     #[inline]
     fn g_basis(&self, t: &PoleTerms<T>, v: &Vars<T>) -> (Complex<T>, Complex<T>) {
         match self.domain {
-            ModalDomain::Continuous => {
+            Domain::Continuous => {
                 let b = (v.s - t.p).inv();
                 (b, b * b)
             }
-            ModalDomain::Zoh { ts } => {
+            Domain::Discrete { ts } => {
                 let one = Complex::new(T::one(), T::zero());
                 let q = (one - t.lam * v.w).inv();
                 let wq = v.w * q;
@@ -594,35 +579,6 @@ impl<T: Real> Modal<T> {
     fn residue_at(m: &Mode<T>) -> usize {
         if m.pair { m.at + 2 } else { m.at + 1 }
     }
-
-    /// Checks the data's sample time against `ts` (named `what`) and the lines against its
-    /// Nyquist frequency.
-    fn check_ts_against(data: &FrequencyData<T>, ts: T, what: &str) -> Result<()> {
-        if let Some(dts) = data.ts()
-            && !(Float::abs(dts - ts) <= ts * T::lit(1e-6))
-        {
-            return Err(FdidError::InvalidArgument {
-                name: "ts",
-                value: format!("{dts}"),
-                reason: format!("the data's sample time differs from the {what}'s ({ts})"),
-            });
-        }
-        let nyquist = T::pi() / ts;
-        if let Some(w) = data
-            .omega()
-            .iter()
-            .find(|w| **w > nyquist * (T::one() + T::lit(1e-9)))
-        {
-            return Err(FdidError::InvalidArgument {
-                name: "omega",
-                value: format!("{w} rad/s"),
-                reason: format!(
-                    "above the Nyquist frequency {nyquist} rad/s of the {what}'s Ts = {ts} s"
-                ),
-            });
-        }
-        Ok(())
-    }
 }
 
 impl<T: Real> ModelStructure<T> for Modal<T> {
@@ -639,7 +595,7 @@ impl<T: Real> ModelStructure<T> for Modal<T> {
         2 * self.n_real + 4 * self.n_pairs + usize::from(self.direct) + transient
     }
 
-    /// G_c(iω) or the ZOH-sampled G_d(e^{iωTs}) (see [`ModalDomain`]).
+    /// G_c(iω) or the ZOH-sampled G_d(e^{iωTs}) (see [`Domain`]).
     fn response_into(&self, theta: &[T], omega: &[T], out: &mut [Complex<T>]) {
         let modes = self.modes(theta);
         let d = self.direct_index().map_or_else(T::zero, |i| theta[i]);
@@ -720,7 +676,7 @@ impl<T: Real> ModelStructure<T> for Modal<T> {
     /// model's, or lines above its Nyquist frequency.
     fn check_data(&self, data: &FrequencyData<T>) -> Result<()> {
         super::check_line_count(self.n_params(), data.len())?;
-        let sampled = matches!(self.domain, ModalDomain::Zoh { .. }) || self.transient.is_some();
+        let sampled = matches!(self.domain, Domain::Discrete { .. }) || self.transient.is_some();
         if sampled && data.mixed_sample_times() {
             return Err(FdidError::InvalidArgument {
                 name: "ts",
@@ -730,11 +686,11 @@ impl<T: Real> ModelStructure<T> for Modal<T> {
                     .into(),
             });
         }
-        if let ModalDomain::Zoh { ts } = self.domain {
-            Self::check_ts_against(data, ts, "ZOH model")?;
+        if let Domain::Discrete { ts } = self.domain {
+            data.check_sampled_grid(ts, "ZOH model")?;
         }
         if let Some(ts) = self.transient {
-            Self::check_ts_against(data, ts, "transient")?;
+            data.check_sampled_grid(ts, "transient")?;
         }
         Ok(())
     }

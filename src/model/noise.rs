@@ -390,7 +390,7 @@ impl<T: Real, M: ModelStructure<T>> ModelStructure<T> for WithNoiseModel<M> {
             reason: "a noise model H(z) is discrete time: the data need a sample time".into(),
         })?;
         let own = T::lit(self.noise.ts);
-        if Float::abs(ts - own) > own * T::lit(1e-6) {
+        if Float::abs(ts - own) > own * T::lit(crate::data::SAMPLE_TIME_TOLERANCE) {
             return Err(FdidError::InvalidArgument {
                 name: "ts",
                 value: format!("{ts}"),

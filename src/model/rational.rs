@@ -699,23 +699,10 @@ impl<T: Real> ModelStructure<T> for Rational<T> {
             });
         }
         if let (Some(ts), PolyBasis::PartialFractions { .. }) = (self.transient, &self.basis) {
-            check_transient_data(ts, data)?;
-        }
-        if let (PolyBasis::DelayPowers { ts }, Some(dts)) = (&self.basis, data.ts()) {
-            let rel = Float::abs(*ts - dts) / *ts;
-            if rel > T::lit(1e-6) {
-                return Err(FdidError::InvalidArgument {
-                    name: "ts",
-                    value: format!("{dts}"),
-                    reason: format!(
-                        "the data's sample time differs from the model's ({ts}); merge \
-                         experiments with different sample times into a continuous-time model"
-                    ),
-                });
-            }
+            data.check_sampled_grid(ts, "transient")?;
         }
         if let PolyBasis::DelayPowers { ts } = &self.basis {
-            check_below_nyquist(*ts, data)?;
+            data.check_sampled_grid(*ts, "model")?;
         }
         Ok(())
     }
@@ -866,44 +853,6 @@ impl<T: Real> PolesZeros<T> for Rational<T> {
             }
         }
     }
-}
-
-/// Checks sampled data against the transient's sample time: the same Ts (when the data
-/// carry one) and no line above the Nyquist frequency.
-fn check_transient_data<T: Real>(ts: T, data: &FrequencyData<T>) -> Result<()> {
-    if let Some(dts) = data.ts()
-        && Float::abs(ts - dts) > ts * T::lit(1e-6)
-    {
-        return Err(FdidError::InvalidArgument {
-            name: "ts",
-            value: format!("{dts}"),
-            reason: format!("the data's sample time differs from the transient's ({ts})"),
-        });
-    }
-    check_below_nyquist(ts, data)
-}
-
-/// Fails naming the first line above the Nyquist frequency π/Ts.
-fn check_below_nyquist<T: Real>(ts: T, data: &FrequencyData<T>) -> Result<()> {
-    let nyquist = T::pi() / ts;
-    if let Some(w) = data
-        .omega()
-        .iter()
-        .find(|w| **w > nyquist * (T::one() + nyquist_slack::<T>()))
-    {
-        return Err(FdidError::InvalidArgument {
-            name: "omega",
-            value: format!("{w} rad/s"),
-            reason: format!("above the Nyquist frequency {nyquist} rad/s of Ts = {ts} s"),
-        });
-    }
-    Ok(())
-}
-
-/// Relative slack on the Nyquist frequency for rounding of line frequencies (e.g. the
-/// Nyquist line of a DFT converted to f32).
-fn nyquist_slack<T: Real>() -> T {
-    Float::max(T::lit(1e-9), T::default_epsilon() * T::lit(64.0))
 }
 
 /// The smallest positive and the largest frequency of `omega`, when some is positive.

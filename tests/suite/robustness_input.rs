@@ -5,7 +5,7 @@
 use fdid::data::PeriodicAverage;
 use fdid::io::parse_csv;
 use fdid::ltv::{Lines, LtvOde};
-use fdid::model::{ModalDomain, NoiseModel};
+use fdid::model::{Domain, NoiseModel};
 use fdid::prelude::*;
 use fdid::workflow::{Context, ModelSpec, Workflow, fit_spec};
 use std::fmt::Debug;
@@ -418,7 +418,7 @@ fn model_constructors_reject_each_bad_input() {
         );
         check(
             "ZOH modal model, bad Ts",
-            Modal::new(1, 1, false, ModalDomain::Zoh { ts }),
+            Modal::new(1, 1, false, Domain::Discrete { ts }),
             is!(FdidError::InvalidArgument { name: "ts", .. }),
             &[&format!("{ts}")],
         );
