@@ -6,9 +6,10 @@
 //! [`FlexibleModes`] (any number, zero included) in a [`Product`], followed by an optional
 //! [`crate::Delayed`]. One type keeps the report's fit (and [`crate::estimate::greybox::physical_values`]
 //! for described models) independent of the steps taken.
-use super::finding::{Context, Effect, Finding, Remedy};
+use super::finding::{Context, Effect, Finding};
+use super::hypothesis::Hypothesis;
 use super::spec::SpecFit;
-use super::{Report, Step, Workflow, better, consistent, lr_accept};
+use super::{Report, Workflow, consistent};
 use crate::criterion::MaximumLikelihood;
 use crate::data::FrequencyData;
 use crate::error::{FdidError, Result};
@@ -247,11 +248,49 @@ impl<M: ModelStructure<f64>> ModelReport<M> {
     }
 }
 
-/// A fitted augmented model and its reduction.
-struct State<M> {
+/// A user's structure augmented by composition, with its fit and reduction: the
+/// [`Hypothesis`] of [`Workflow::run_model`].
+pub struct AugmentedFit<M> {
     model: Augmented<M>,
     fit: Fit<f64, Augmented<M>>,
     summary: SpecFit,
+    /// The user model's label in the reduced fits ([`SpecFit::custom`]).
+    label: String,
+}
+
+impl<M> AugmentedFit<M> {
+    /// The augmented model.
+    pub fn model(&self) -> &Augmented<M> {
+        &self.model
+    }
+
+    /// Its fit.
+    pub fn fitted(&self) -> &Fit<f64, Augmented<M>> {
+        &self.fit
+    }
+}
+
+impl<M: ModelStructure<f64> + Clone> Hypothesis for AugmentedFit<M> {
+    fn fit(&self) -> &SpecFit {
+        &self.summary
+    }
+
+    /// Output-error ML of the same augmented model from the current estimate.
+    fn refit(&self, data: &FrequencyData<f64>) -> Result<Self> {
+        fit_state(
+            self.model.clone(),
+            data,
+            &[self.fit.theta().to_vec()],
+            &self.label,
+        )
+    }
+
+    /// A delay or a flexible mode, from the starts of [`Workflow::run_model`]; `None` for
+    /// the effects that need the rational parameterisation.
+    fn augment(&self, data: &FrequencyData<f64>, finding: &Finding) -> Option<Result<Self>> {
+        let (model, starts) = proposal(data, self, finding)?;
+        Some(fit_state(model, data, &starts, &self.label))
+    }
 }
 
 /// The ω_z/ω_p ratios of the starts of a new flexible mode.
@@ -353,66 +392,18 @@ impl Workflow {
         crate::error::check_finite("theta0", theta0)?;
         model.check_data(data)?;
         let label = short_type_name(std::any::type_name::<M>());
-        let original = data;
-        let mut data = data.clone();
-        let mut current = fit_state(Augmented::new(model), &data, &[theta0.to_vec()], &label)?;
-        let initial_fit = current.summary.clone();
-        let mut step_fits = Vec::new();
-        let mut steps = Vec::new();
-        let mut acted: Vec<Effect> = Vec::new();
-        let mut unmodelled = Vec::new();
-        let mut criterion_findings = Vec::new();
-        let mut cost_only = false;
-        while steps.len() < self.max_steps {
-            match self.model_measurement_step(&data, &current, &ctx, &acted, &label) {
-                Some(Measured::Refitted(step, next, new_data)) => {
-                    acted.push(step.effect);
-                    unmodelled.push(step.effect);
-                    cost_only = true;
-                    steps.push(step);
-                    data = new_data;
-                    current = *next;
-                    step_fits.push(current.summary.clone());
-                    continue;
-                }
-                Some(Measured::NotAbsorbed(step)) => {
-                    unmodelled.push(step.effect);
-                    steps.push(step);
-                    step_fits.push(current.summary.clone());
-                    break;
-                }
-                Some(Measured::Criterion(finding)) => {
-                    acted.push(finding.effect);
-                    criterion_findings.push(finding);
-                    continue;
-                }
-                None => {}
-            }
-            let strict = if consistent(&current.summary, alpha, cost_only) {
-                if current.summary.validation.cost_p.is_some() || cost_only {
-                    break;
-                }
-                true
-            } else {
-                false
-            };
-            let Some((step, next)) =
-                self.model_structural_step(&data, &current, &ctx, strict, &label)
-            else {
-                break;
-            };
-            steps.push(step);
-            current = next;
-            step_fits.push(current.summary.clone());
-        }
-        let consistent_now = consistent(&current.summary, alpha, cost_only);
-        let mut not_added = criterion_findings;
-        if !(consistent_now && (current.summary.validation.cost_p.is_some() || cost_only)) {
+        let start = fit_state(Augmented::new(model), data, &[theta0.to_vec()], &label)?;
+        let initial_fit = start.summary.clone();
+        let run = self.explore(data, start, &ctx);
+        let current = run.current;
+        let consistent_now = consistent(&current.summary, alpha, run.cost_only);
+        let mut not_added = run.not_switched;
+        if !(consistent_now && (current.summary.validation.cost_p.is_some() || run.cost_only)) {
             let structural: Vec<Finding> = self
                 .detectors
                 .iter()
                 .filter(|d| !d.measurement())
-                .filter_map(|d| d.detect(&data, &current.summary, &ctx))
+                .filter_map(|d| d.detect(&run.data, &current.summary, &ctx))
                 .collect();
             let level = if consistent_now {
                 alpha / structural.len().max(1) as f64
@@ -425,16 +416,16 @@ impl Workflow {
                     .filter(|f| f.p_value < level && !addable(f.effect)),
             );
         }
-        let remaining = self.findings(&data, &current.summary, &ctx);
+        let remaining = self.findings(&run.data, &current.summary, &ctx);
         Ok(ModelReport {
             report: Report {
-                effects: steps.iter().map(|s| s.effect).collect(),
-                steps,
+                effects: run.steps.iter().map(|s| s.effect).collect(),
+                steps: run.steps,
                 consistent_with_noise: consistent_now,
-                unmodelled,
+                unmodelled: run.unmodelled,
                 initial_fit,
-                step_fits,
-                final_data: (data.noise() != original.noise()).then_some(data),
+                step_fits: run.step_fits,
+                final_data: (run.data.noise() != data.noise()).then_some(run.data),
                 final_fit: current.summary,
                 time_varying: None,
                 remaining,
@@ -443,115 +434,6 @@ impl Workflow {
             fit: current.fit,
         })
     }
-
-    /// The most significant measurement-level finding not acted on yet (Bonferroni over
-    /// the m that apply, each at α/(2m), as in [`Workflow::run`]) with its action on a user
-    /// model.
-    fn model_measurement_step<M: ModelStructure<f64> + Clone>(
-        &self,
-        data: &FrequencyData<f64>,
-        current: &State<M>,
-        ctx: &Context,
-        acted: &[Effect],
-        label: &str,
-    ) -> Option<Measured<M>> {
-        let applicable: Vec<(&dyn super::Detector, Finding)> = self
-            .detectors
-            .iter()
-            .filter(|d| d.measurement() && !acted.contains(&d.effect()))
-            .filter_map(|d| Some((d.as_ref(), d.detect(data, &current.summary, ctx)?)))
-            .collect();
-        let level = ctx.alpha / (2 * applicable.len().max(1)) as f64;
-        let mut findings: Vec<(&dyn super::Detector, Finding)> = applicable
-            .into_iter()
-            .filter(|(_, f)| f.p_value < level)
-            .collect();
-        findings.sort_by(|a, b| a.1.p_value.total_cmp(&b.1.p_value));
-        for (detector, finding) in findings {
-            // the detector's own test accepts a measurement-level step
-            let step = |cost_after: f64| {
-                Step::new(
-                    finding.clone(),
-                    current.summary.cost,
-                    cost_after,
-                    finding.p_value,
-                )
-            };
-            match detector.remedy(data, &current.summary, ctx, &finding) {
-                Some(Remedy::NoiseReference(new_data)) => {
-                    let start = current.fit.theta().to_vec();
-                    let Ok(next) = fit_state(current.model.clone(), &new_data, &[start], label)
-                    else {
-                        continue;
-                    };
-                    return Some(Measured::Refitted(
-                        step(next.summary.cost),
-                        Box::new(next),
-                        new_data,
-                    ));
-                }
-                Some(Remedy::NotAbsorbed) => {
-                    return Some(Measured::NotAbsorbed(step(current.summary.cost)));
-                }
-                Some(Remedy::Criterion) => return Some(Measured::Criterion(finding)),
-                Some(Remedy::Refit) | None => {}
-            }
-        }
-        None
-    }
-
-    /// Refits the delay and flexible-mode proposals of the significant findings, keeps
-    /// those the likelihood-ratio test accepts (at α, or α/m when `strict`), and takes the
-    /// smallest LR p-value, then the largest cost drop per added parameter (as
-    /// [`Workflow::run`]).
-    fn model_structural_step<M: ModelStructure<f64> + Clone>(
-        &self,
-        data: &FrequencyData<f64>,
-        current: &State<M>,
-        ctx: &Context,
-        strict: bool,
-        label: &str,
-    ) -> Option<(Step, State<M>)> {
-        let all: Vec<Finding> = self
-            .detectors
-            .iter()
-            .filter(|d| !d.measurement())
-            .filter_map(|d| d.detect(data, &current.summary, ctx))
-            .collect();
-        let alpha = if strict {
-            ctx.alpha / all.len().max(1) as f64
-        } else {
-            ctx.alpha
-        };
-        let now = &current.summary;
-        let mut accepted: Option<(Finding, State<M>, f64, f64)> = None;
-        for finding in all.into_iter().filter(|f| f.p_value < ctx.alpha) {
-            let Some((model, starts)) = proposal(data, current, &finding) else {
-                continue;
-            };
-            let Ok(next) = fit_state(model, data, &starts, label) else {
-                continue;
-            };
-            let Some((p, gain)) = lr_accept(now, &next.summary, data.len(), alpha) else {
-                continue;
-            };
-            if better(accepted.as_ref().map(|(_, _, p, g)| (*p, *g)), p, gain) {
-                accepted = Some((finding, next, p, gain));
-            }
-        }
-        let (finding, next, lr_p, _) = accepted?;
-        Some((Step::new(finding, now.cost, next.summary.cost, lr_p), next))
-    }
-}
-
-/// What a measurement-level finding does to a user model's workflow.
-enum Measured<M> {
-    /// A new noise reference: the step, the refit on the new data, the data.
-    Refitted(Step, Box<State<M>>, FrequencyData<f64>),
-    /// Outside the model class: named, the refinement stops.
-    NotAbsorbed(Step),
-    /// A criterion switch the user-model route does not make.
-    Criterion(Finding),
 }
 
 /// Whether the workflow can add `effect` to any model structure.
@@ -563,7 +445,7 @@ fn addable(effect: Effect) -> bool {
 /// addable (or the delay is in already).
 fn proposal<M: ModelStructure<f64> + Clone>(
     data: &FrequencyData<f64>,
-    current: &State<M>,
+    current: &AugmentedFit<M>,
     finding: &Finding,
 ) -> Option<(Augmented<M>, Vec<Vec<f64>>)> {
     let theta = current.fit.theta();
@@ -643,7 +525,7 @@ fn fit_state<M: ModelStructure<f64> + Clone>(
     data: &FrequencyData<f64>,
     starts: &[Vec<f64>],
     label: &str,
-) -> Result<State<M>> {
+) -> Result<AugmentedFit<M>> {
     let ml = MaximumLikelihood::default();
     let lm = LevenbergMarquardt::default();
     let mut best: Option<crate::solver::Solution<f64>> = None;
@@ -686,10 +568,11 @@ fn fit_state<M: ModelStructure<f64> + Clone>(
         name.push_str(" × delay");
     }
     let summary = SpecFit::from_fit(&spec, &fit, data)?.with_custom(&name);
-    Ok(State {
+    Ok(AugmentedFit {
         model,
         fit,
         summary,
+        label: label.to_string(),
     })
 }
 

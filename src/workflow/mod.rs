@@ -61,6 +61,7 @@ mod bands;
 mod custom;
 pub mod detectors;
 mod finding;
+mod hypothesis;
 pub mod lrt;
 mod revise;
 mod segments;
@@ -68,9 +69,11 @@ mod spec;
 
 pub use crate::estimate::{DelayRange, Method, ModelSpec};
 pub use bands::{Band, disagreement_bands};
-pub use custom::{Augmented, ModelReport};
+pub use custom::{Augmented, AugmentedFit, ModelReport};
 pub use detectors::TimeVarying;
 pub use finding::{Context, Detail, Detector, Effect, Finding, PeriodicRecord, Remedy};
+use hypothesis::Exploration;
+pub use hypothesis::Hypothesis;
 pub use segments::{SegmentResult, segment_disagreement};
 pub use spec::{SpecFit, fit_spec};
 
@@ -346,66 +349,16 @@ impl Workflow {
         }
         let initial_fit = fit_spec(&start, data)?;
         let original = data;
-        let mut data = data.clone();
-        let mut step_fits = Vec::new();
-        let mut current = initial_fit.clone();
-        let mut steps = Vec::new();
-        let mut acted: Vec<Effect> = Vec::new();
-        let mut unmodelled = Vec::new();
-        let mut time_varying: Option<(TimeVarying, usize)> = None;
-        // after a noise + distortion reference only the cost test applies (see `consistent`)
-        let mut cost_only = false;
-        while steps.len() < self.max_steps {
-            if let Some(MeasurementStep {
-                step,
-                next,
-                data: new_data,
-                absorbed,
-                piecewise,
-            }) = self.measurement_step(&data, &current, &ctx, &acted)
-            {
-                if let Some(tv) = piecewise {
-                    let segments = tv.segments.len();
-                    time_varying = Some((tv, segments));
-                }
-                acted.push(step.effect);
-                cost_only |= step.acceptance() == Acceptance::NoiseReference;
-                if !absorbed {
-                    unmodelled.push(step.effect);
-                }
-                let stop = next.is_none();
-                steps.push(step);
-                if let Some(d) = new_data {
-                    data = d;
-                }
-                if let Some(next) = next {
-                    current = next;
-                }
-                step_fits.push(current.clone());
-                if stop {
-                    break;
-                }
-                continue;
-            }
-            // without a cost test (the noise level estimated, or sample variances of too
-            // few periods) a passing whiteness test is weak evidence (a missing delay
-            // leaves white residuals): the structural proposals are still tried, each
-            // likelihood-ratio test at α/m (Bonferroni over the m proposals)
-            let strict = if consistent(&current, alpha, cost_only) {
-                if current.validation.cost_p.is_some() || cost_only {
-                    break;
-                }
-                true
-            } else {
-                false
-            };
-            let Some((step, next)) = self.structural_step(&data, &current, &ctx, strict) else {
-                break;
-            };
-            steps.push(step);
-            current = next;
-            step_fits.push(current.clone());
-        }
+        let Exploration {
+            mut steps,
+            mut step_fits,
+            mut current,
+            data,
+            mut unmodelled,
+            cost_only,
+            mut time_varying,
+            ..
+        } = self.explore(data, initial_fit.clone(), &ctx);
         let spec_before = current.spec.clone();
         self.revise(&data, &ctx, &mut steps, &mut step_fits, &mut current);
         // a revised structure: the segment models of the final spec
@@ -456,142 +409,6 @@ impl Workflow {
             .filter_map(|d| d.detect(data, fit, ctx))
             .collect()
     }
-
-    /// The most significant measurement-level finding not acted on yet whose remedy
-    /// succeeds, as a step.
-    fn measurement_step(
-        &self,
-        data: &FrequencyData<f64>,
-        current: &SpecFit,
-        ctx: &Context,
-        acted: &[Effect],
-    ) -> Option<MeasurementStep> {
-        let applicable: Vec<(&dyn Detector, Finding)> = self
-            .detectors
-            .iter()
-            .filter(|d| d.measurement() && !acted.contains(&d.effect()))
-            .filter_map(|d| Some((d.as_ref(), d.detect(data, current, ctx)?)))
-            .collect();
-        // these tests run whatever the fit's consistency: each at α/(2m) over the m that
-        // apply (Bonferroni) keeps their family-wise false-alarm rate at most α/2, the
-        // other half going to the structural steps (gated by the consistency tests)
-        let level = ctx.alpha / (2 * applicable.len().max(1)) as f64;
-        let mut findings: Vec<(&dyn Detector, Finding)> = applicable
-            .into_iter()
-            .filter(|(_, f)| f.p_value < level)
-            .collect();
-        findings.sort_by(|a, b| a.1.p_value.total_cmp(&b.1.p_value));
-        for (detector, finding) in findings {
-            // the detector's own test accepts a measurement-level step
-            let step = |cost_after: f64| {
-                Step::new(finding.clone(), current.cost, cost_after, finding.p_value)
-            };
-            match detector.remedy(data, current, ctx, &finding) {
-                Some(Remedy::Criterion) => {
-                    let Ok(next) = fit_spec(&finding.proposal, data) else {
-                        continue;
-                    };
-                    if !(negative_log_likelihood(&next) < negative_log_likelihood(current)) {
-                        continue;
-                    }
-                    return Some(MeasurementStep {
-                        step: step(next.cost),
-                        next: Some(next),
-                        data: None,
-                        absorbed: true,
-                        piecewise: None,
-                    });
-                }
-                Some(Remedy::NoiseReference(new_data)) => {
-                    let Ok(next) = fit_spec(&current.spec, &new_data) else {
-                        continue;
-                    };
-                    return Some(MeasurementStep {
-                        step: step(next.cost),
-                        next: Some(next),
-                        data: Some(new_data),
-                        absorbed: false,
-                        piecewise: None,
-                    });
-                }
-                Some(Remedy::NotAbsorbed) => {
-                    // the switch to the piecewise time-invariant model, kept by the F test
-                    // of the common model against the segment models at α
-                    if let Some(segments) = detector.piecewise_segments()
-                        && let Ok(Some(tv)) = detectors::piecewise_model(current, ctx, segments)
-                        && tv.lr_p < ctx.alpha
-                    {
-                        let mut step =
-                            Step::new(finding.clone(), tv.cost_before, tv.cost_after, tv.lr_p);
-                        step.piecewise = true;
-                        return Some(MeasurementStep {
-                            step,
-                            next: None,
-                            data: None,
-                            absorbed: tv.consistent_with_noise(ctx.alpha),
-                            piecewise: Some(tv),
-                        });
-                    }
-                    return Some(MeasurementStep {
-                        step: step(current.cost),
-                        next: None,
-                        data: None,
-                        absorbed: false,
-                        piecewise: None,
-                    });
-                }
-                Some(Remedy::Refit) | None => {}
-            }
-        }
-        None
-    }
-
-    /// Refits every structural proposal; keeps those the likelihood-ratio test accepts (at
-    /// α, or α/m over the m detectors when `strict`) and
-    /// takes the one that explains most: smallest LR p-value, then (when p-values
-    /// underflow) the largest cost drop per added parameter.
-    fn structural_step(
-        &self,
-        data: &FrequencyData<f64>,
-        current: &SpecFit,
-        ctx: &Context,
-        strict: bool,
-    ) -> Option<(Step, SpecFit)> {
-        let all: Vec<Finding> = self
-            .detectors
-            .iter()
-            .filter(|d| !d.measurement())
-            .filter_map(|d| d.detect(data, current, ctx))
-            .collect();
-        let alpha = if strict {
-            ctx.alpha / all.len().max(1) as f64
-        } else {
-            ctx.alpha
-        };
-        let findings: Vec<Finding> = all
-            .into_iter()
-            .filter(|f| f.p_value < ctx.alpha && f.proposal != current.spec)
-            .collect();
-        let mut accepted: Option<(Finding, SpecFit, f64, f64)> = None;
-        for finding in findings {
-            let Ok(next) = fit_spec(&finding.proposal, data) else {
-                continue;
-            };
-            // a larger model that turns a stable fit unstable explains the data with a
-            // spurious pole (e.g. a peak at the band edge): not an acceptable step
-            if next.n_params <= current.n_params || (current.is_stable() && !next.is_stable()) {
-                continue;
-            }
-            let Some((p, gain)) = lr_accept(current, &next, data.len(), alpha) else {
-                continue;
-            };
-            if better(accepted.as_ref().map(|(_, _, p, g)| (*p, *g)), p, gain) {
-                accepted = Some((finding, next, p, gain));
-            }
-        }
-        let (finding, next, lr_p, _) = accepted?;
-        Some((Step::new(finding, current.cost, next.cost, lr_p), next))
-    }
 }
 
 /// The likelihood-ratio test of `next` (more parameters) against `current` on `n` lines
@@ -638,18 +455,6 @@ pub(crate) fn better(best: Option<(f64, f64)>, p: f64, gain: f64) -> bool {
     best.is_none_or(|(bp, bg)| p < bp || (p == bp && gain > bg))
 }
 
-/// A measurement-level step: the step, the new fit (`None`: the effect is not absorbed
-/// and the refinement stops), new data (a new noise reference), and whether the model
-/// absorbs the effect.
-struct MeasurementStep {
-    step: Step,
-    next: Option<SpecFit>,
-    data: Option<FrequencyData<f64>>,
-    absorbed: bool,
-    /// The piecewise time-invariant model switched to.
-    piecewise: Option<TimeVarying>,
-}
-
 /// Whether `fit` is consistent with its noise reference at level α: the cost and
 /// whiteness tests at α/2 each ([`SpecFit::consistent_with_noise`]), or with `cost_only`
 /// the cost test alone at α. The latter is used once the reference holds nonlinear
@@ -657,7 +462,7 @@ struct MeasurementStep {
 /// frequency (a cubic term is dominated by the few peaks of the signal, whose spectrum is
 /// smooth), so the whiteness test would reject it as a model error while the residual
 /// power matches noise + distortion.
-fn consistent(fit: &SpecFit, alpha: f64, cost_only: bool) -> bool {
+pub(crate) fn consistent(fit: &SpecFit, alpha: f64, cost_only: bool) -> bool {
     if cost_only {
         fit.validation.cost_p.is_none_or(|p| p >= alpha)
     } else {
@@ -668,7 +473,7 @@ fn consistent(fit: &SpecFit, alpha: f64, cost_only: bool) -> bool {
 /// The negative log-likelihood of a fit under its own noise reference, up to a constant:
 /// Σ_k (ln|c_k|² + |r_k|²) with c_k the line's normaliser (σ_k of eq. 23 or 42), so that
 /// fits under different weightings compare.
-fn negative_log_likelihood(fit: &SpecFit) -> f64 {
+pub(crate) fn negative_log_likelihood(fit: &SpecFit) -> f64 {
     fit.scale
         .iter()
         .zip(&fit.residuals)

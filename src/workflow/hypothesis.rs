@@ -1,0 +1,340 @@
+//! The one loop of the discrepancy workflow, over any [`Hypothesis`]: the rational
+//! specification ([`SpecFit`], fitted by [`crate::estimate::ModelSpec::fit`]) or a user's
+//! model structure augmented by composition ([`super::AugmentedFit`]).
+//!
+//! Each step first runs the measurement-level detectors ([`Detector::measurement`]) and
+//! acts on the most significant finding below α/(2m) (m the number that apply:
+//! Bonferroni) whose effect was not acted on yet, by its [`Remedy`]; otherwise, while the
+//! fit is not consistent with the noise, the structural findings are added to the
+//! hypothesis ([`Hypothesis::augment`]), refitted and judged by the likelihood-ratio
+//! test; the one that explains most is kept.
+
+use super::detectors::TimeVarying;
+use super::finding::{Context, Detector, Effect, Finding, Remedy};
+use super::spec::SpecFit;
+use super::{Acceptance, Step, Workflow, better, consistent, lr_accept, negative_log_likelihood};
+use crate::data::FrequencyData;
+use crate::error::Result;
+
+/// A fitted model the workflow can test, refit and augment.
+///
+/// The rational specification implements it on its [`SpecFit`] (every effect has a
+/// proposal in [`crate::estimate::ModelSpec`]); a user's structure through
+/// [`super::AugmentedFit`] (a delay and flexible modes added by composition).
+pub trait Hypothesis: Sized {
+    /// The fit, reduced to what the detectors and the tests use.
+    fn fit(&self) -> &SpecFit;
+
+    /// The same structure refitted on `data` (a new noise reference).
+    ///
+    /// # Errors
+    /// The estimator's.
+    fn refit(&self, data: &FrequencyData<f64>) -> Result<Self>;
+
+    /// The structure with the effect `finding` names added, fitted on `data`; `None` when
+    /// this structure cannot take it (or has it already).
+    fn augment(&self, data: &FrequencyData<f64>, finding: &Finding) -> Option<Result<Self>>;
+
+    /// The structure under the criterion `finding` proposes (errors-in-variables), fitted
+    /// on `data`; `None` (the default) when the structure does not switch criteria: the
+    /// finding is then reported as not added.
+    fn switch_criterion(
+        &self,
+        data: &FrequencyData<f64>,
+        finding: &Finding,
+    ) -> Option<Result<Self>> {
+        let _ = (data, finding);
+        None
+    }
+
+    /// The piecewise time-invariant model of the structure on `segments` time segments
+    /// ([`super::detectors::piecewise_model`]), `None` (the default) when it has none.
+    fn piecewise(&self, ctx: &Context, segments: usize) -> Option<TimeVarying> {
+        let _ = (ctx, segments);
+        None
+    }
+}
+
+impl Hypothesis for SpecFit {
+    fn fit(&self) -> &SpecFit {
+        self
+    }
+
+    fn refit(&self, data: &FrequencyData<f64>) -> Result<Self> {
+        super::fit_spec(&self.spec, data)
+    }
+
+    /// The finding's proposal ([`Finding::proposal`]) when it differs from the spec.
+    fn augment(&self, data: &FrequencyData<f64>, finding: &Finding) -> Option<Result<Self>> {
+        (finding.proposal != self.spec).then(|| super::fit_spec(&finding.proposal, data))
+    }
+
+    fn switch_criterion(
+        &self,
+        data: &FrequencyData<f64>,
+        finding: &Finding,
+    ) -> Option<Result<Self>> {
+        Some(super::fit_spec(&finding.proposal, data))
+    }
+
+    fn piecewise(&self, ctx: &Context, segments: usize) -> Option<TimeVarying> {
+        super::detectors::piecewise_model(self, ctx, segments)
+            .ok()
+            .flatten()
+    }
+}
+
+/// Where the loop of [`Workflow::explore`] ended.
+pub(crate) struct Exploration<H> {
+    /// Accepted steps in order.
+    pub steps: Vec<Step>,
+    /// The fit after each step.
+    pub step_fits: Vec<SpecFit>,
+    /// The final hypothesis.
+    pub current: H,
+    /// The data with the final noise reference.
+    pub data: FrequencyData<f64>,
+    /// Named effects the model does not absorb.
+    pub unmodelled: Vec<Effect>,
+    /// Whether only the cost test judges consistency (a noise + distortion reference).
+    pub cost_only: bool,
+    /// The piecewise time-invariant model switched to, with its number of segments.
+    pub time_varying: Option<(TimeVarying, usize)>,
+    /// Measurement-level findings whose criterion switch the structure does not make.
+    pub not_switched: Vec<Finding>,
+}
+
+/// A measurement-level step: the step, the new fit (`None`: the effect is not absorbed
+/// and the refinement stops), new data (a new noise reference), whether the model absorbs
+/// the effect, and the piecewise model switched to.
+struct MeasurementStep<H> {
+    step: Step,
+    next: Option<H>,
+    data: Option<FrequencyData<f64>>,
+    absorbed: bool,
+    piecewise: Option<TimeVarying>,
+}
+
+/// What the measurement step did.
+enum Measured<H> {
+    /// A step.
+    Step(Box<MeasurementStep<H>>),
+    /// A criterion switch the structure does not make.
+    NotSwitched(Finding),
+}
+
+impl Workflow {
+    /// The loop of the workflow from the fitted hypothesis `start` (see the module
+    /// documentation of [`super`] for the rules): at most `max_steps` steps.
+    pub(crate) fn explore<H: Hypothesis>(
+        &self,
+        data: &FrequencyData<f64>,
+        start: H,
+        ctx: &Context,
+    ) -> Exploration<H> {
+        let alpha = ctx.alpha;
+        let mut run = Exploration {
+            steps: Vec::new(),
+            step_fits: Vec::new(),
+            current: start,
+            data: data.clone(),
+            unmodelled: Vec::new(),
+            cost_only: false,
+            time_varying: None,
+            not_switched: Vec::new(),
+        };
+        let mut acted: Vec<Effect> = Vec::new();
+        while run.steps.len() < self.max_steps {
+            match self.measurement_step(&run.data, &run.current, ctx, &acted) {
+                Some(Measured::NotSwitched(finding)) => {
+                    acted.push(finding.effect);
+                    run.not_switched.push(finding);
+                    continue;
+                }
+                Some(Measured::Step(measured)) => {
+                    let MeasurementStep {
+                        step,
+                        next,
+                        data: new_data,
+                        absorbed,
+                        piecewise,
+                    } = *measured;
+                    if let Some(tv) = piecewise {
+                        let segments = tv.segments.len();
+                        run.time_varying = Some((tv, segments));
+                    }
+                    acted.push(step.effect);
+                    run.cost_only |= step.acceptance() == Acceptance::NoiseReference;
+                    if !absorbed {
+                        run.unmodelled.push(step.effect);
+                    }
+                    run.steps.push(step);
+                    if let Some(d) = new_data {
+                        run.data = d;
+                    }
+                    let stop = next.is_none();
+                    if let Some(next) = next {
+                        run.current = next;
+                    }
+                    run.step_fits.push(run.current.fit().clone());
+                    if stop {
+                        break;
+                    }
+                    continue;
+                }
+                None => {}
+            }
+            // without a cost test (the noise level estimated, or sample variances of too
+            // few periods) a passing whiteness test is weak evidence (a missing delay
+            // leaves white residuals): the structural proposals are still tried, each
+            // likelihood-ratio test at α/m (Bonferroni over the m proposals)
+            let fit = run.current.fit();
+            let strict = if consistent(fit, alpha, run.cost_only) {
+                if fit.validation.cost_p.is_some() || run.cost_only {
+                    break;
+                }
+                true
+            } else {
+                false
+            };
+            let Some((step, next)) = self.structural_step(&run.data, &run.current, ctx, strict)
+            else {
+                break;
+            };
+            run.steps.push(step);
+            run.current = next;
+            run.step_fits.push(run.current.fit().clone());
+        }
+        run
+    }
+
+    /// The most significant measurement-level finding not acted on yet whose remedy
+    /// succeeds: each applicable test at α/(2m) over the m that apply (Bonferroni), so
+    /// that together they raise a false alarm with probability at most α/2, the other half
+    /// going to the structural steps (gated by the consistency tests).
+    fn measurement_step<H: Hypothesis>(
+        &self,
+        data: &FrequencyData<f64>,
+        current: &H,
+        ctx: &Context,
+        acted: &[Effect],
+    ) -> Option<Measured<H>> {
+        let fit = current.fit();
+        let applicable: Vec<(&dyn Detector, Finding)> = self
+            .detectors
+            .iter()
+            .filter(|d| d.measurement() && !acted.contains(&d.effect()))
+            .filter_map(|d| Some((d.as_ref(), d.detect(data, fit, ctx)?)))
+            .collect();
+        let level = ctx.alpha / (2 * applicable.len().max(1)) as f64;
+        let mut findings: Vec<(&dyn Detector, Finding)> = applicable
+            .into_iter()
+            .filter(|(_, f)| f.p_value < level)
+            .collect();
+        findings.sort_by(|a, b| a.1.p_value.total_cmp(&b.1.p_value));
+        for (detector, finding) in findings {
+            // the detector's own test accepts a measurement-level step
+            let step =
+                |cost_after: f64| Step::new(finding.clone(), fit.cost, cost_after, finding.p_value);
+            let measured = |step, next, data, absorbed| {
+                Measured::Step(Box::new(MeasurementStep {
+                    step,
+                    next,
+                    data,
+                    absorbed,
+                    piecewise: None,
+                }))
+            };
+            match detector.remedy(data, fit, ctx, &finding) {
+                Some(Remedy::Criterion) => {
+                    // kept when the full negative log-likelihood Σ(ln|c_k|² + |r_k|²)
+                    // decreases
+                    let Some(switched) = current.switch_criterion(data, &finding) else {
+                        return Some(Measured::NotSwitched(finding));
+                    };
+                    let Ok(next) = switched else { continue };
+                    if !(negative_log_likelihood(next.fit()) < negative_log_likelihood(fit)) {
+                        continue;
+                    }
+                    let cost = next.fit().cost;
+                    return Some(measured(step(cost), Some(next), None, true));
+                }
+                Some(Remedy::NoiseReference(new_data)) => {
+                    let Ok(next) = current.refit(&new_data) else {
+                        continue;
+                    };
+                    let cost = next.fit().cost;
+                    return Some(measured(step(cost), Some(next), Some(new_data), false));
+                }
+                Some(Remedy::NotAbsorbed) => {
+                    // the switch to the piecewise time-invariant model, kept by the F test
+                    // of the common model against the segment models at α
+                    if let Some(segments) = detector.piecewise_segments()
+                        && let Some(tv) = current.piecewise(ctx, segments)
+                        && tv.lr_p < ctx.alpha
+                    {
+                        let mut step =
+                            Step::new(finding.clone(), tv.cost_before, tv.cost_after, tv.lr_p);
+                        step.piecewise = true;
+                        return Some(Measured::Step(Box::new(MeasurementStep {
+                            step,
+                            next: None,
+                            data: None,
+                            absorbed: tv.consistent_with_noise(ctx.alpha),
+                            piecewise: Some(tv),
+                        })));
+                    }
+                    return Some(measured(step(fit.cost), None, None, false));
+                }
+                Some(Remedy::Refit) | None => {}
+            }
+        }
+        None
+    }
+
+    /// Adds every significant structural finding to the hypothesis; keeps those the
+    /// likelihood-ratio test accepts (at α, or α/m over the m detectors when `strict`)
+    /// and takes the one that explains most: smallest LR p-value, then (when p-values
+    /// underflow) the largest cost drop per added parameter. A larger model that turns a
+    /// stable fit unstable explains the data with a spurious pole (e.g. a peak at the
+    /// band edge): not an acceptable step.
+    fn structural_step<H: Hypothesis>(
+        &self,
+        data: &FrequencyData<f64>,
+        current: &H,
+        ctx: &Context,
+        strict: bool,
+    ) -> Option<(Step, H)> {
+        let now = current.fit();
+        let all: Vec<Finding> = self
+            .detectors
+            .iter()
+            .filter(|d| !d.measurement())
+            .filter_map(|d| d.detect(data, now, ctx))
+            .collect();
+        let alpha = if strict {
+            ctx.alpha / all.len().max(1) as f64
+        } else {
+            ctx.alpha
+        };
+        let mut accepted: Option<(Finding, H, f64, f64)> = None;
+        for finding in all.into_iter().filter(|f| f.p_value < ctx.alpha) {
+            let Some(Ok(next)) = current.augment(data, &finding) else {
+                continue;
+            };
+            let fit = next.fit();
+            if fit.n_params <= now.n_params || (now.is_stable() && !fit.is_stable()) {
+                continue;
+            }
+            let Some((p, gain)) = lr_accept(now, fit, data.len(), alpha) else {
+                continue;
+            };
+            if better(accepted.as_ref().map(|(_, _, p, g)| (*p, *g)), p, gain) {
+                accepted = Some((finding, next, p, gain));
+            }
+        }
+        let (finding, next, lr_p, _) = accepted?;
+        let cost_after = next.fit().cost;
+        Some((Step::new(finding, now.cost, cost_after, lr_p), next))
+    }
+}
