@@ -1,5 +1,8 @@
+use super::TimeVariationDetail;
 use crate::data::{PeriodicAverage, dft_lines};
-use crate::workflow::finding::{Context, Detail, Detector, Effect, Finding, Remedy};
+use crate::workflow::finding::{
+    Context, Detail, DetailFields, Detector, Effect, Finding, NamedValues, Remedy,
+};
 use crate::workflow::lrt::f_sf;
 use crate::workflow::segments::{
     check_rational, fixed_model_cost, segment_spec, split, system_params, transient_params,
@@ -477,9 +480,9 @@ fn record_fits(
 /// non-periodic record, [`Context::with_time_record`]) and sees slow changes of the
 /// dynamics whose skirts are buried in the noise. Both name
 /// [`Effect::TimeVariation`]; the workflow's default runs both as one detector,
-/// [`TimeVariationTests`]. An LTI model cannot absorb the effect ([`Remedy::NotAbsorbed`]). Proposal: the
-/// current spec unchanged. Detail: `drift_statistic` (T), `drift_dof` ((S − 1)q),
-/// `segments` (S), `largest_shift` (the largest |θ̂_s,i − θ̄_i|/√(C_s)_ii).
+/// [`TimeVariationTests`]. An LTI model cannot absorb the effect
+/// ([`Remedy::NotAbsorbed`]). Proposal: the current spec unchanged. Detail:
+/// [`TimeDriftDetail`].
 ///
 /// ```
 /// use fdid::prelude::*;
@@ -547,11 +550,12 @@ impl Detector for TimeDrift {
             effect: Effect::TimeVariation,
             statistic: drift.statistic,
             p_value: drift.p_value,
-            detail: Detail::default()
-                .with("drift_statistic", drift.statistic)
-                .with("drift_dof", drift.dof as f64)
-                .with("segments", self.segments as f64)
-                .with("largest_shift", largest),
+            detail: Detail::TimeDrift(TimeDriftDetail {
+                drift_statistic: drift.statistic,
+                drift_dof: drift.dof,
+                segments: self.segments,
+                largest_shift: largest,
+            }),
             proposal: fit.spec.clone(),
         })
     }
@@ -567,26 +571,59 @@ impl Detector for TimeDrift {
     }
 }
 
+/// The detail of a [`TimeDrift`] finding.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TimeDriftDetail {
+    /// The statistic T ([`Drift::statistic`]), named `drift_statistic`.
+    pub drift_statistic: f64,
+    /// Its degrees of freedom (S − 1)q, named `drift_dof`.
+    pub drift_dof: usize,
+    /// The number S of segments, named `segments`.
+    pub segments: usize,
+    /// The largest |θ̂_s,i − θ̄_i|/√(C_s)_ii, named `largest_shift`.
+    pub largest_shift: f64,
+}
+
+impl DetailFields for TimeDriftDetail {
+    fn entries(&self) -> Vec<(&'static str, f64)> {
+        vec![
+            ("drift_statistic", self.drift_statistic),
+            ("drift_dof", self.drift_dof as f64),
+            ("segments", self.segments as f64),
+            ("largest_shift", self.largest_shift),
+        ]
+    }
+
+    fn take_from(values: &mut NamedValues) -> Option<Self> {
+        Some(Self {
+            drift_statistic: values.take("drift_statistic")?,
+            drift_dof: values.take_count("drift_dof")?,
+            segments: values.take_count("segments")?,
+            largest_shift: values.take("largest_shift")?,
+        })
+    }
+}
+
 /// Both tests of time variation as one measurement-level detector: the skirts around the
-/// excited lines ([`TimeVariation`](super::TimeVariation), periodic records) and the
-/// parameter drift between time segments ([`TimeDrift`], periodic or non-periodic records).
+/// excited lines ([`TimeVariation`](super::TimeVariation), periodic records) and the parameter drift between
+/// time segments ([`TimeDrift`], periodic or non-periodic records).
 ///
 /// With the p-values p₁ … p_m of the tests that apply (m ≤ 2), the finding's p-value is
 /// min(1, m · min_i p_i) (Bonferroni), so that on a time-invariant system it falls below
 /// any level α with probability at most α; the workflow then tests it at α/(2m′) among its
 /// m′ measurement-level detectors, as any other. Statistic: that of the smaller p-value's
-/// test. Detail: the details of both tests (`skirt_ratio` …, `drift_statistic` …) and
-/// their p-values `skirt_p`, `drift_p`. `None` when neither applies. Remedy:
+/// test. Detail: [`TimeVariationTestsDetail`]. `None` when neither applies. Remedy:
 /// [`Remedy::NotAbsorbed`]: an LTI model cannot absorb the effect; with `piecewise` the
-/// workflow then switches to the piecewise time-invariant model ([`piecewise_model`],
-/// [`TimeVariationTests::switching`]).
+/// workflow then switches to the piecewise time-invariant model
+/// ([`piecewise_model`], [`TimeVariationTests::switching`]).
 #[derive(Debug, Clone, Copy, Default)]
 pub struct TimeVariationTests {
     /// The drift test (its number of segments).
     pub drift: TimeDrift,
     /// Whether the workflow switches to the piecewise time-invariant model on the drift
     /// test's S segments when it names the effect ([`Detector::piecewise_segments`],
-    /// [`piecewise_model`]); `false` by default (the effect is named and not absorbed).
+    /// [`piecewise_model`]); `false` by default (the effect is
+    /// named and not absorbed).
     pub piecewise: bool,
 }
 
@@ -619,20 +656,21 @@ impl Detector for TimeVariationTests {
         let skirt = super::TimeVariation.detect(data, fit, ctx);
         let drift = self.drift.detect(data, fit, ctx);
         let m = usize::from(skirt.is_some()) + usize::from(drift.is_some());
-        let mut detail = Detail::default();
-        for (name, f) in [("skirt_p", &skirt), ("drift_p", &drift)] {
-            if let Some(f) = f {
-                detail.0.extend(f.detail.0.iter().cloned());
-                detail = detail.with(name, f.p_value);
-            }
-        }
+        let detail = TimeVariationTestsDetail {
+            skirt: skirt
+                .as_ref()
+                .and_then(|f| f.detail.time_variation().copied()),
+            skirt_p: skirt.as_ref().map(|f| f.p_value),
+            drift: drift.as_ref().and_then(|f| f.detail.time_drift().copied()),
+            drift_p: drift.as_ref().map(|f| f.p_value),
+        };
         let best = [skirt, drift]
             .into_iter()
             .flatten()
             .min_by(|a, b| a.p_value.total_cmp(&b.p_value))?;
         Some(Finding {
             p_value: (best.p_value * m as f64).min(1.0),
-            detail,
+            detail: Detail::TimeVariationTests(detail),
             ..best
         })
     }
@@ -645,6 +683,53 @@ impl Detector for TimeVariationTests {
         _finding: &Finding,
     ) -> Option<Remedy> {
         Some(Remedy::NotAbsorbed)
+    }
+}
+
+/// The detail of a [`TimeVariationTests`] finding: each test's detail and p-value, when
+/// the test applies.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TimeVariationTestsDetail {
+    /// The skirt test's detail (its values under their own names).
+    pub skirt: Option<TimeVariationDetail>,
+    /// The skirt test's p-value, named `skirt_p`.
+    pub skirt_p: Option<f64>,
+    /// The drift test's detail (its values under their own names).
+    pub drift: Option<TimeDriftDetail>,
+    /// The drift test's p-value, named `drift_p`.
+    pub drift_p: Option<f64>,
+}
+
+impl DetailFields for TimeVariationTestsDetail {
+    /// The skirt test's values and `skirt_p`, then the drift test's values and `drift_p`.
+    fn entries(&self) -> Vec<(&'static str, f64)> {
+        let mut entries = self.skirt.map(|d| d.entries()).unwrap_or_default();
+        entries.extend(self.skirt_p.map(|p| ("skirt_p", p)));
+        entries.extend(self.drift.iter().flat_map(|d| d.entries()));
+        entries.extend(self.drift_p.map(|p| ("drift_p", p)));
+        entries
+    }
+
+    fn take_from(values: &mut NamedValues) -> Option<Self> {
+        let skirt_p = values.take("skirt_p");
+        let drift_p = values.take("drift_p");
+        if skirt_p.is_none() && drift_p.is_none() {
+            return None;
+        }
+        let skirt = match skirt_p {
+            Some(_) => Some(TimeVariationDetail::take_from(values)?),
+            None => None,
+        };
+        let drift = match drift_p {
+            Some(_) => Some(TimeDriftDetail::take_from(values)?),
+            None => None,
+        };
+        Some(Self {
+            skirt,
+            skirt_p,
+            drift,
+            drift_p,
+        })
     }
 }
 

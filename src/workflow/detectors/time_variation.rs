@@ -1,5 +1,7 @@
 use crate::FrequencyData;
-use crate::workflow::finding::{Context, Detail, Detector, Effect, Finding, Remedy};
+use crate::workflow::finding::{
+    Context, Detail, DetailFields, Detector, Effect, Finding, NamedValues, Remedy, present,
+};
 use crate::workflow::lrt::f_sf;
 use crate::workflow::spec::SpecFit;
 
@@ -32,10 +34,9 @@ use crate::workflow::spec::SpecFit;
 /// ([`Remedy::NotAbsorbed`]): the workflow names the effect, stops refining the LTI model
 /// and reports it as unmodelled; a time-varying model is [`crate::ltv`] (fitted on the
 /// time record, outside the workflow), or the piecewise time-invariant model the
-/// workflow switches to with [`TimeVariationTests::switching`](super::TimeVariationTests::switching). Proposal: the current spec unchanged. Detail:
-/// `skirt_ratio` (F), `skirt_to_noise_db` (10 log₁₀((P_A − P_R)/P_R), present when
-/// P_A > P_R), `skirt_to_output_db` (the same excess relative to the mean output power at
-/// the excited lines), `adjacent_lines` (|A|), `reference_lines` (|R|).
+/// workflow switches to with
+/// [`TimeVariationTests::switching`](super::TimeVariationTests::switching). Proposal: the
+/// current spec unchanged. Detail: [`TimeVariationDetail`].
 #[derive(Debug, Clone, Copy, Default)]
 pub struct TimeVariation;
 
@@ -104,20 +105,20 @@ impl Detector for TimeVariation {
         let ratio = pa / pr;
         let p_value = f_sf(ratio, 2.0 * na as f64, 2.0 * nr as f64);
         let output = output / excited.len() as f64;
-        let mut detail = Detail::default().with("skirt_ratio", ratio);
-        if pa > pr {
-            detail = detail.with("skirt_to_noise_db", 10.0 * ((pa - pr) / pr).log10());
-            if output > 0.0 {
-                detail = detail.with("skirt_to_output_db", 10.0 * ((pa - pr) / output).log10());
-            }
-        }
+        let excess = pa > pr;
+        let detail = TimeVariationDetail {
+            skirt_ratio: ratio,
+            skirt_to_noise_db: excess.then(|| 10.0 * ((pa - pr) / pr).log10()),
+            skirt_to_output_db: (excess && output > 0.0)
+                .then(|| 10.0 * ((pa - pr) / output).log10()),
+            adjacent_lines: na,
+            reference_lines: nr,
+        };
         Some(Finding {
             effect: Effect::TimeVariation,
             statistic: ratio,
             p_value,
-            detail: detail
-                .with("adjacent_lines", na as f64)
-                .with("reference_lines", nr as f64),
+            detail: Detail::TimeVariation(detail),
             proposal: fit.spec.clone(),
         })
     }
@@ -130,5 +131,43 @@ impl Detector for TimeVariation {
         _finding: &Finding,
     ) -> Option<Remedy> {
         Some(Remedy::NotAbsorbed)
+    }
+}
+
+/// The detail of a [`TimeVariation`] finding (the skirt test).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TimeVariationDetail {
+    /// The statistic F = P_A/P_R, named `skirt_ratio`.
+    pub skirt_ratio: f64,
+    /// 10 log₁₀((P_A − P_R)/P_R), present when P_A > P_R, named `skirt_to_noise_db`.
+    pub skirt_to_noise_db: Option<f64>,
+    /// The same excess relative to the mean output power at the excited lines (dB),
+    /// present when P_A > P_R and that power is positive, named `skirt_to_output_db`.
+    pub skirt_to_output_db: Option<f64>,
+    /// The number |A| of adjacent lines, named `adjacent_lines`.
+    pub adjacent_lines: usize,
+    /// The number |R| of reference lines, named `reference_lines`.
+    pub reference_lines: usize,
+}
+
+impl DetailFields for TimeVariationDetail {
+    fn entries(&self) -> Vec<(&'static str, f64)> {
+        present([
+            ("skirt_ratio", Some(self.skirt_ratio)),
+            ("skirt_to_noise_db", self.skirt_to_noise_db),
+            ("skirt_to_output_db", self.skirt_to_output_db),
+            ("adjacent_lines", Some(self.adjacent_lines as f64)),
+            ("reference_lines", Some(self.reference_lines as f64)),
+        ])
+    }
+
+    fn take_from(values: &mut NamedValues) -> Option<Self> {
+        Some(Self {
+            skirt_ratio: values.take("skirt_ratio")?,
+            skirt_to_noise_db: values.take("skirt_to_noise_db"),
+            skirt_to_output_db: values.take("skirt_to_output_db"),
+            adjacent_lines: values.take_count("adjacent_lines")?,
+            reference_lines: values.take_count("reference_lines")?,
+        })
     }
 }

@@ -1,5 +1,7 @@
 use crate::stats::chi2_sf;
-use crate::workflow::finding::{Context, Detail, Detector, Effect, Finding, residual_power};
+use crate::workflow::finding::{
+    Context, Detail, DetailFields, Detector, Effect, Finding, NamedValues, residual_power,
+};
 use crate::workflow::lrt::f_sf;
 use crate::workflow::spec::{SpecDomain, SpecFit};
 use crate::{Complex, FrequencyData};
@@ -18,7 +20,7 @@ use nalgebra::{DMatrix, DVector};
 /// F = (‖Pr‖²/q)/((‖r‖² − ‖Pr‖²)/(2N − p − q)) ~ F(q, 2N − p − q) with the noise level
 /// estimated. Applies only to non-periodic time records without a transient term.
 ///
-/// Proposal: `transient = true`; detail: `explained` (‖Pr‖²), `dof` (q).
+/// Proposal: `transient = true`; detail: [`TransientDetail`].
 #[derive(Debug, Clone, Copy, Default)]
 pub struct Transient;
 
@@ -98,10 +100,30 @@ impl Detector for Transient {
             effect: Effect::Transient,
             statistic,
             p_value,
-            detail: Detail::default()
-                .with("explained", explained)
-                .with("dof", q as f64),
+            detail: Detail::Transient(TransientDetail { explained, dof: q }),
             proposal,
+        })
+    }
+}
+
+/// The detail of a [`Transient`] finding.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TransientDetail {
+    /// The residual power the transient regressors explain, ‖Pr‖², named `explained`.
+    pub explained: f64,
+    /// The number q of real regressors, named `dof`.
+    pub dof: usize,
+}
+
+impl DetailFields for TransientDetail {
+    fn entries(&self) -> Vec<(&'static str, f64)> {
+        vec![("explained", self.explained), ("dof", self.dof as f64)]
+    }
+
+    fn take_from(values: &mut NamedValues) -> Option<Self> {
+        Some(Self {
+            explained: values.take("explained")?,
+            dof: values.take_count("dof")?,
         })
     }
 }
