@@ -12,6 +12,7 @@ mod distortion;
 mod drift;
 mod input_noise;
 mod order;
+mod piecewise;
 mod resonance;
 mod score;
 mod time_variation;
@@ -20,12 +21,12 @@ mod transient;
 pub use colored::{ColoredNoise, ColoredNoiseDetail};
 pub use delay::{TimeDelay, TimeDelayDetail};
 pub use distortion::{NonlinearDistortion, NonlinearDistortionDetail};
-pub use drift::{
-    Drift, TimeDrift, TimeDriftDetail, TimeVariationTests, TimeVariationTestsDetail, TimeVarying,
-    parameter_drift, piecewise_model,
-};
+pub use drift::{Drift, TimeDrift, TimeDriftDetail, parameter_drift};
 pub use input_noise::{InputNoise, InputNoiseDetail};
 pub use order::{Added, OrderIncrease, OrderIncreaseDetail};
+pub use piecewise::{TimeVarying, piecewise_model};
 pub use resonance::{MissingResonance, MissingResonanceDetail};
-pub use time_variation::{TimeVariation, TimeVariationDetail};
+pub use time_variation::{
+    TimeVariation, TimeVariationDetail, TimeVariationTests, TimeVariationTestsDetail,
+};
 pub use transient::{Transient, TransientDetail};
