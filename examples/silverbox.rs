@@ -106,7 +106,12 @@ mod run {
         println!("\n{title}");
         println!("  effects named: {effects:?}");
         for s in &report.steps {
-            println!("    {} (p = {:.2e}): {:?}", s.effect, s.p_value, s.detail.0);
+            println!(
+                "    {} (p = {:.2e}): {:?}",
+                s.effect,
+                s.p_value,
+                s.detail.entries()
+            );
         }
         println!(
             "  final model: {:?}, na = {}, nb = {}, delay = {}",

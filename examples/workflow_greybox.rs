@@ -71,7 +71,7 @@ fn main() -> fdid::Result<()> {
             step.cost_before,
             step.cost_after,
             step.lr_p,
-            step.detail.0,
+            step.detail.entries(),
             fit.custom.as_deref().unwrap_or("?")
         );
     }

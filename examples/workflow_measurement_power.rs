@@ -18,13 +18,19 @@ mod measurement;
 #[path = "common/progress.rs"]
 mod progress;
 
-use fdid::workflow::Effect;
+use fdid::workflow::{Detail, Effect};
 use measurement::{CLEAN, Sim, run};
 
 const RUNS: u64 = 50;
 
-/// Fraction of runs naming `effect` first, and the mean of the first step's `key` detail.
-fn power(sim: &Sim, effect: Effect, key: &str, seed0: u64) -> (f64, Option<f64>) {
+/// Fraction of runs naming `effect` first, and the mean of the `value` of the detail of the
+/// first step naming it.
+fn power(
+    sim: &Sim,
+    effect: Effect,
+    value: fn(&Detail) -> Option<f64>,
+    seed0: u64,
+) -> (f64, Option<f64>) {
     let (mut hits, mut sum, mut count) = (0, 0.0, 0);
     for r in progress::runs(RUNS, effect.as_str()) {
         let (report, _) = run(sim, seed0 + r);
@@ -35,7 +41,7 @@ fn power(sim: &Sim, effect: Effect, key: &str, seed0: u64) -> (f64, Option<f64>)
             .steps
             .iter()
             .find(|s| s.effect == effect)
-            .and_then(|s| s.detail.get(key))
+            .and_then(|s| value(&s.detail))
         {
             sum += v;
             count += 1;
@@ -55,7 +61,12 @@ fn main() {
             input_snr_db: Some(snr),
             ..CLEAN
         };
-        let (p, _) = power(&sim, Effect::InputNoise, "input_to_output", 1_000);
+        let (p, _) = power(
+            &sim,
+            Effect::InputNoise,
+            |d| Some(d.input_noise()?.input_to_output),
+            1_000,
+        );
         println!("  {snr:>5.1} dB: {p:.2}");
     }
     println!("nonlinear distortion (P = 6): c -> distortion/noise (dB), named first");
@@ -64,7 +75,7 @@ fn main() {
         let (p, db) = power(
             &sim,
             Effect::NonlinearDistortion,
-            "distortion_to_noise_db",
+            |d| d.nonlinear_distortion()?.distortion_to_noise_db,
             2_000,
         );
         let db = db.map_or("—".to_string(), |v| format!("{v:.1}"));
@@ -74,7 +85,13 @@ fn main() {
     println!("time variation (P = 6): total drift of a1 -> skirt/noise (dB), named first");
     for drift in [0.002, 0.005, 0.01, 0.015, 0.02, 0.03, 0.05] {
         let sim = Sim { drift, ..CLEAN };
-        let (p, db) = power(&sim, Effect::TimeVariation, "skirt_to_noise_db", 3_000);
+        // the default workflow's time-variation detector runs both tests
+        let (p, db) = power(
+            &sim,
+            Effect::TimeVariation,
+            |d| d.time_variation_tests()?.skirt?.skirt_to_noise_db,
+            3_000,
+        );
         let db = db.map_or("—".to_string(), |v| format!("{v:.1}"));
         println!("  drift {drift}: {db} dB, {p:.2}");
     }

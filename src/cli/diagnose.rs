@@ -480,9 +480,9 @@ impl Diagnosis {
             .map(|s| {
                 let detail: Map<String, Value> = s
                     .detail
-                    .0
-                    .iter()
-                    .map(|(k, v)| (k.clone(), num(*v)))
+                    .entries()
+                    .into_iter()
+                    .map(|(k, v)| (k.to_string(), num(v)))
                     .collect();
                 json!({
                     "effect": s.effect.as_str(),
@@ -605,10 +605,9 @@ impl Diagnosis {
             );
         }
         for s in &self.steps {
-            if !s.detail.0.is_empty() {
-                let parts: Vec<String> = s
-                    .detail
-                    .0
+            let entries = s.detail.entries();
+            if !entries.is_empty() {
+                let parts: Vec<String> = entries
                     .iter()
                     .map(|(k, v)| format!("{k} = {}", g(*v)))
                     .collect();

@@ -452,7 +452,7 @@ fn proposal<M: ModelStructure<f64> + Clone>(
     match finding.effect {
         Effect::TimeDelay if !current.model.has_delay() => {
             let hi = causal_delay_limit(data);
-            let slope = finding.detail.get("slope")?;
+            let slope = finding.detail.time_delay()?.slope;
             let tau = slope.clamp(0.0, 0.99 * hi);
             let mut taus = vec![tau];
             for t in [0.5 * tau, 2.0 * tau] {
@@ -471,8 +471,9 @@ fn proposal<M: ModelStructure<f64> + Clone>(
             Some((current.model.with_delay(hi).ok()?, starts))
         }
         Effect::MissingResonance => {
-            let peak = finding.detail.get("peak_omega")?;
-            let zeta = finding.detail.get("damping")?.clamp(0.005, 0.5);
+            let resonance = finding.detail.missing_resonance()?;
+            let peak = resonance.peak_omega;
+            let zeta = resonance.damping.clamp(0.005, 0.5);
             let mut modes = vec![(peak, zeta), (peak, LIGHT_DAMPING)];
             if let Some(w) = ratio_peak(data, &current.summary) {
                 modes.extend([(w, zeta), (w, LIGHT_DAMPING)]);

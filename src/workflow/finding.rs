@@ -1,5 +1,10 @@
 //! Findings: a named effect, its test statistic and p-value, and the model augmentation
 //! that would explain it.
+use super::detectors::{
+    ColoredNoiseDetail, InputNoiseDetail, MissingResonanceDetail, NonlinearDistortionDetail,
+    OrderIncreaseDetail, TimeDelayDetail, TimeDriftDetail, TimeVariationDetail,
+    TimeVariationTestsDetail, TransientDetail,
+};
 use super::spec::SpecFit;
 use crate::data::DistortionAnalysis;
 use crate::data::{FrequencyData, TimeData};
@@ -57,22 +62,131 @@ impl std::fmt::Display for Effect {
     }
 }
 
-/// Named values describing a finding (e.g. `peak_omega`, `slope`); serialised as a JSON
-/// object `{name: value, …}`.
-#[derive(Debug, Clone, Default, PartialEq)]
-pub struct Detail(pub Vec<(String, f64)>);
+/// The named values a detector reports with its finding, one typed record per detector
+/// (see each detector for what its values mean). [`Detail::entries`] lists them by name,
+/// in the detector's order: the names of the JSON object `{name: value, …}` the detail
+/// serialises to, and of the `fdid diagnose` report.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Detail {
+    /// Of [`TimeDelay`](super::detectors::TimeDelay).
+    TimeDelay(TimeDelayDetail),
+    /// Of [`MissingResonance`](super::detectors::MissingResonance).
+    MissingResonance(MissingResonanceDetail),
+    /// Of [`Transient`](super::detectors::Transient).
+    Transient(TransientDetail),
+    /// Of [`ColoredNoise`](super::detectors::ColoredNoise).
+    ColoredNoise(ColoredNoiseDetail),
+    /// Of [`OrderIncrease`](super::detectors::OrderIncrease).
+    OrderIncrease(OrderIncreaseDetail),
+    /// Of [`InputNoise`](super::detectors::InputNoise).
+    InputNoise(InputNoiseDetail),
+    /// Of [`NonlinearDistortion`](super::detectors::NonlinearDistortion).
+    NonlinearDistortion(NonlinearDistortionDetail),
+    /// Of [`TimeVariation`](super::detectors::TimeVariation) (the skirt test).
+    TimeVariation(TimeVariationDetail),
+    /// Of [`TimeDrift`](super::detectors::TimeDrift) (the parameter drift test).
+    TimeDrift(TimeDriftDetail),
+    /// Of [`TimeVariationTests`](super::detectors::TimeVariationTests) (both tests).
+    TimeVariationTests(TimeVariationTestsDetail),
+    /// Named values of a detector defined outside this crate (a JSON object that is no
+    /// detector's detail reads back as this, its names in sorted order).
+    Custom(Vec<(String, f64)>),
+}
 
-impl Detail {
-    /// Adds a named value.
-    #[must_use]
-    pub fn with(mut self, name: &str, value: f64) -> Self {
-        self.0.push((name.to_string(), value));
-        self
+/// Generates, for each typed variant of [`Detail`], its accessor and its arms of
+/// [`Detail::entries`] and of the reading of named values.
+macro_rules! detail_variants {
+    ($($variant:ident($ty:ty) => $accessor:ident),* $(,)?) => {
+        impl Detail {
+            $(
+                #[doc = concat!("The detail of [`", stringify!($variant),
+                    "`](super::detectors::", stringify!($variant), "), if it is one.")]
+                pub fn $accessor(&self) -> Option<&$ty> {
+                    match self {
+                        Self::$variant(d) => Some(d),
+                        _ => None,
+                    }
+                }
+            )*
+
+            /// The named values, in the detector's order.
+            pub fn entries(&self) -> Vec<(&str, f64)> {
+                match self {
+                    $(Self::$variant(d) => d.entries(),)*
+                    Self::Custom(v) => v.iter().map(|(k, v)| (k.as_str(), *v)).collect(),
+                }
+            }
+
+            /// The typed detail whose names are exactly those of `values`, else
+            /// [`Detail::Custom`].
+            #[cfg_attr(not(feature = "serde"), allow(dead_code))]
+            fn from_entries(values: Vec<(String, f64)>) -> Self {
+                $(
+                    if let Some(d) = NamedValues::read::<$ty>(&values) {
+                        return Self::$variant(d);
+                    }
+                )*
+                Self::Custom(values)
+            }
+        }
+    };
+}
+
+detail_variants! {
+    TimeDelay(TimeDelayDetail) => time_delay,
+    MissingResonance(MissingResonanceDetail) => missing_resonance,
+    Transient(TransientDetail) => transient,
+    ColoredNoise(ColoredNoiseDetail) => colored_noise,
+    OrderIncrease(OrderIncreaseDetail) => order_increase,
+    InputNoise(InputNoiseDetail) => input_noise,
+    NonlinearDistortion(NonlinearDistortionDetail) => nonlinear_distortion,
+    TimeVariation(TimeVariationDetail) => time_variation,
+    TimeDrift(TimeDriftDetail) => time_drift,
+    TimeVariationTests(TimeVariationTestsDetail) => time_variation_tests,
+}
+
+/// A detector's typed detail as named values: [`Detail::entries`] and the way back.
+pub(crate) trait DetailFields: Sized {
+    /// The named values, in the detector's order (optional values only when present).
+    fn entries(&self) -> Vec<(&'static str, f64)>;
+
+    /// The detail from `values`, taking the names it reads; `None` when a name it needs
+    /// is missing or its value is malformed.
+    fn take_from(values: &mut NamedValues) -> Option<Self>;
+}
+
+/// The values of `named` that are present, in order: the entries of a detail with
+/// optional values.
+pub(crate) fn present<const N: usize>(
+    named: [(&'static str, Option<f64>); N],
+) -> Vec<(&'static str, f64)> {
+    named
+        .into_iter()
+        .filter_map(|(name, v)| v.map(|v| (name, v)))
+        .collect()
+}
+
+/// Named values being read back into a typed detail ([`DetailFields::take_from`]).
+pub(crate) struct NamedValues(Vec<(String, f64)>);
+
+impl NamedValues {
+    /// The typed detail `D` whose names are exactly those of `values`.
+    fn read<D: DetailFields>(values: &[(String, f64)]) -> Option<D> {
+        let mut rest = Self(values.to_vec());
+        let detail = D::take_from(&mut rest)?;
+        rest.0.is_empty().then_some(detail)
     }
 
-    /// The value named `name`, if present.
-    pub fn get(&self, name: &str) -> Option<f64> {
-        self.0.iter().find(|(n, _)| n == name).map(|(_, v)| *v)
+    /// The value named `name`, removed from the rest.
+    pub(crate) fn take(&mut self, name: &str) -> Option<f64> {
+        let i = self.0.iter().position(|(n, _)| n == name)?;
+        Some(self.0.remove(i).1)
+    }
+
+    /// The count named `name` (a non-negative whole number), removed from the rest.
+    pub(crate) fn take_count(&mut self, name: &str) -> Option<usize> {
+        let v = self.take(name)?;
+        (v >= 0.0 && v.fract() == 0.0).then_some(v as usize)
     }
 }
 
@@ -80,8 +194,9 @@ impl Detail {
 impl serde::Serialize for Detail {
     fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
         use serde::ser::SerializeMap;
-        let mut m = s.serialize_map(Some(self.0.len()))?;
-        for (k, v) in &self.0 {
+        let entries = self.entries();
+        let mut m = s.serialize_map(Some(entries.len()))?;
+        for (k, v) in &entries {
             m.serialize_entry(k, v)?;
         }
         m.end()
@@ -92,7 +207,7 @@ impl serde::Serialize for Detail {
 impl<'de> serde::Deserialize<'de> for Detail {
     fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
         let m = std::collections::BTreeMap::<String, f64>::deserialize(d)?;
-        Ok(Self(m.into_iter().collect()))
+        Ok(Self::from_entries(m.into_iter().collect()))
     }
 }
 
@@ -107,7 +222,7 @@ pub struct Finding {
     /// The p-value under "the model is right and the residual is noise" (corrected for
     /// multiple comparisons where the detector scans).
     pub p_value: f64,
-    /// Named values (e.g. the peak frequency).
+    /// The detector's named values (e.g. the peak frequency).
     pub detail: Detail,
     /// The augmented model that would explain the effect.
     pub proposal: ModelSpec,
@@ -395,5 +510,234 @@ pub(crate) fn residual_power(fit: &SpecFit) -> (Vec<f64>, f64, f64) {
             (power, mean, var)
         }
         _ => (power, 1.0, 1.0),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn skirt(db: Option<f64>) -> TimeVariationDetail {
+        TimeVariationDetail {
+            skirt_ratio: 1.5,
+            skirt_to_noise_db: db,
+            skirt_to_output_db: db.map(|v| v - 20.0),
+            adjacent_lines: 100,
+            reference_lines: 300,
+        }
+    }
+
+    fn drift() -> TimeDriftDetail {
+        TimeDriftDetail {
+            drift_statistic: 12.5,
+            drift_dof: 5,
+            segments: 2,
+            largest_shift: 2.5,
+        }
+    }
+
+    /// One detail of each kind (optional values present and absent) with its names in
+    /// order.
+    fn cases() -> Vec<(Detail, Vec<&'static str>)> {
+        let mut cases = structural_cases();
+        cases.extend(measurement_cases());
+        cases.push((
+            Detail::Custom(vec![("a".into(), 1.0), ("b".into(), 2.0)]),
+            vec!["a", "b"],
+        ));
+        cases
+    }
+
+    /// The details of the structural detectors.
+    fn structural_cases() -> Vec<(Detail, Vec<&'static str>)> {
+        vec![
+            (
+                Detail::TimeDelay(TimeDelayDetail {
+                    slope: 0.25,
+                    slope_std: 0.01,
+                    t: 25.0,
+                }),
+                vec!["slope", "slope_std", "t"],
+            ),
+            (
+                Detail::MissingResonance(MissingResonanceDetail {
+                    peak_omega: 1.2,
+                    width: 0.1,
+                    damping: 0.1 / 2.4,
+                    lines: 5,
+                }),
+                vec!["peak_omega", "width", "damping", "lines"],
+            ),
+            (
+                Detail::Transient(TransientDetail {
+                    explained: 30.0,
+                    dof: 6,
+                }),
+                vec!["explained", "dof"],
+            ),
+            (
+                Detail::ColoredNoise(ColoredNoiseDetail {
+                    blocks: 12,
+                    ratio: 3.0,
+                }),
+                vec!["blocks", "ratio"],
+            ),
+            (
+                Detail::OrderIncrease(OrderIncreaseDetail {
+                    coefficient: -0.1,
+                    std: 0.02,
+                    t: -5.0,
+                }),
+                vec!["coefficient", "std", "t"],
+            ),
+        ]
+    }
+
+    /// The details of the measurement-level detectors.
+    fn measurement_cases() -> Vec<(Detail, Vec<&'static str>)> {
+        vec![
+            (
+                Detail::InputNoise(InputNoiseDetail {
+                    excess: 0.3,
+                    predicted_excess: 0.28,
+                    score_p: 1e-9,
+                    consistent_p: 0.4,
+                    input_to_output: 0.29,
+                    input_snr_db: 30.0,
+                }),
+                vec![
+                    "excess",
+                    "predicted_excess",
+                    "score_p",
+                    "consistent_p",
+                    "input_to_output",
+                    "input_snr_db",
+                ],
+            ),
+            (
+                Detail::NonlinearDistortion(NonlinearDistortionDetail {
+                    odd_p: Some(1e-12),
+                    odd_db: Some(-40.0),
+                    even_p: Some(0.3),
+                    even_db: None,
+                    noise_db: -60.0,
+                    distortion_to_noise_db: Some(10.0),
+                    realisations: 1,
+                }),
+                vec![
+                    "odd_p",
+                    "odd_db",
+                    "even_p",
+                    "noise_db",
+                    "distortion_to_noise_db",
+                    "realisations",
+                ],
+            ),
+            (
+                Detail::NonlinearDistortion(NonlinearDistortionDetail {
+                    odd_p: None,
+                    odd_db: None,
+                    even_p: Some(0.3),
+                    even_db: Some(-50.0),
+                    noise_db: -60.0,
+                    distortion_to_noise_db: None,
+                    realisations: 3,
+                }),
+                vec!["even_p", "even_db", "noise_db", "realisations"],
+            ),
+            (
+                Detail::TimeVariation(skirt(Some(3.0))),
+                vec![
+                    "skirt_ratio",
+                    "skirt_to_noise_db",
+                    "skirt_to_output_db",
+                    "adjacent_lines",
+                    "reference_lines",
+                ],
+            ),
+            (
+                Detail::TimeVariation(skirt(None)),
+                vec!["skirt_ratio", "adjacent_lines", "reference_lines"],
+            ),
+            (
+                Detail::TimeDrift(drift()),
+                vec!["drift_statistic", "drift_dof", "segments", "largest_shift"],
+            ),
+            (
+                Detail::TimeVariationTests(TimeVariationTestsDetail {
+                    skirt: Some(skirt(None)),
+                    skirt_p: Some(0.01),
+                    drift: Some(drift()),
+                    drift_p: Some(0.02),
+                }),
+                vec![
+                    "skirt_ratio",
+                    "adjacent_lines",
+                    "reference_lines",
+                    "skirt_p",
+                    "drift_statistic",
+                    "drift_dof",
+                    "segments",
+                    "largest_shift",
+                    "drift_p",
+                ],
+            ),
+            (
+                Detail::TimeVariationTests(TimeVariationTestsDetail {
+                    skirt: None,
+                    skirt_p: None,
+                    drift: Some(drift()),
+                    drift_p: Some(0.02),
+                }),
+                vec![
+                    "drift_statistic",
+                    "drift_dof",
+                    "segments",
+                    "largest_shift",
+                    "drift_p",
+                ],
+            ),
+        ]
+    }
+
+    #[test]
+    fn entries_name_the_values_in_the_detectors_order() {
+        for (detail, names) in cases() {
+            let got: Vec<&str> = detail.entries().into_iter().map(|(n, _)| n).collect();
+            assert_eq!(got, names, "{detail:?}");
+        }
+    }
+
+    #[test]
+    fn named_values_read_back_into_the_same_detail() {
+        for (detail, _) in cases() {
+            let mut values: Vec<(String, f64)> = detail
+                .entries()
+                .into_iter()
+                .map(|(n, v)| (n.to_string(), v))
+                .collect();
+            // a typed detail from its names in any order (a custom one keeps the order)
+            if !matches!(detail, Detail::Custom(_)) {
+                values.reverse();
+            }
+            assert_eq!(Detail::from_entries(values), detail);
+        }
+    }
+
+    #[test]
+    fn other_names_read_back_as_custom() {
+        let values = vec![
+            ("slope".to_string(), 1.0),
+            ("slope_std".to_string(), 0.1),
+            ("t".to_string(), 10.0),
+            ("extra".to_string(), 0.0),
+        ];
+        assert_eq!(Detail::from_entries(values.clone()), Detail::Custom(values));
+        // a count that is not a whole number
+        let values = vec![("explained".to_string(), 1.0), ("dof".to_string(), 2.5)];
+        assert_eq!(Detail::from_entries(values.clone()), Detail::Custom(values));
+        // the combined tests without either p-value
+        let values = vec![("skirt_ratio".to_string(), 1.0)];
+        assert_eq!(Detail::from_entries(values.clone()), Detail::Custom(values));
     }
 }

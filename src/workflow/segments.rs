@@ -1,10 +1,13 @@
 //! Where in time the model and the measurement disagree: the whole-record model judged on
 //! contiguous segments of the time record, each against a refit of the same structure on
-//! that segment alone.
+//! that segment alone ([`segment_disagreement`]); and the time segments themselves, shared
+//! with the parameter drift test and the piecewise time-invariant model
+//! ([`detectors`](super::detectors)): contiguous pieces of a record, groups of whole
+//! periods of a periodic record, and the spec refitted on them.
 use super::lrt::f_sf;
 use super::spec::{SpecFit, fit_spec};
-use crate::data::dft_lines;
 use crate::data::{FrequencyData, NoiseVariances, TimeData};
+use crate::data::{PeriodicAverage, dft_lines};
 use crate::error::{FdidError, Result};
 use crate::estimate::Method;
 use crate::estimate::ModelSpec;
@@ -85,6 +88,18 @@ pub(crate) fn transient_params(spec: &ModelSpec) -> usize {
     }
 }
 
+/// The system parameters of a segment fit: the first na + nb + 1, then τ (last, as no
+/// noise model is fitted on segments).
+pub(crate) fn system_theta(seg: &SpecFit, q: usize) -> (Vec<f64>, Vec<usize>) {
+    let base = seg.spec.na + seg.spec.nb + 1;
+    let mut idx: Vec<usize> = (0..base).collect();
+    if seg.spec.delay {
+        idx.push(seg.theta.len() - 1);
+    }
+    debug_assert_eq!(idx.len(), q);
+    (idx.iter().map(|i| seg.theta[*i]).collect(), idx)
+}
+
 /// Checks that `fit` is of a rational spec (not a user's model structure).
 pub(crate) fn check_rational(fit: &SpecFit) -> Result<()> {
     match &fit.custom {
@@ -97,6 +112,21 @@ pub(crate) fn check_rational(fit: &SpecFit) -> Result<()> {
                 .into(),
         }),
     }
+}
+
+/// Whether `fit` can be split into `segments` time segments: an error for fewer than 2
+/// segments or a user's model structure, `false` for a continuous-time spec (its
+/// partial-fraction θ is relative to basis poles that move between segments).
+pub(crate) fn segmentable(fit: &SpecFit, segments: usize) -> Result<bool> {
+    if segments < 2 {
+        return Err(FdidError::InvalidArgument {
+            name: "segments",
+            value: segments.to_string(),
+            reason: "time segments compare at least 2 segments".into(),
+        });
+    }
+    check_rational(fit)?;
+    Ok(matches!(fit.spec.domain, Domain::Discrete { .. }))
 }
 
 /// Splits `record` into `segments` contiguous pieces of L = N/S samples and takes each
@@ -175,6 +205,214 @@ pub(crate) fn split(
             })
         })
         .collect()
+}
+
+/// One group of whole periods of a periodic record: its averaged spectra at the fitted
+/// lines, its number of periods P_g and its span (s).
+pub(crate) struct Group {
+    pub y: Vec<Complex<f64>>,
+    pub u: Vec<Complex<f64>>,
+    pub periods: usize,
+    pub span: (f64, f64),
+}
+
+/// A periodic record cut into S groups of whole periods (the first P mod S groups hold
+/// ⌊P/S⌋ + 1 periods, the others ⌊P/S⌋), at the fitted lines of `fit`.
+pub(crate) struct Groups {
+    pub groups: Vec<Group>,
+    /// The pooled within-group sums Σ_g (P_g − 1) s²_g of the output, input and
+    /// output–input sample (co)variances per line (2(P − S) real degrees of freedom).
+    var_y: Vec<f64>,
+    var_u: Vec<f64>,
+    cov_yu: Vec<Complex<f64>>,
+    /// P − S.
+    pub within: usize,
+    /// The pooled sums of the periods' deviations from a straight line in the period
+    /// index within each group (output, input, output–input; P − 2S complex degrees of
+    /// freedom), when every group holds at least 3 periods.
+    detrended: Option<NoiseVariances<f64>>,
+    /// P − 2S.
+    detrended_dof: usize,
+}
+
+impl Groups {
+    /// The pooled within-group sample variance of the group mean of P_g periods
+    /// (`periods`) at line i: (Σ_g (P_g − 1) s²_g)/((P − S) P_g), for y, u and cov_yu.
+    fn mean_noise(&self, periods: usize) -> NoiseVariances<f64> {
+        let d = (self.within * periods) as f64;
+        NoiseVariances {
+            var_y: self.var_y.iter().map(|v| v / d).collect(),
+            var_u: self.var_u.iter().map(|v| v / d).collect(),
+            cov_yu: self.cov_yu.iter().map(|v| v / d).collect(),
+        }
+    }
+
+    /// The noise (co)variances of a group mean of P_g periods (`periods`) from the
+    /// detrended sums when available (with their P − 2S degrees of freedom), else
+    /// [`Groups::mean_noise`] (P − S).
+    pub(crate) fn reference_noise(&self, periods: usize) -> (NoiseVariances<f64>, usize) {
+        match &self.detrended {
+            Some(sums) => {
+                let d = (self.detrended_dof * periods) as f64;
+                let noise = NoiseVariances {
+                    var_y: sums.var_y.iter().map(|v| v / d).collect(),
+                    var_u: sums.var_u.iter().map(|v| v / d).collect(),
+                    cov_yu: sums.cov_yu.iter().map(|v| v / d).collect(),
+                };
+                (noise, self.detrended_dof)
+            }
+            None => (self.mean_noise(periods), self.within),
+        }
+    }
+
+    /// The pooled within-group variance of the error Y − Ĝ U of a group mean of P_g
+    /// periods: s²_Y + |Ĝ|²s²_U − 2 Re(Ĝ* s_YU) from [`Groups::mean_noise`].
+    pub(crate) fn error_variance(&self, response: &[Complex<f64>], periods: usize) -> Vec<f64> {
+        let d = (self.within * periods) as f64;
+        response
+            .iter()
+            .enumerate()
+            .map(|(i, g)| {
+                let s2 = self.var_y[i] + g.norm_sqr() * self.var_u[i]
+                    - 2.0 * (g.conj() * self.cov_yu[i]).re;
+                s2.max(0.0) / d
+            })
+            .collect()
+    }
+}
+
+/// Cuts a periodic record of `periods` periods into `segments` groups of whole periods
+/// at the fitted lines of `fit` (`None` when a fitted line is not on the period grid).
+pub(crate) fn periodic_groups(
+    fit: &SpecFit,
+    record: &TimeData<f64>,
+    periods: usize,
+    segments: usize,
+) -> Result<Option<Groups>> {
+    let per_group = periods / segments;
+    if per_group < 2 {
+        return Err(FdidError::TooShort {
+            what: "periods per segment",
+            needed: 2,
+            got: per_group,
+        });
+    }
+    let m = record.len() / periods;
+    let Some(lines) = inner_period_lines(&fit.omega, m, record.ts()) else {
+        return Ok(None);
+    };
+    let n = lines.len();
+    let extra = periods % segments;
+    let mut start = 0;
+    let mut groups = Vec::with_capacity(segments);
+    let (mut var_y, mut var_u) = (vec![0.0; n], vec![0.0; n]);
+    let mut cov_yu = vec![Complex::new(0.0, 0.0); n];
+    let mut trend = NoiseVariances {
+        var_y: vec![0.0; n],
+        var_u: vec![0.0; n],
+        cov_yu: vec![Complex::new(0.0, 0.0); n],
+    };
+    for g in 0..segments {
+        let pg = per_group + usize::from(g < extra);
+        let range = start * m..(start + pg) * m;
+        let sub = TimeData::new(
+            record.u()[range.clone()].to_vec(),
+            record.y()[range].to_vec(),
+            record.ts(),
+        )?;
+        let avg = PeriodicAverage::new(&sub, pg)?;
+        let all = avg.data();
+        let sample = avg.sample_variances().ok_or(FdidError::TooShort {
+            what: "periods per segment",
+            needed: 2,
+            got: pg,
+        })?;
+        let w = (pg - 1) as f64;
+        for (i, &k) in lines.iter().enumerate() {
+            var_y[i] += w * sample.var_y[k];
+            var_u[i] += w * sample.var_u[k];
+            cov_yu[i] += sample.cov_yu[k] * w;
+        }
+        if per_group >= 3 {
+            add_detrended(record, &lines, start..start + pg, m, &mut trend);
+        }
+        let t0 = (start * m) as f64 * record.ts();
+        groups.push(Group {
+            y: lines.iter().map(|k| all.y()[*k]).collect(),
+            u: lines.iter().map(|k| all.u()[*k]).collect(),
+            periods: pg,
+            span: (t0, t0 + (pg * m) as f64 * record.ts()),
+        });
+        start += pg;
+    }
+    Ok(Some(Groups {
+        groups,
+        var_y,
+        var_u,
+        cov_yu,
+        within: periods - segments,
+        detrended: (per_group >= 3).then_some(trend),
+        detrended_dof: periods.saturating_sub(2 * segments),
+    }))
+}
+
+/// The period-grid lines k (ω = 2πk/(M Ts), M = `m` samples per period) of `omega`,
+/// `None` when one is off the grid or is line 0 or at or beyond the Nyquist line M/2.
+fn inner_period_lines(omega: &[f64], m: usize, ts: f64) -> Option<Vec<usize>> {
+    let step = std::f64::consts::TAU / (m as f64 * ts);
+    omega
+        .iter()
+        .map(|w| {
+            let k = w / step;
+            let r = k.round();
+            if (k - r).abs() > 1e-6 || r < 1.0 || 2.0 * r >= m as f64 {
+                return None;
+            }
+            Some(r as usize)
+        })
+        .collect()
+}
+
+/// Adds to `sums`, per line of `lines`, the squared deviations of the spectra of the
+/// periods `group` of `record` (M = `m` samples each) from the group's straight line in
+/// the period index j (centred c_j = j − (P_g − 1)/2): |e_Y|², |e_U|² and e_Y e_U*.
+fn add_detrended(
+    record: &TimeData<f64>,
+    lines: &[usize],
+    group: std::ops::Range<usize>,
+    m: usize,
+    sums: &mut NoiseVariances<f64>,
+) {
+    let pg = group.len();
+    let at = |x: &[f64], j: usize| -> Vec<Complex<f64>> {
+        let full = dft_lines(&x[j * m..(j + 1) * m]);
+        lines.iter().map(|k| full[*k]).collect()
+    };
+    let ys: Vec<_> = group.clone().map(|j| at(record.y(), j)).collect();
+    let us: Vec<_> = group.map(|j| at(record.u(), j)).collect();
+    let c: Vec<f64> = (0..pg).map(|j| j as f64 - (pg - 1) as f64 / 2.0).collect();
+    let cc: f64 = c.iter().map(|x| x * x).sum();
+    let detrend = |x: &[Vec<Complex<f64>>], i: usize| -> Vec<Complex<f64>> {
+        let mean = x.iter().map(|v| v[i]).sum::<Complex<f64>>() / pg as f64;
+        let slope = x
+            .iter()
+            .zip(&c)
+            .map(|(v, cj)| v[i] * *cj)
+            .sum::<Complex<f64>>()
+            / cc;
+        x.iter()
+            .zip(&c)
+            .map(|(v, cj)| v[i] - mean - slope * *cj)
+            .collect()
+    };
+    for i in 0..lines.len() {
+        let (ey, eu) = (detrend(&ys, i), detrend(&us, i));
+        for (a, b) in ey.iter().zip(&eu) {
+            sums.var_y[i] += a.norm_sqr();
+            sums.var_u[i] += b.norm_sqr();
+            sums.cov_yu[i] += a * b.conj();
+        }
+    }
 }
 
 /// The poles of `fit`'s system as poles of z⁻¹ polynomials: p in discrete time, e^{p Ts}

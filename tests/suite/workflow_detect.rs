@@ -180,7 +180,11 @@ fn hidden_resonance_is_named_first() {
         assert!(cov >= 0.95, "seed {seed}: coverage {cov}");
         if report.effects.first() == Some(&Effect::MissingResonance) {
             first += 1;
-            let peak = report.steps[0].detail.get("peak_omega").unwrap();
+            let peak = report.steps[0]
+                .detail
+                .missing_resonance()
+                .unwrap()
+                .peak_omega;
             assert!((peak - th).abs() < 0.1, "peak at {peak}");
         }
         if report.consistent_with_noise {

@@ -193,9 +193,10 @@ fn hidden_distortion_is_named_first() {
             first += 1;
             let step = step.unwrap();
             assert_eq!(step.acceptance(), Acceptance::NoiseReference);
-            let d = step.detail.get("distortion_to_noise_db").unwrap();
+            let detail = step.detail.nonlinear_distortion().unwrap();
+            let d = detail.distortion_to_noise_db.unwrap();
             assert!(d > 3.0 && d < 25.0, "distortion to noise {d} dB");
-            assert!(step.detail.get("odd_p").unwrap() < 1e-6);
+            assert!(detail.odd_p.unwrap() < 1e-6);
             assert!(step.cost_after < step.cost_before);
         }
         assert!(report.unmodelled.contains(&Effect::NonlinearDistortion));
@@ -238,7 +239,8 @@ fn hidden_time_variation_is_named_first() {
             assert_eq!(step.effect, Effect::TimeVariation);
             assert_eq!(step.acceptance(), Acceptance::Piecewise);
             assert!(step.cost_after < step.cost_before);
-            assert!(step.detail.get("skirt_ratio").unwrap() > 1.0);
+            let tests = step.detail.time_variation_tests().unwrap();
+            assert!(tests.skirt.unwrap().skirt_ratio > 1.0);
             let tv = report.time_varying.as_ref().unwrap();
             // honest: the verdict is the segment models' own tests
             assert_eq!(

@@ -82,14 +82,12 @@ fn drifting_a1_periodic_is_detected() {
         let both = TimeVariationTests::default()
             .detect(&data, &fit, &ctx)
             .unwrap();
-        let (skirt_p, drift_p) = (
-            both.detail.get("skirt_p").unwrap(),
-            both.detail.get("drift_p").unwrap(),
-        );
+        let tests = both.detail.time_variation_tests().unwrap();
+        let (skirt_p, drift_p) = (tests.skirt_p.unwrap(), tests.drift_p.unwrap());
         assert_eq!(drift_p, drift.p_value);
         assert_eq!(both.p_value, (2.0 * skirt_p.min(drift_p)).min(1.0));
-        assert!(both.detail.get("skirt_ratio").is_some());
-        assert!(both.detail.get("drift_statistic").is_some());
+        assert!(tests.skirt.is_some());
+        assert!(tests.drift.is_some());
         // the workflow that only names the effect (the default switches to the piecewise
         // model, tests/workflow_tvswitch.rs)
         let report = Workflow::naming_time_variation()
@@ -121,9 +119,9 @@ fn drift_alone_names_time_variation() {
         .unwrap();
     println!("{:?}", report.steps.first().map(|s| &s.detail));
     assert_eq!(report.effects, vec![Effect::TimeVariation]);
-    let detail = &report.steps[0].detail;
-    assert!(detail.get("drift_statistic").unwrap() > 0.0);
-    assert_eq!(detail.get("segments"), Some(2.0));
+    let detail = report.steps[0].detail.time_drift();
+    assert!(detail.unwrap().drift_statistic > 0.0);
+    assert_eq!(detail.map(|d| d.segments), Some(2));
 }
 
 /// A weak drift (a₁ by 0.005 over the record, P = 8, 40 seeds): the drift test fires at α

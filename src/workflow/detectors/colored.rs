@@ -1,6 +1,8 @@
 use crate::data::FrequencyData;
 use crate::stats::chi2_sf;
-use crate::workflow::finding::{Context, Detail, Detector, Effect, Finding};
+use crate::workflow::finding::{
+    Context, Detail, DetailFields, Detector, Effect, Finding, NamedValues,
+};
 use crate::workflow::spec::SpecFit;
 
 /// Residual variance that changes with frequency: coloured noise (a missing noise model
@@ -15,8 +17,7 @@ use crate::workflow::spec::SpecFit;
 /// C = 1 + (Σ 1/ν_b − 1/ν)/(3(B − 1)), is ~ χ²(B − 1) under white noise.
 ///
 /// Applies to non-periodic time records whose fit has no noise model and an estimated
-/// noise level. Proposal: `noise_order = Some(1)`; detail: `blocks` (B), `ratio` (largest
-/// over smallest block variance).
+/// noise level. Proposal: `noise_order = Some(1)`; detail: [`ColoredNoiseDetail`].
 #[derive(Debug, Clone, Copy, Default)]
 pub struct ColoredNoise;
 
@@ -65,10 +66,33 @@ impl Detector for ColoredNoise {
             effect: Effect::ColoredNoise,
             statistic,
             p_value,
-            detail: Detail::default()
-                .with("blocks", blocks as f64)
-                .with("ratio", hi / lo),
+            detail: Detail::ColoredNoise(ColoredNoiseDetail {
+                blocks,
+                ratio: hi / lo,
+            }),
             proposal,
+        })
+    }
+}
+
+/// The detail of a [`ColoredNoise`] finding.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ColoredNoiseDetail {
+    /// The number B of blocks, named `blocks`.
+    pub blocks: usize,
+    /// The largest over the smallest block variance, named `ratio`.
+    pub ratio: f64,
+}
+
+impl DetailFields for ColoredNoiseDetail {
+    fn entries(&self) -> Vec<(&'static str, f64)> {
+        vec![("blocks", self.blocks as f64), ("ratio", self.ratio)]
+    }
+
+    fn take_from(values: &mut NamedValues) -> Option<Self> {
+        Some(Self {
+            blocks: values.take_count("blocks")?,
+            ratio: values.take("ratio")?,
         })
     }
 }

@@ -1,7 +1,9 @@
 use super::score::ScoreTest;
 use crate::data::FrequencyData;
 use crate::scalar::Complex;
-use crate::workflow::finding::{Context, Detail, Detector, Effect, Finding};
+use crate::workflow::finding::{
+    Context, Detail, DetailFields, Detector, Effect, Finding, NamedValues,
+};
 use crate::workflow::spec::SpecFit;
 
 /// A linear phase trend of Y/(ĜU) in ω: a missing delay e^{−iωτ}.
@@ -17,7 +19,7 @@ use crate::workflow::spec::SpecFit;
 /// t = δ̂/std δ̂, two-sided p = erfc(|t|/√2) (Student's t with 2N − p degrees of
 /// freedom when λ is estimated).
 ///
-/// Proposal: the same spec with `delay = true`; detail: `slope` (δ̂, s), `slope_std`, `t`.
+/// Proposal: the same spec with `delay = true`; detail: [`TimeDelayDetail`].
 #[derive(Debug, Clone, Copy, Default)]
 pub struct TimeDelay;
 
@@ -46,11 +48,41 @@ impl Detector for TimeDelay {
             effect: Effect::TimeDelay,
             statistic: t,
             p_value,
-            detail: Detail::default()
-                .with("slope", slope)
-                .with("slope_std", std)
-                .with("t", t),
+            detail: Detail::TimeDelay(TimeDelayDetail {
+                slope,
+                slope_std: std,
+                t,
+            }),
             proposal,
+        })
+    }
+}
+
+/// The detail of a [`TimeDelay`] finding.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TimeDelayDetail {
+    /// The estimated extra delay δ̂ (s), named `slope`.
+    pub slope: f64,
+    /// Its standard deviation (s), named `slope_std`.
+    pub slope_std: f64,
+    /// The statistic t = δ̂/std δ̂, named `t`.
+    pub t: f64,
+}
+
+impl DetailFields for TimeDelayDetail {
+    fn entries(&self) -> Vec<(&'static str, f64)> {
+        vec![
+            ("slope", self.slope),
+            ("slope_std", self.slope_std),
+            ("t", self.t),
+        ]
+    }
+
+    fn take_from(values: &mut NamedValues) -> Option<Self> {
+        Some(Self {
+            slope: values.take("slope")?,
+            slope_std: values.take("slope_std")?,
+            t: values.take("t")?,
         })
     }
 }

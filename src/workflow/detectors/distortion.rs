@@ -1,6 +1,8 @@
 use crate::data::DistortionAnalysis;
 use crate::data::{FrequencyData, NoiseVariances};
-use crate::workflow::finding::{Context, Detail, Detector, Effect, Finding, Remedy};
+use crate::workflow::finding::{
+    Context, Detail, DetailFields, Detector, Effect, Finding, NamedValues, Remedy, present,
+};
 use crate::workflow::spec::SpecFit;
 use std::sync::Arc;
 
@@ -31,11 +33,7 @@ use std::sync::Arc;
 ///
 /// Applies to output-error or EIV fits with given noise variances; `None` without an
 /// analysis or record, when a fitted line is not an excited line of the analysis, or when
-/// no detection test exists. Detail: `odd_p`, `even_p` (the two tests' p-values, when
-/// present), `odd_db`, `even_db` (distortion power at the detection lines relative to the
-/// output power at the excited lines, dB, when above the noise), `noise_db` (noise power
-/// relative to the output), `distortion_to_noise_db` (mean σ̂²_S,k over the mean output
-/// noise variance at the fitted lines, when positive), `realisations`.
+/// no detection test exists. Detail: [`NonlinearDistortionDetail`].
 #[derive(Debug, Clone, Copy, Default)]
 pub struct NonlinearDistortion;
 
@@ -92,32 +90,25 @@ impl Detector for NonlinearDistortion {
             .iter()
             .min_by(|a, b| a.p_value().total_cmp(&b.p_value()))?;
         let p_value = (best.p_value() * tests.len() as f64).min(1.0);
-        let mut detail = Detail::default();
-        if let Some(t) = analysis.odd() {
-            detail = detail.with("odd_p", t.p_value());
-            if let Some(db) = t.distortion_db {
-                detail = detail.with("odd_db", db);
-            }
-        }
-        if let Some(t) = analysis.even() {
-            detail = detail.with("even_p", t.p_value());
-            if let Some(db) = t.distortion_db {
-                detail = detail.with("even_db", db);
-            }
-        }
-        detail = detail.with("noise_db", analysis.noise_db());
-        if let Some(ds) = analysis.excited_distortion_power() {
+        let distortion_to_noise_db = analysis.excited_distortion_power().and_then(|ds| {
             let d = index.iter().map(|i| ds[*i]).sum::<f64>() / index.len() as f64;
             let v = noise.var_y.iter().sum::<f64>() / noise.var_y.len() as f64;
-            if d > 0.0 && v > 0.0 {
-                detail = detail.with("distortion_to_noise_db", 10.0 * (d / v).log10());
-            }
-        }
+            (d > 0.0 && v > 0.0).then(|| 10.0 * (d / v).log10())
+        });
+        let detail = NonlinearDistortionDetail {
+            odd_p: analysis.odd().map(|t| t.p_value()),
+            odd_db: analysis.odd().and_then(|t| t.distortion_db),
+            even_p: analysis.even().map(|t| t.p_value()),
+            even_db: analysis.even().and_then(|t| t.distortion_db),
+            noise_db: analysis.noise_db(),
+            distortion_to_noise_db,
+            realisations: analysis.realisations(),
+        };
         Some(Finding {
             effect: Effect::NonlinearDistortion,
             statistic: best.fisher_statistic,
             p_value,
-            detail: detail.with("realisations", analysis.realisations() as f64),
+            detail: Detail::NonlinearDistortion(detail),
             proposal: fit.spec.clone(),
         })
     }
@@ -145,5 +136,52 @@ impl Detector for NonlinearDistortion {
         Some(Remedy::NoiseReference(
             data.clone().with_noise(reference).ok()?,
         ))
+    }
+}
+
+/// The detail of a [`NonlinearDistortion`] finding.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct NonlinearDistortionDetail {
+    /// The odd detection lines' test p-value, when that test exists, named `odd_p`.
+    pub odd_p: Option<f64>,
+    /// The distortion power at the odd detection lines relative to the output power at the
+    /// excited lines (dB), when above the noise, named `odd_db`.
+    pub odd_db: Option<f64>,
+    /// The even detection lines' test p-value, when that test exists, named `even_p`.
+    pub even_p: Option<f64>,
+    /// As `odd_db` at the even detection lines, named `even_db`.
+    pub even_db: Option<f64>,
+    /// The noise power relative to the output (dB), named `noise_db`.
+    pub noise_db: f64,
+    /// The mean σ̂²_S,k over the mean output noise variance at the fitted lines (dB), when
+    /// positive, named `distortion_to_noise_db`.
+    pub distortion_to_noise_db: Option<f64>,
+    /// The number of phase realisations of the analysis, named `realisations`.
+    pub realisations: usize,
+}
+
+impl DetailFields for NonlinearDistortionDetail {
+    fn entries(&self) -> Vec<(&'static str, f64)> {
+        present([
+            ("odd_p", self.odd_p),
+            ("odd_db", self.odd_db),
+            ("even_p", self.even_p),
+            ("even_db", self.even_db),
+            ("noise_db", Some(self.noise_db)),
+            ("distortion_to_noise_db", self.distortion_to_noise_db),
+            ("realisations", Some(self.realisations as f64)),
+        ])
+    }
+
+    fn take_from(values: &mut NamedValues) -> Option<Self> {
+        Some(Self {
+            odd_p: values.take("odd_p"),
+            odd_db: values.take("odd_db"),
+            even_p: values.take("even_p"),
+            even_db: values.take("even_db"),
+            noise_db: values.take("noise_db")?,
+            distortion_to_noise_db: values.take("distortion_to_noise_db"),
+            realisations: values.take_count("realisations")?,
+        })
     }
 }

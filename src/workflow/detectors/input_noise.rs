@@ -3,7 +3,7 @@ use crate::estimate::Method;
 use crate::scalar::Complex;
 use crate::stats::chi2_sf;
 use crate::workflow::finding::{
-    Context, Detail, Detector, Effect, Finding, Remedy, residual_power,
+    Context, Detail, DetailFields, Detector, Effect, Finding, NamedValues, Remedy, residual_power,
 };
 use crate::workflow::spec::SpecFit;
 use nalgebra::DMatrix;
@@ -47,12 +47,7 @@ use nalgebra::DMatrix;
 ///
 /// Proposal: the same spec with `criterion = Eiv` ([`Remedy::Criterion`]: the weighting
 /// changes, so the step is accepted on this test and on a decrease of the full negative
-/// log-likelihood, not on the nested likelihood-ratio test). Detail: `excess`
-/// (S/E₀S − 1, the observed relative excess of the weighted residual power),
-/// `predicted_excess` (E₁S/E₀S − 1, its value under eq. 42), `score_p` (p₀),
-/// `consistent_p` (the p-value of the γ = 1 test), `input_to_output` (mean e_k: the input
-/// noise's share of the residual variance relative to the output noise), `input_snr_db`
-/// (10 log₁₀ of mean |U_k|² over mean σ̂²_U,k).
+/// log-likelihood, not on the nested likelihood-ratio test). Detail: [`InputNoiseDetail`].
 #[derive(Debug, Clone, Copy, Default)]
 pub struct InputNoise;
 
@@ -136,13 +131,14 @@ impl Detector for InputNoise {
             effect: Effect::InputNoise,
             statistic: s * 2.0 * m0 / v0,
             p_value,
-            detail: Detail::default()
-                .with("excess", s / m0 - 1.0)
-                .with("predicted_excess", m1 / m0 - 1.0)
-                .with("score_p", p0)
-                .with("consistent_p", p1)
-                .with("input_to_output", e.iter().sum::<f64>() / n as f64)
-                .with("input_snr_db", 10.0 * (u_power / u_noise).log10()),
+            detail: Detail::InputNoise(InputNoiseDetail {
+                excess: s / m0 - 1.0,
+                predicted_excess: m1 / m0 - 1.0,
+                score_p: p0,
+                consistent_p: p1,
+                input_to_output: e.iter().sum::<f64>() / n as f64,
+                input_snr_db: 10.0 * (u_power / u_noise).log10(),
+            }),
             proposal,
         })
     }
@@ -155,6 +151,49 @@ impl Detector for InputNoise {
         _finding: &Finding,
     ) -> Option<Remedy> {
         Some(Remedy::Criterion)
+    }
+}
+
+/// The detail of an [`InputNoise`] finding.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct InputNoiseDetail {
+    /// S/E₀S − 1, the observed relative excess of the weighted residual power, named
+    /// `excess`.
+    pub excess: f64,
+    /// E₁S/E₀S − 1, its value under eq. 42, named `predicted_excess`.
+    pub predicted_excess: f64,
+    /// The score test's p-value p₀, named `score_p`.
+    pub score_p: f64,
+    /// The p-value of the test of γ = 1, named `consistent_p`.
+    pub consistent_p: f64,
+    /// The mean e_k (the input noise's share of the residual variance relative to the
+    /// output noise), named `input_to_output`.
+    pub input_to_output: f64,
+    /// 10 log₁₀ of the mean |U_k|² over the mean σ̂²_U,k, named `input_snr_db`.
+    pub input_snr_db: f64,
+}
+
+impl DetailFields for InputNoiseDetail {
+    fn entries(&self) -> Vec<(&'static str, f64)> {
+        vec![
+            ("excess", self.excess),
+            ("predicted_excess", self.predicted_excess),
+            ("score_p", self.score_p),
+            ("consistent_p", self.consistent_p),
+            ("input_to_output", self.input_to_output),
+            ("input_snr_db", self.input_snr_db),
+        ]
+    }
+
+    fn take_from(values: &mut NamedValues) -> Option<Self> {
+        Some(Self {
+            excess: values.take("excess")?,
+            predicted_excess: values.take("predicted_excess")?,
+            score_p: values.take("score_p")?,
+            consistent_p: values.take("consistent_p")?,
+            input_to_output: values.take("input_to_output")?,
+            input_snr_db: values.take("input_snr_db")?,
+        })
     }
 }
 

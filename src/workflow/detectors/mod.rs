@@ -1,25 +1,32 @@
 //! The detectors of this slice: [`TimeDelay`], [`MissingResonance`], [`Transient`],
 //! [`ColoredNoise`], [`OrderIncrease`] (missing pole or zero), and the measurement-level
 //! [`InputNoise`], [`NonlinearDistortion`], [`TimeVariation`], [`TimeDrift`] (both in [`TimeVariationTests`]).
+//!
+//! Each detector's [`Finding`](super::Finding) carries its typed detail
+//! ([`Detail`](super::Detail)): [`TimeDelayDetail`], [`MissingResonanceDetail`], ….
+//! Beside the detectors: the piecewise time-invariant model the workflow switches to when
+//! it names time variation ([`piecewise_model`], [`TimeVarying`]).
 mod colored;
 mod delay;
 mod distortion;
 mod drift;
 mod input_noise;
 mod order;
+mod piecewise;
 mod resonance;
 mod score;
 mod time_variation;
 mod transient;
 
-pub use colored::ColoredNoise;
-pub use delay::TimeDelay;
-pub use distortion::NonlinearDistortion;
-pub use drift::{
-    Drift, TimeDrift, TimeVariationTests, TimeVarying, parameter_drift, piecewise_model,
+pub use colored::{ColoredNoise, ColoredNoiseDetail};
+pub use delay::{TimeDelay, TimeDelayDetail};
+pub use distortion::{NonlinearDistortion, NonlinearDistortionDetail};
+pub use drift::{Drift, TimeDrift, TimeDriftDetail, parameter_drift};
+pub use input_noise::{InputNoise, InputNoiseDetail};
+pub use order::{Added, OrderIncrease, OrderIncreaseDetail};
+pub use piecewise::{TimeVarying, piecewise_model};
+pub use resonance::{MissingResonance, MissingResonanceDetail};
+pub use time_variation::{
+    TimeVariation, TimeVariationDetail, TimeVariationTests, TimeVariationTestsDetail,
 };
-pub use input_noise::InputNoise;
-pub use order::{Added, OrderIncrease};
-pub use resonance::MissingResonance;
-pub use time_variation::TimeVariation;
-pub use transient::Transient;
+pub use transient::{Transient, TransientDetail};

@@ -2,7 +2,9 @@ use super::score::ScoreTest;
 use crate::data::FrequencyData;
 use crate::model::Domain;
 use crate::scalar::Complex;
-use crate::workflow::finding::{Context, Detail, Detector, Effect, Finding};
+use crate::workflow::finding::{
+    Context, Detail, DetailFields, Detector, Effect, Finding, NamedValues,
+};
 use crate::workflow::spec::SpecFit;
 
 /// Which coefficient an [`OrderIncrease`] test adds.
@@ -30,7 +32,7 @@ pub enum Added {
 /// broadband slope mismatch at high or low frequency shows up here as a significant
 /// added coefficient.
 ///
-/// Proposal: na + 1 (pole) or nb + 1 (zero); detail: `coefficient` (β̂), `std`, `t`.
+/// Proposal: na + 1 (pole) or nb + 1 (zero); detail: [`OrderIncreaseDetail`].
 #[derive(Debug, Clone, Copy)]
 pub struct OrderIncrease(pub Added);
 
@@ -101,11 +103,41 @@ impl Detector for OrderIncrease {
             effect: self.effect(),
             statistic: t,
             p_value,
-            detail: Detail::default()
-                .with("coefficient", coefficient)
-                .with("std", std)
-                .with("t", t),
+            detail: Detail::OrderIncrease(OrderIncreaseDetail {
+                coefficient,
+                std,
+                t,
+            }),
             proposal,
+        })
+    }
+}
+
+/// The detail of an [`OrderIncrease`] finding.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct OrderIncreaseDetail {
+    /// The estimate β̂ of the added coefficient, named `coefficient`.
+    pub coefficient: f64,
+    /// Its standard deviation, named `std`.
+    pub std: f64,
+    /// The statistic t = β̂/std β̂, named `t`.
+    pub t: f64,
+}
+
+impl DetailFields for OrderIncreaseDetail {
+    fn entries(&self) -> Vec<(&'static str, f64)> {
+        vec![
+            ("coefficient", self.coefficient),
+            ("std", self.std),
+            ("t", self.t),
+        ]
+    }
+
+    fn take_from(values: &mut NamedValues) -> Option<Self> {
+        Some(Self {
+            coefficient: values.take("coefficient")?,
+            std: values.take("std")?,
+            t: values.take("t")?,
         })
     }
 }

@@ -1,6 +1,8 @@
 use crate::data::FrequencyData;
 use crate::workflow::bands::scan_windows;
-use crate::workflow::finding::{Context, Detail, Detector, Effect, Finding, residual_power};
+use crate::workflow::finding::{
+    Context, Detail, DetailFields, Detector, Effect, Finding, NamedValues, residual_power,
+};
 use crate::workflow::spec::SpecFit;
 
 /// A localised excess of normalised residual power: a missing lightly damped pole pair.
@@ -13,9 +15,8 @@ use crate::workflow::spec::SpecFit;
 /// upper-tail probability, the p-value that times the number of windows tried
 /// (Bonferroni, capped at 1).
 ///
-/// Proposal: na + 2, nb + 2; detail: `peak_omega` (rad/s, the largest |r_k| in the best
-/// window), `width` (rad/s, the window's span), `damping` ≈ width/(2 peak_omega),
-/// `lines` (w). Starting the refit from a pole pair at the peak is a later refinement.
+/// Proposal: na + 2, nb + 2; detail: [`MissingResonanceDetail`]. Starting the refit from
+/// a pole pair at the peak is a later refinement.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct MissingResonance;
 
@@ -53,12 +54,46 @@ impl Detector for MissingResonance {
             effect: Effect::MissingResonance,
             statistic: best,
             p_value: (best * windows as f64).min(1.0),
-            detail: Detail::default()
-                .with("peak_omega", peak_omega)
-                .with("width", width)
-                .with("damping", width / (2.0 * peak_omega))
-                .with("lines", w as f64),
+            detail: Detail::MissingResonance(MissingResonanceDetail {
+                peak_omega,
+                width,
+                damping: width / (2.0 * peak_omega),
+                lines: w,
+            }),
             proposal,
+        })
+    }
+}
+
+/// The detail of a [`MissingResonance`] finding.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MissingResonanceDetail {
+    /// The frequency (rad/s) of the largest |r_k| in the best window, named `peak_omega`.
+    pub peak_omega: f64,
+    /// The window's span (rad/s), named `width`.
+    pub width: f64,
+    /// The damping ratio ≈ width/(2 peak_omega), named `damping`.
+    pub damping: f64,
+    /// The window's number of lines w, named `lines`.
+    pub lines: usize,
+}
+
+impl DetailFields for MissingResonanceDetail {
+    fn entries(&self) -> Vec<(&'static str, f64)> {
+        vec![
+            ("peak_omega", self.peak_omega),
+            ("width", self.width),
+            ("damping", self.damping),
+            ("lines", self.lines as f64),
+        ]
+    }
+
+    fn take_from(values: &mut NamedValues) -> Option<Self> {
+        Some(Self {
+            peak_omega: values.take("peak_omega")?,
+            width: values.take("width")?,
+            damping: values.take("damping")?,
+            lines: values.take_count("lines")?,
         })
     }
 }

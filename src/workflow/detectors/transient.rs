@@ -2,7 +2,9 @@ use crate::data::FrequencyData;
 use crate::model::Domain;
 use crate::scalar::Complex;
 use crate::stats::chi2_sf;
-use crate::workflow::finding::{Context, Detail, Detector, Effect, Finding, residual_power};
+use crate::workflow::finding::{
+    Context, Detail, DetailFields, Detector, Effect, Finding, NamedValues, residual_power,
+};
 use crate::workflow::lrt::f_sf;
 use crate::workflow::spec::SpecFit;
 use nalgebra::{DMatrix, DVector};
@@ -20,7 +22,7 @@ use nalgebra::{DMatrix, DVector};
 /// F = (‖Pr‖²/q)/((‖r‖² − ‖Pr‖²)/(2N − p − q)) ~ F(q, 2N − p − q) with the noise level
 /// estimated. Applies only to non-periodic time records without a transient term.
 ///
-/// Proposal: `transient = true`; detail: `explained` (‖Pr‖²), `dof` (q).
+/// Proposal: `transient = true`; detail: [`TransientDetail`].
 #[derive(Debug, Clone, Copy, Default)]
 pub struct Transient;
 
@@ -100,10 +102,30 @@ impl Detector for Transient {
             effect: Effect::Transient,
             statistic,
             p_value,
-            detail: Detail::default()
-                .with("explained", explained)
-                .with("dof", q as f64),
+            detail: Detail::Transient(TransientDetail { explained, dof: q }),
             proposal,
+        })
+    }
+}
+
+/// The detail of a [`Transient`] finding.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TransientDetail {
+    /// The residual power the transient regressors explain, ‖Pr‖², named `explained`.
+    pub explained: f64,
+    /// The number q of real regressors, named `dof`.
+    pub dof: usize,
+}
+
+impl DetailFields for TransientDetail {
+    fn entries(&self) -> Vec<(&'static str, f64)> {
+        vec![("explained", self.explained), ("dof", self.dof as f64)]
+    }
+
+    fn take_from(values: &mut NamedValues) -> Option<Self> {
+        Some(Self {
+            explained: values.take("explained")?,
+            dof: values.take_count("dof")?,
         })
     }
 }
