@@ -10,7 +10,7 @@ use crate::fit::{Fit, Stage, StageKind};
 use crate::model::delay::delay_factor;
 use crate::model::{Delayed, ModelStructure, remove_delay};
 use crate::scalar::{Complex, Real};
-use crate::solver::{Solution, Termination};
+use crate::solver::{LevenbergMarquardt, Solution, Termination};
 use num_traits::Float;
 
 /// A starting delay from [`delay_start`], with what its search did.
@@ -90,8 +90,7 @@ pub fn delay_start<T: Real, M: FurtherStarts<T>>(
 ) -> Result<DelayStart<T>> {
     model.check_data(data)?;
     let h = data.etfe()?;
-    let omega = data.omega();
-    let w_max = omega.iter().copied().fold(T::zero(), Float::max);
+    let w_max = max_frequency(data.omega());
     if !(w_max > T::zero()) {
         return Err(FdidError::InvalidArgument {
             name: "omega",
@@ -100,113 +99,78 @@ pub fn delay_start<T: Real, M: FurtherStarts<T>>(
         });
     }
     let line_weights = pipeline.weighting.weights(data)?;
-    // |Y|² capped at its median, so that resonance peaks (where G_M's group delay is
-    // largest) do not dominate the regression
+    let phase_weight = phase_weights(data, line_weights.as_deref());
+    let mut search = DelaySearch::new(
+        pipeline,
+        model,
+        data,
+        &phase_weight,
+        line_weights.as_deref(),
+        w_max,
+    );
+    // 1. the slope of the raw phase
+    let tau_r = search.raw_phase_slope(&h);
+    // 2. phase-slope iterations on delay-compensated fits
+    let phase_slope = search.phase_iterations(&h, tau_r);
+    // 3. the screening scan
+    let grid = search.scan_grid(tau_r);
+    let scan = search.screen(grid);
+    // 4. the phase-slope estimate and the lowest local minima of the scan, refitted in
+    //    full and refined by ML on the delayed model
+    let candidates = search.candidates(phase_slope, &scan);
+    search.refine_candidates(candidates);
+    // 5. multiples of π/ω_max away from the best
+    search.refine_sample_multiples();
+    search.finish(phase_slope)
+}
+
+/// The largest frequency of `omega` (rad/s), zero when none is positive.
+fn max_frequency<T: Real>(omega: &[T]) -> T {
+    omega.iter().copied().fold(T::zero(), Float::max)
+}
+
+/// The weights of the phase regressions: |Y_k|² capped at its median, so that resonance
+/// peaks (where G_M's group delay is largest) do not dominate the regression, times the
+/// squared line weight w_k (1 without `line_weights`).
+fn phase_weights<T: Real>(data: &FrequencyData<T>, line_weights: Option<&[T]>) -> Vec<T> {
     let mut power: Vec<T> = data.y().iter().map(|y| y.norm_sqr()).collect();
     let cap = median(&mut power.clone());
     for p in power.iter_mut() {
         *p = Float::min(*p, cap);
     }
-    let phase_weight: Vec<T> = power
+    power
         .iter()
         .enumerate()
         .map(|(k, p)| {
-            let w = line_weights.as_ref().map_or(T::one(), |w| w[k]);
+            let w = line_weights.map_or(T::one(), |w| w[k]);
             *p * w * w
         })
-        .collect();
-    let full = Pipeline {
-        ml: None,
-        ..*pipeline
-    };
-    let screen = Pipeline {
-        ml: None,
-        sk: Some(crate::solver::FixedPoint {
-            max_iterations: SCREEN_ITERATIONS,
-            ..pipeline.sk.unwrap_or_default()
-        }),
-        ..*pipeline
-    };
-    let search = Search {
-        model: model.inner(),
-        data,
-        phase_weight: &phase_weight,
-    };
-    let mut fits = 0;
-    let mut first_error = None;
-    let mut visited: Vec<(T, T)> = vec![];
+        .collect()
+}
 
-    // 1. the slope of the raw phase
-    let tau_r = model.clamp(search.residual_slope(&h, None).map_or_else(T::zero, |s| -s));
-    // 2. phase-slope iterations on delay-compensated fits
-    let step = T::pi() / (T::lit(4.0) * w_max);
-    let mut tau = tau_r;
-    for _ in 0..PHASE_ITERATIONS {
-        fits += 1;
-        let g = match search.fit(&full, tau) {
-            Ok((cost, g)) => {
-                visited.push((tau, cost));
-                g
-            }
-            Err(e) => {
-                first_error.get_or_insert(e);
-                break;
-            }
-        };
-        let ratio: Vec<Complex<T>> = h
-            .iter()
-            .zip(omega)
-            .zip(&g)
-            .map(|((h, w), g)| *h * delay_factor(*w, tau).conj() / *g)
-            .collect();
-        let Some(slope) = search.residual_slope(&ratio, Some(&g)) else {
-            break;
-        };
-        let next = model.clamp(tau - slope);
-        let moved = Float::abs(next - tau);
-        tau = next;
-        if moved < step / T::lit(8.0) {
-            break;
-        }
-    }
-    let phase_slope = best(&visited).map_or(tau, |b| b.0);
+/// The ML cost at which the delay search stops: a cost at the noise level (known
+/// variances: V ≤ N − p/2 + 3.3√N, the 99.95 % quantile of its asymptotic distribution)
+/// or at round-off (noise free: V ≤ (100ε)² Σ|w Y|²) cannot be improved on significantly.
+fn stopping_cost<T: Real, M: FurtherStarts<T>>(
+    model: &Delayed<M>,
+    data: &FrequencyData<T>,
+    line_weights: Option<&[T]>,
+) -> T {
+    let n = T::from_usize_lossy(data.len());
+    let p = T::from_usize_lossy(ModelStructure::<T>::n_params(model));
+    let good_enough = match line_weights {
+        Some(_) => n - p / T::lit(2.0) + T::lit(3.3) * Float::sqrt(n),
+        None => T::zero(),
+    };
+    let floor = data.y().iter().enumerate().fold(T::zero(), |s, (k, y)| {
+        let w = line_weights.map_or(T::one(), |w| w[k]);
+        s + y.norm_sqr() * w * w
+    }) * Float::powi(T::default_epsilon() * T::lit(100.0), 2);
+    Float::max(good_enough, floor)
+}
 
-    // 3. the screening scan
-    let half = 4 * (ModelStructure::<T>::n_params(model.inner()) / 2 + 2);
-    // twice as far below τ_r as above: the group delay of G_M biases τ_r upwards
-    let mut grid: Vec<T> = (0..=3 * half)
-        .map(|j| tau_r + step * (T::from_usize_lossy(j) - T::from_usize_lossy(2 * half)))
-        .collect();
-    if let Some((lo, hi)) = model.bounds() {
-        let (lo, hi) = (T::lit(lo), T::lit(hi));
-        let width = hi - lo;
-        if width <= step * T::from_usize_lossy(3 * half) {
-            let n = Float::min(Float::ceil(width / step), T::from_usize_lossy(MAX_SCAN - 1))
-                .to_f64_lossless() as usize;
-            let n = n.max(1);
-            grid = (0..=n)
-                .map(|j| lo + width * T::from_usize_lossy(j) / T::from_usize_lossy(n))
-                .collect();
-        } else {
-            for t in grid.iter_mut() {
-                *t = model.clamp(*t);
-            }
-            grid.dedup_by(|a, b| Float::abs(*a - *b) < step / T::lit(4.0));
-        }
-    }
-    let mut scan: Vec<(T, T)> = vec![];
-    for t in grid {
-        fits += 1;
-        match search.fit(&screen, t) {
-            Ok((cost, _)) if Float::is_finite(cost) => scan.push((t, cost)),
-            Ok(_) => {}
-            Err(e) => {
-                first_error.get_or_insert(e);
-            }
-        }
-    }
-    // 4. the lowest local minima and the phase-slope estimate, refitted in full and
-    //    refined by ML on the delayed model
+/// The local minima of the screening `scan` (τ, cost), lowest cost first.
+fn local_minima<T: Real>(scan: &[(T, T)]) -> Vec<(T, T)> {
     let mut minima: Vec<(T, T)> = (0..scan.len())
         .filter(|&i| {
             let c = scan[i].1;
@@ -215,112 +179,291 @@ pub fn delay_start<T: Real, M: FurtherStarts<T>>(
         .map(|i| scan[i])
         .collect();
     minima.sort_by(|a, b| a.1.partial_cmp(&b.1).unwrap_or(std::cmp::Ordering::Equal));
-    let mut candidates: Vec<T> = vec![phase_slope];
-    for (t, _) in minima {
-        if candidates.len() > REFINED_MINIMA {
-            break;
-        }
-        if candidates
-            .iter()
-            .all(|c| Float::abs(*c - t) >= step / T::lit(2.0))
-        {
-            candidates.push(t);
+    minima
+}
+
+/// The state of the search of [`delay_start`], one method per step.
+struct DelaySearch<'a, T: Real, M> {
+    model: &'a Delayed<M>,
+    data: &'a FrequencyData<T>,
+    /// The delay-free fits at a candidate τ and the phase regressions.
+    search: Search<'a, T, M>,
+    /// Levy → SK (the pipeline without its ML stage): the phase-slope iterations and the
+    /// first and third rounds of a refinement.
+    full: Pipeline,
+    /// Levy → SK with [`SCREEN_ITERATIONS`] SK iterations: the screening scan.
+    screen: Pipeline,
+    /// Levy alone: the second round of a refinement.
+    levy: Pipeline,
+    /// The ML criterion of the refinements on the delayed model.
+    ml: MaximumLikelihood,
+    /// Its solver: the pipeline's, or the default when it has none.
+    lm: LevenbergMarquardt,
+    /// δ = π/(4 ω_max).
+    step: T,
+    /// The ML cost at which the search stops ([`stopping_cost`]).
+    threshold: T,
+    /// Delay-free fits made.
+    fits: usize,
+    /// The first failure of a fit.
+    first_error: Option<FdidError>,
+    /// (τ, ML cost) of each refined candidate.
+    refined: Vec<(T, T)>,
+}
+
+impl<'a, T: Real, M: FurtherStarts<T>> DelaySearch<'a, T, M> {
+    fn new(
+        pipeline: &Pipeline,
+        model: &'a Delayed<M>,
+        data: &'a FrequencyData<T>,
+        phase_weight: &'a [T],
+        line_weights: Option<&[T]>,
+        w_max: T,
+    ) -> Self {
+        Self {
+            model,
+            data,
+            search: Search {
+                model: model.inner(),
+                data,
+                phase_weight,
+            },
+            full: Pipeline {
+                ml: None,
+                ..*pipeline
+            },
+            screen: Pipeline {
+                ml: None,
+                sk: Some(crate::solver::FixedPoint {
+                    max_iterations: SCREEN_ITERATIONS,
+                    ..pipeline.sk.unwrap_or_default()
+                }),
+                ..*pipeline
+            },
+            levy: Pipeline {
+                sk: None,
+                ml: None,
+                ..*pipeline
+            },
+            ml: MaximumLikelihood {
+                weighting: pipeline.weighting,
+            },
+            lm: pipeline.ml.unwrap_or_default(),
+            step: T::pi() / (T::lit(4.0) * w_max),
+            threshold: stopping_cost(model, data, line_weights),
+            fits: 0,
+            first_error: None,
+            refined: vec![],
         }
     }
-    let lm = pipeline.ml.unwrap_or_default();
-    let ml = MaximumLikelihood {
-        weighting: pipeline.weighting,
-    };
-    // a cost at the noise level (known variances: V ≤ N − p/2 + 3.3√N, the 99.95 %
-    // quantile of its asymptotic distribution) or at round-off (noise free: V ≤ (100ε)²
-    // Σ|w Y|²) cannot be improved on significantly: the search stops there
-    let n = T::from_usize_lossy(data.len());
-    let p = T::from_usize_lossy(ModelStructure::<T>::n_params(model));
-    let good_enough = match &line_weights {
-        Some(_) => n - p / T::lit(2.0) + T::lit(3.3) * Float::sqrt(n),
-        None => T::zero(),
-    };
-    let floor = data.y().iter().enumerate().fold(T::zero(), |s, (k, y)| {
-        let w = line_weights.as_ref().map_or(T::one(), |w| w[k]);
-        s + y.norm_sqr() * w * w
-    }) * Float::powi(T::default_epsilon() * T::lit(100.0), 2);
-    let threshold = Float::max(good_enough, floor);
-    let mut refined: Vec<(T, T)> = vec![];
-    let levy = Pipeline {
-        sk: None,
-        ml: None,
-        ..*pipeline
-    };
-    let mut refine = |t: T, refined: &mut Vec<(T, T)>, fits: &mut usize| {
-        // ML from the delay-free fit at t; then once more from the delay-free fit at the
-        // ML delay, whose inner start is better when t was a fraction of δ off
+
+    /// Step 1: τ_r, minus the slope of the phase regression of the raw `h` = Y/U (zero
+    /// without one), clamped into the bounds.
+    fn raw_phase_slope(&self, h: &[Complex<T>]) -> T {
+        self.model.clamp(
+            self.search
+                .residual_slope(h, None)
+                .map_or_else(T::zero, |s| -s),
+        )
+    }
+
+    /// Step 2: up to [`PHASE_ITERATIONS`] phase-slope iterations from `tau_r`; returns the
+    /// delay of the lowest-cost fit among them (the last τ when every fit failed).
+    fn phase_iterations(&mut self, h: &[Complex<T>], tau_r: T) -> T {
+        let omega = self.data.omega();
+        let mut visited: Vec<(T, T)> = vec![];
+        let mut tau = tau_r;
+        for _ in 0..PHASE_ITERATIONS {
+            self.fits += 1;
+            let g = match self.search.fit(&self.full, tau) {
+                Ok((cost, g)) => {
+                    visited.push((tau, cost));
+                    g
+                }
+                Err(e) => {
+                    self.first_error.get_or_insert(e);
+                    break;
+                }
+            };
+            let ratio: Vec<Complex<T>> = h
+                .iter()
+                .zip(omega)
+                .zip(&g)
+                .map(|((h, w), g)| *h * delay_factor(*w, tau).conj() / *g)
+                .collect();
+            let Some(slope) = self.search.residual_slope(&ratio, Some(&g)) else {
+                break;
+            };
+            let next = self.model.clamp(tau - slope);
+            let moved = Float::abs(next - tau);
+            tau = next;
+            if moved < self.step / T::lit(8.0) {
+                break;
+            }
+        }
+        best(&visited).map_or(tau, |b| b.0)
+    }
+
+    /// Step 3, the candidates of the scan: τ_r + jδ over |j| ≤ 4(p_M/2 + 2), twice as far
+    /// below τ_r as above (the group delay of G_M biases τ_r upwards); with bounds, [lo, hi]
+    /// when that is no wider (at most [`MAX_SCAN`] candidates), else the candidates
+    /// clamped into the bounds.
+    fn scan_grid(&self, tau_r: T) -> Vec<T> {
+        let step = self.step;
+        let half = 4 * (ModelStructure::<T>::n_params(self.model.inner()) / 2 + 2);
+        let mut grid: Vec<T> = (0..=3 * half)
+            .map(|j| tau_r + step * (T::from_usize_lossy(j) - T::from_usize_lossy(2 * half)))
+            .collect();
+        if let Some((lo, hi)) = self.model.bounds() {
+            let (lo, hi) = (T::lit(lo), T::lit(hi));
+            let width = hi - lo;
+            if width <= step * T::from_usize_lossy(3 * half) {
+                let n = Float::min(Float::ceil(width / step), T::from_usize_lossy(MAX_SCAN - 1))
+                    .to_f64_lossless() as usize;
+                let n = n.max(1);
+                grid = (0..=n)
+                    .map(|j| lo + width * T::from_usize_lossy(j) / T::from_usize_lossy(n))
+                    .collect();
+            } else {
+                for t in grid.iter_mut() {
+                    *t = self.model.clamp(*t);
+                }
+                grid.dedup_by(|a, b| Float::abs(*a - *b) < step / T::lit(4.0));
+            }
+        }
+        grid
+    }
+
+    /// Step 3: the screening fit at each delay of `grid`; returns (τ, V(τ)) of those with
+    /// a finite cost, in the order of `grid`.
+    fn screen(&mut self, grid: Vec<T>) -> Vec<(T, T)> {
+        let mut scan: Vec<(T, T)> = vec![];
+        for t in grid {
+            self.fits += 1;
+            match self.search.fit(&self.screen, t) {
+                Ok((cost, _)) if Float::is_finite(cost) => scan.push((t, cost)),
+                Ok(_) => {}
+                Err(e) => {
+                    self.first_error.get_or_insert(e);
+                }
+            }
+        }
+        scan
+    }
+
+    /// Step 4, the candidates to refine: `phase_slope`, then the local minima of `scan`
+    /// by increasing cost, each at least δ/2 from those before, [`REFINED_MINIMA`] at most.
+    fn candidates(&self, phase_slope: T, scan: &[(T, T)]) -> Vec<T> {
+        let mut candidates: Vec<T> = vec![phase_slope];
+        for (t, _) in local_minima(scan) {
+            if candidates.len() > REFINED_MINIMA {
+                break;
+            }
+            if candidates
+                .iter()
+                .all(|c| Float::abs(*c - t) >= self.step / T::lit(2.0))
+            {
+                candidates.push(t);
+            }
+        }
+        candidates
+    }
+
+    /// Step 4: refines the `candidates` in turn until one reaches the threshold.
+    fn refine_candidates(&mut self, candidates: Vec<T>) {
+        for t in candidates {
+            self.refine(t);
+            if self.done() {
+                break;
+            }
+        }
+    }
+
+    /// Step 5: unless the threshold is reached, refines the delays ±1 and ±2 multiples of
+    /// π/ω_max from the best refined delay, skipping those within δ/2 of a refined one,
+    /// until one reaches the threshold. A delay wrong by one sample (half a period of the
+    /// top frequency) is the commonest local minimum of discrete models.
+    fn refine_sample_multiples(&mut self) {
+        if let (Some((b, _)), false) = (best(&self.refined), self.done()) {
+            let sample = T::lit(4.0) * self.step;
+            for k in [-2.0, -1.0, 1.0, 2.0] {
+                let t = self.model.clamp(b + sample * T::lit(k));
+                if self
+                    .refined
+                    .iter()
+                    .all(|(r, _)| Float::abs(*r - t) >= self.step / T::lit(2.0))
+                {
+                    self.refine(t);
+                    if self.done() {
+                        break;
+                    }
+                }
+            }
+        }
+    }
+
+    /// Whether the best refined delay reaches the threshold.
+    fn done(&self) -> bool {
+        best(&self.refined).is_some_and(|b| b.1 <= self.threshold)
+    }
+
+    /// Refines the candidate delay `t` by up to [`CANDIDATE_ROUNDS`] rounds
+    /// ([`Self::refine_round`]), each from the ML delay of the one before, stopping at the
+    /// threshold or at a failure, and records the (τ, cost) of lowest ML cost.
+    fn refine(&mut self, t: T) {
         let mut t = t;
         let mut last: Option<(T, T)> = None;
         for round in 0..CANDIDATE_ROUNDS {
-            *fits += 1;
-            let inner_pipeline = if round == 1 { &levy } else { &full };
-            let outcome =
-                search
-                    .fit_full(inner_pipeline, t, round == 2)
-                    .and_then(|(inner, theta)| {
-                        let delayed = Delayed::new(inner);
-                        let start = Delayed::<M>::theta(&theta, t);
-                        estimate(&delayed, data, &ml, &lm, Some(&start))
-                    });
-            match outcome {
+            self.fits += 1;
+            match self.refine_round(t, round) {
                 Ok(sol) if Float::is_finite(sol.theta[sol.theta.len() - 1]) => {
-                    let tau = model.clamp(sol.theta[sol.theta.len() - 1]);
+                    let tau = self.model.clamp(sol.theta[sol.theta.len() - 1]);
                     if last.is_none_or(|l| sol.cost < l.1) {
                         last = Some((tau, sol.cost));
                     }
                     t = tau;
-                    if sol.cost <= threshold {
+                    if sol.cost <= self.threshold {
                         break;
                     }
                 }
                 Ok(_) => break,
                 Err(e) => {
-                    first_error.get_or_insert(e);
+                    self.first_error.get_or_insert(e);
                     break;
                 }
             }
         }
-        refined.extend(last);
-    };
-    let done = |refined: &[(T, T)]| best(refined).is_some_and(|b| b.1 <= threshold);
-    for t in candidates {
-        refine(t, &mut refined, &mut fits);
-        if done(&refined) {
-            break;
-        }
+        self.refined.extend(last);
     }
-    // 5. multiples of π/ω_max away from the best: a delay wrong by one sample (half a
-    //    period of the top frequency) is the commonest local minimum of discrete models
-    if let (Some((b, _)), false) = (best(&refined), done(&refined)) {
-        let sample = T::lit(4.0) * step;
-        for k in [-2.0, -1.0, 1.0, 2.0] {
-            let t = model.clamp(b + sample * T::lit(k));
-            if refined
-                .iter()
-                .all(|(r, _)| Float::abs(*r - t) >= step / T::lit(2.0))
-            {
-                refine(t, &mut refined, &mut fits);
-                if done(&refined) {
-                    break;
-                }
-            }
-        }
+
+    /// One round of a refinement at τ = `t`: the delay-free fit at `t` (round 0: in full;
+    /// round 1: Levy alone; round 2: in full on the lower half of the band), then ML on the
+    /// delayed model from [θ_M, t]. A second round from the ML delay has a better inner
+    /// start when `t` was a fraction of δ off.
+    fn refine_round(&self, t: T, round: usize) -> Result<Solution<T>> {
+        let inner_pipeline = if round == 1 { &self.levy } else { &self.full };
+        self.search
+            .fit_full(inner_pipeline, t, round == 2)
+            .and_then(|(inner, theta)| {
+                let delayed = Delayed::new(inner);
+                let start = Delayed::<M>::theta(&theta, t);
+                estimate(&delayed, self.data, &self.ml, &self.lm, Some(&start))
+            })
     }
-    match best(&refined) {
-        Some((tau, cost)) => Ok(DelayStart {
-            tau,
-            cost,
-            phase_slope,
-            fits,
-        }),
-        None => Err(first_error.unwrap_or(FdidError::Numerical {
-            what: "delay-free fits of the delay search".into(),
-        })),
+
+    /// The refined delay of lowest ML cost, or the first failure when none was refined.
+    fn finish(self, phase_slope: T) -> Result<DelayStart<T>> {
+        match best(&self.refined) {
+            Some((tau, cost)) => Ok(DelayStart {
+                tau,
+                cost,
+                phase_slope,
+                fits: self.fits,
+            }),
+            None => Err(self.first_error.unwrap_or(FdidError::Numerical {
+                what: "delay-free fits of the delay search".into(),
+            })),
+        }
     }
 }
 
@@ -358,12 +501,7 @@ impl<T: Real, M: FurtherStarts<T>> Search<'_, T, M> {
     fn fit_full(&self, pipeline: &Pipeline, tau: T, lower_half: bool) -> Result<(M, Vec<T>)> {
         let mut compensated = remove_delay(self.data, tau)?;
         if lower_half {
-            let w_max = self
-                .data
-                .omega()
-                .iter()
-                .copied()
-                .fold(T::zero(), Float::max);
+            let w_max = max_frequency(self.data.omega());
             let band = compensated.band(T::zero(), w_max / T::lit(2.0))?;
             if band.len() >= self.model.n_params() + 2 {
                 compensated = band;

@@ -12,7 +12,7 @@
 
 use super::{FurtherStarts, Pipeline, estimate};
 use crate::basis::PolyBasis;
-use crate::criterion::MaximumLikelihood;
+use crate::criterion::{MaximumLikelihood, NoiseWeighting};
 use crate::data::FrequencyData;
 use crate::error::{FdidError, Result};
 use crate::fit::{Fit, Stage, StageKind};
@@ -20,6 +20,7 @@ use crate::model::{
     Domain, EquationError, ModelStructure, Rational, log_spread_poles, positive_band,
 };
 use crate::scalar::{Complex, Real};
+use crate::solver::LevenbergMarquardt;
 use nalgebra::{DMatrix, DVector};
 use num_traits::Float;
 
@@ -228,17 +229,7 @@ impl<T: Real> Search<T> {
     /// [`discrete_start`], then ML. Repeated (twice at most) while it lowers the cost and
     /// the best fit has spurious poles.
     fn replace_spurious(&mut self, pipeline: &Pipeline, data: &FrequencyData<T>) {
-        let Some(lm) = pipeline.ml else {
-            return;
-        };
-        let linear_ml = Pipeline {
-            sk: None,
-            ..*pipeline
-        };
-        let ml = MaximumLikelihood {
-            weighting: pipeline.weighting,
-        };
-        let Ok(weights) = pipeline.weighting.weights(data) else {
+        let Some(discrete_ml) = DiscreteMl::new(pipeline, data) else {
             return;
         };
         for _ in 0..2 {
@@ -246,166 +237,74 @@ impl<T: Real> Search<T> {
                 return;
             };
             let cost = b.cost();
-            let Ok(poles) = b.poles() else {
-                return;
-            };
-            let unresolved = b.unresolved_poles().unwrap_or_default();
-            let domain = b.model().domain();
             let (na, nb) = (b.model().na(), b.model().nb());
-            let to_s = |p: Complex<T>| match domain {
-                Domain::Continuous => p,
-                Domain::Discrete { ts } => p.ln() / ts,
-            };
-            // one member of each pair and the real poles, with the spurious ones marked
-            let reps: Vec<(Complex<T>, bool)> = poles
-                .iter()
-                .filter(|p| p.im >= T::zero())
-                .map(|p| {
-                    let s = to_s(*p);
-                    (*p, !(s.re < T::zero()) || unresolved.contains(p))
-                })
-                .collect();
-            if !reps.iter().any(|(_, bad)| *bad) {
-                return;
-            }
-            // the s-plane replacement of a spurious pole under variant k
-            let replace = |s: Complex<T>, real: bool, k: usize| -> Vec<Complex<T>> {
-                let w = s.norm();
-                if real {
-                    return vec![Complex::new(-w, T::zero())];
-                }
-                match k {
-                    0 | 1 | 5 => {
-                        let zeta = T::lit(match k {
-                            0 => 0.3,
-                            1 => 0.7,
-                            _ => 0.05,
-                        });
-                        let im = w * Float::sqrt(T::one() - zeta * zeta);
-                        vec![Complex::new(-zeta * w, im)]
-                    }
-                    _ => vec![
-                        Complex::new(-w / T::lit(2.0), T::zero()),
-                        Complex::new(-w * T::lit(2.0), T::zero()),
-                    ],
-                }
-            };
-            // the gaps variants: the spurious poles' frequencies moved into the largest
-            // gaps (in log ω) between the other poles and the band's ends — log-spread in
-            // the largest one, or one per gap in as many of the largest
-            let Some((lo, hi)) = positive_band(data.omega()) else {
+            let Some(spurious) = SpuriousPoles::of(b, data) else {
                 return;
             };
-            let mut kept: Vec<T> = reps
-                .iter()
-                .filter(|(_, bad)| !bad)
-                .map(|(p, _)| Float::ln(Float::min(Float::max(to_s(*p).norm(), lo), hi)))
-                .collect();
-            kept.push(Float::ln(lo));
-            kept.push(Float::ln(hi));
-            kept.sort_by(|a, b| a.partial_cmp(b).unwrap_or(std::cmp::Ordering::Equal));
-            let mut gaps: Vec<(T, T)> = kept.windows(2).map(|w| (w[0], w[1])).collect();
-            gaps.sort_by(|a, b| {
-                (b.1 - b.0)
-                    .partial_cmp(&(a.1 - a.0))
-                    .unwrap_or(std::cmp::Ordering::Equal)
-            });
-            let n_bad = reps.iter().filter(|(_, bad)| *bad).count();
-            let moved = |k: usize, j: usize| -> T {
-                // frequency of the j-th spurious pole under gap variant k
-                let (a, b) = if k == 3 {
-                    gaps[0]
-                } else {
-                    gaps[std::cmp::min(j, gaps.len() - 1)]
-                };
-                let f = if k == 3 {
-                    (T::from_usize_lossy(j) + T::one()) / (T::from_usize_lossy(n_bad) + T::one())
-                } else {
-                    T::lit(0.5)
-                };
-                Float::exp(a + (b - a) * f)
-            };
-            let half = T::lit(0.5);
-            let sqrt_half = Float::sqrt(T::lit(0.75));
-            // the s-plane pole of variant k for the j-th spurious pole s
-            let variant = |s: Complex<T>, real: bool, k: usize, j: usize| -> Vec<Complex<T>> {
-                if !(3..5).contains(&k) {
-                    return replace(s, real, k);
-                }
-                let w = moved(k, j);
-                if real {
-                    vec![Complex::new(-w, T::zero())]
-                } else {
-                    vec![Complex::new(-half * w, sqrt_half * w)]
-                }
-            };
-            for k in 0..6 {
-                match domain {
-                    Domain::Continuous => {
-                        let mut basis = vec![];
-                        let mut j = 0;
-                        for (p, bad) in &reps {
-                            if *bad {
-                                basis.extend(variant(*p, p.im == T::zero(), k, j));
-                                j += 1;
-                            } else {
-                                basis.push(Complex::new(-Float::abs(p.re), p.im));
-                            }
-                        }
-                        if let Ok(m) = Rational::partial_fractions(basis, nb) {
-                            self.keep(pipeline.chain(&m, data));
-                            self.keep(linear_ml.chain(&m, data));
-                        }
-                    }
-                    Domain::Discrete { ts } => {
-                        let mut set = vec![];
-                        let mut j = 0;
-                        for (p, bad) in &reps {
-                            let new: Vec<Complex<T>> = if *bad {
-                                j += 1;
-                                variant(to_s(*p), p.im == T::zero(), k, j - 1)
-                                    .into_iter()
-                                    .map(|s| (s * ts).exp())
-                                    .collect()
-                            } else if p.norm() > T::one() {
-                                vec![*p / p.norm_sqr()]
-                            } else {
-                                vec![*p]
-                            };
-                            for q in new {
-                                if Float::abs(q.im) > T::zero() {
-                                    set.push(Complex::new(q.re, Float::abs(q.im)));
-                                    set.push(Complex::new(q.re, -Float::abs(q.im)));
-                                } else {
-                                    set.push(q);
-                                }
-                            }
-                        }
-                        let Ok(model) = Rational::discrete(na, nb, ts) else {
-                            return;
-                        };
-                        let Some(theta) = discrete_start(&model, &set, data, weights.as_deref())
-                        else {
-                            continue;
-                        };
-                        if let Ok(sol) = estimate(&model, data, &ml, &lm, Some(&theta))
-                            && self.best.as_ref().is_none_or(|b| sol.cost < b.cost())
-                        {
-                            let stages = vec![Stage {
-                                kind: StageKind::MlReplaced,
-                                solution: sol.clone(),
-                            }];
-                            if let Ok(f) =
-                                Fit::new(model, data, sol.theta, pipeline.weighting, stages)
-                            {
-                                self.offer(f);
-                            }
-                        }
+            match spurious.domain {
+                Domain::Continuous => self.replaced_continuous(pipeline, &spurious, nb, data),
+                Domain::Discrete { ts } => {
+                    let Ok(model) = Rational::discrete(na, nb, ts) else {
+                        return;
+                    };
+                    for k in 0..REPLACEMENT_VARIANTS {
+                        let poles = spurious.z_poles(k, ts);
+                        self.offer_discrete(&discrete_ml, &model, &poles, StageKind::MlReplaced);
                     }
                 }
             }
             if !self.best.as_ref().is_some_and(|b| b.cost() < cost) {
                 return;
+            }
+        }
+    }
+
+    /// The continuous-time starts of [`Self::replace_spurious`]: the chain and Levy → ML
+    /// in the basis of each variant of the replaced poles, with `nb` zeros.
+    fn replaced_continuous(
+        &mut self,
+        pipeline: &Pipeline,
+        spurious: &SpuriousPoles<T>,
+        nb: usize,
+        data: &FrequencyData<T>,
+    ) {
+        let linear_ml = Pipeline {
+            sk: None,
+            ..*pipeline
+        };
+        for k in 0..REPLACEMENT_VARIANTS {
+            if let Ok(m) = Rational::partial_fractions(spurious.basis(k), nb) {
+                self.keep(pipeline.chain(&m, data));
+                self.keep(linear_ml.chain(&m, data));
+            }
+        }
+    }
+
+    /// ML on the discrete-time `model` from the start of [`discrete_start`] for `poles`;
+    /// the fit, with one stage of kind `kind`, is offered when its cost is below the best's.
+    fn offer_discrete(
+        &mut self,
+        ml: &DiscreteMl<'_, T>,
+        model: &Rational<T>,
+        poles: &[Complex<T>],
+        kind: StageKind,
+    ) {
+        let Some(theta) = discrete_start(model, poles, ml.data, ml.weights.as_deref()) else {
+            return;
+        };
+        let criterion = MaximumLikelihood {
+            weighting: ml.weighting,
+        };
+        let Ok(sol) = estimate(model, ml.data, &criterion, &ml.lm, Some(&theta)) else {
+            return;
+        };
+        if self.best.as_ref().is_none_or(|b| sol.cost < b.cost()) {
+            let stages = vec![Stage {
+                kind,
+                solution: sol.clone(),
+            }];
+            if let Ok(f) = Fit::new(model.clone(), ml.data, sol.theta, ml.weighting, stages) {
+                self.offer(f);
             }
         }
     }
@@ -452,7 +351,7 @@ impl<T: Real> Search<T> {
         data: &FrequencyData<T>,
     ) {
         let (na, nb) = (model.na(), model.nb());
-        let Some(lm) = pipeline.ml else {
+        let Some(discrete_ml) = DiscreteMl::new(pipeline, data) else {
             return;
         };
         // (start, stage kind): the reductions of the fit at degrees na + 2, then the
@@ -481,30 +380,212 @@ impl<T: Real> Search<T> {
             }
             starts.push((z, StageKind::MlSpread));
         }
-        let Ok(weights) = pipeline.weighting.weights(data) else {
-            return;
-        };
-        let ml = MaximumLikelihood {
+        for (start, kind) in starts {
+            self.offer_discrete(&discrete_ml, model, &start, kind);
+        }
+    }
+}
+
+/// What ML on a discrete-time model from the starts of [`discrete_start`] needs: the
+/// data, the pipeline's weighting, its line weights and its ML solver.
+struct DiscreteMl<'a, T: Real> {
+    data: &'a FrequencyData<T>,
+    weighting: NoiseWeighting,
+    weights: Option<Vec<T>>,
+    lm: LevenbergMarquardt,
+}
+
+impl<'a, T: Real> DiscreteMl<'a, T> {
+    /// `None` when `pipeline` has no ML stage or the weights of `data` fail.
+    fn new(pipeline: &Pipeline, data: &'a FrequencyData<T>) -> Option<Self> {
+        let lm = pipeline.ml?;
+        let weights = pipeline.weighting.weights(data).ok()?;
+        Some(Self {
+            data,
             weighting: pipeline.weighting,
+            weights,
+            lm,
+        })
+    }
+}
+
+/// Variants of the replacement of spurious poles ([`SpuriousPoles::variant`]).
+const REPLACEMENT_VARIANTS: usize = 6;
+
+/// The s-plane pole s = p (continuous time) or s = ln(p)/Ts (discrete time) of a pole p
+/// of a model in `domain`.
+fn s_plane<T: Real>(domain: Domain<T>, p: Complex<T>) -> Complex<T> {
+    match domain {
+        Domain::Continuous => p,
+        Domain::Discrete { ts } => p.ln() / ts,
+    }
+}
+
+/// The poles of a fit with the spurious ones marked, and the gaps where they may move.
+struct SpuriousPoles<T: Real> {
+    domain: Domain<T>,
+    /// One member of each pair and the real poles, with the spurious ones marked.
+    reps: Vec<(Complex<T>, bool)>,
+    /// The gaps (in log ω) between the frequencies of the other poles and the band's
+    /// ends, widest first.
+    gaps: Vec<(T, T)>,
+    /// Number of spurious poles.
+    n_bad: usize,
+}
+
+impl<T: Real> SpuriousPoles<T> {
+    /// The poles of `fit` on the band of `data`; `None` when it has no spurious pole, its
+    /// poles fail, or the data have no positive band.
+    fn of(fit: &Fit<T, Rational<T>>, data: &FrequencyData<T>) -> Option<Self> {
+        let Ok(poles) = fit.poles() else {
+            return None;
         };
-        for (start, name) in starts {
-            let Some(theta) = discrete_start(model, &start, data, weights.as_deref()) else {
-                continue;
+        let unresolved = fit.unresolved_poles().unwrap_or_default();
+        let domain = fit.model().domain();
+        let reps: Vec<(Complex<T>, bool)> = poles
+            .iter()
+            .filter(|p| p.im >= T::zero())
+            .map(|p| {
+                let s = s_plane(domain, *p);
+                (*p, !(s.re < T::zero()) || unresolved.contains(p))
+            })
+            .collect();
+        if !reps.iter().any(|(_, bad)| *bad) {
+            return None;
+        }
+        let (lo, hi) = positive_band(data.omega())?;
+        let gaps = Self::gaps(domain, &reps, lo, hi);
+        let n_bad = reps.iter().filter(|(_, bad)| *bad).count();
+        Some(Self {
+            domain,
+            reps,
+            gaps,
+            n_bad,
+        })
+    }
+
+    /// The gaps (in log ω) between the frequencies of the poles of `reps` not marked
+    /// spurious (clamped into [lo, hi]) and the band's ends, widest first.
+    fn gaps(domain: Domain<T>, reps: &[(Complex<T>, bool)], lo: T, hi: T) -> Vec<(T, T)> {
+        let mut kept: Vec<T> = reps
+            .iter()
+            .filter(|(_, bad)| !bad)
+            .map(|(p, _)| Float::ln(Float::min(Float::max(s_plane(domain, *p).norm(), lo), hi)))
+            .collect();
+        kept.push(Float::ln(lo));
+        kept.push(Float::ln(hi));
+        kept.sort_by(|a, b| a.partial_cmp(b).unwrap_or(std::cmp::Ordering::Equal));
+        let mut gaps: Vec<(T, T)> = kept.windows(2).map(|w| (w[0], w[1])).collect();
+        gaps.sort_by(|a, b| {
+            (b.1 - b.0)
+                .partial_cmp(&(a.1 - a.0))
+                .unwrap_or(std::cmp::Ordering::Equal)
+        });
+        gaps
+    }
+
+    /// The frequency of the `j`-th spurious pole under gap variant `k`: log-spread in the
+    /// largest gap (k = 3), or in the middle of the j-th largest (k = 4).
+    fn moved(&self, k: usize, j: usize) -> T {
+        let (a, b) = if k == 3 {
+            self.gaps[0]
+        } else {
+            self.gaps[std::cmp::min(j, self.gaps.len() - 1)]
+        };
+        let f = if k == 3 {
+            (T::from_usize_lossy(j) + T::one()) / (T::from_usize_lossy(self.n_bad) + T::one())
+        } else {
+            T::lit(0.5)
+        };
+        Float::exp(a + (b - a) * f)
+    }
+
+    /// The s-plane poles of variant `k` < [`REPLACEMENT_VARIANTS`] for the `j`-th
+    /// spurious pole `s` (`real` when it is real): [`replacement`] for k ∉ {3, 4}, else
+    /// the pole moved into the gaps ([`Self::moved`]) with ζ = 0.5 (a pair) or real.
+    fn variant(&self, s: Complex<T>, real: bool, k: usize, j: usize) -> Vec<Complex<T>> {
+        if !(3..5).contains(&k) {
+            return replacement(s, real, k);
+        }
+        let half = T::lit(0.5);
+        let sqrt_half = Float::sqrt(T::lit(0.75));
+        let w = self.moved(k, j);
+        if real {
+            vec![Complex::new(-w, T::zero())]
+        } else {
+            vec![Complex::new(-half * w, sqrt_half * w)]
+        }
+    }
+
+    /// The continuous-time basis poles under variant `k`: the spurious poles replaced,
+    /// the others reflected into the left half-plane.
+    fn basis(&self, k: usize) -> Vec<Complex<T>> {
+        let mut basis = vec![];
+        let mut j = 0;
+        for (p, bad) in &self.reps {
+            if *bad {
+                basis.extend(self.variant(*p, p.im == T::zero(), k, j));
+                j += 1;
+            } else {
+                basis.push(Complex::new(-Float::abs(p.re), p.im));
+            }
+        }
+        basis
+    }
+
+    /// The discrete-time poles (closed under conjugation) under variant `k` with sample
+    /// time `ts`: the spurious poles replaced in s and mapped to z = exp(s Ts), the others
+    /// kept, unstable ones reflected (z ↦ z/|z|²).
+    fn z_poles(&self, k: usize, ts: T) -> Vec<Complex<T>> {
+        let mut set = vec![];
+        let mut j = 0;
+        for (p, bad) in &self.reps {
+            let new: Vec<Complex<T>> = if *bad {
+                j += 1;
+                self.variant(s_plane(self.domain, *p), p.im == T::zero(), k, j - 1)
+                    .into_iter()
+                    .map(|s| (s * ts).exp())
+                    .collect()
+            } else if p.norm() > T::one() {
+                vec![*p / p.norm_sqr()]
+            } else {
+                vec![*p]
             };
-            let Ok(sol) = estimate(model, data, &ml, &lm, Some(&theta)) else {
-                continue;
-            };
-            if self.best.as_ref().is_none_or(|b| sol.cost < b.cost()) {
-                let stages = vec![Stage {
-                    kind: name,
-                    solution: sol.clone(),
-                }];
-                if let Ok(f) = Fit::new(model.clone(), data, sol.theta, pipeline.weighting, stages)
-                {
-                    self.offer(f);
+            for q in new {
+                if Float::abs(q.im) > T::zero() {
+                    set.push(Complex::new(q.re, Float::abs(q.im)));
+                    set.push(Complex::new(q.re, -Float::abs(q.im)));
+                } else {
+                    set.push(q);
                 }
             }
         }
+        set
+    }
+}
+
+/// The s-plane replacement of a spurious pole s, |s| = ω, under variant `k`: a real pole
+/// −ω when `real`; else a pair −ζω ± iω√(1 − ζ²) with ζ = 0.3 (k = 0), 0.7 (k = 1) or
+/// 0.05 (k = 5), or two real poles −ω/2 and −2ω (other k).
+fn replacement<T: Real>(s: Complex<T>, real: bool, k: usize) -> Vec<Complex<T>> {
+    let w = s.norm();
+    if real {
+        return vec![Complex::new(-w, T::zero())];
+    }
+    match k {
+        0 | 1 | 5 => {
+            let zeta = T::lit(match k {
+                0 => 0.3,
+                1 => 0.7,
+                _ => 0.05,
+            });
+            let im = w * Float::sqrt(T::one() - zeta * zeta);
+            vec![Complex::new(-zeta * w, im)]
+        }
+        _ => vec![
+            Complex::new(-w / T::lit(2.0), T::zero()),
+            Complex::new(-w * T::lit(2.0), T::zero()),
+        ],
     }
 }
 
@@ -617,10 +698,7 @@ fn near_cancellation<T: Real>(fit: &Fit<T, Rational<T>>) -> bool {
     let (Ok(poles), Ok(zeros)) = (fit.poles(), fit.zeros()) else {
         return false;
     };
-    let to_s = |p: Complex<T>| match fit.model().domain() {
-        Domain::Continuous => p,
-        Domain::Discrete { ts } => p.ln() / ts,
-    };
+    let to_s = |p: Complex<T>| s_plane(fit.model().domain(), p);
     let limit = T::lit(NEAR_CANCELLATION);
     poles.iter().any(|p| {
         let s = to_s(*p);
