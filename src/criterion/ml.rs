@@ -234,7 +234,7 @@ impl<'a, T: Real, M: ModelStructure<T> + ?Sized> MlProblem<'a, T, M> {
     }
 }
 
-/// dst[2i], dst[2i + 1] = Re, Im of sign·w_i·src_i (w absent: unit weights).
+/// dst\[2i\], dst\[2i + 1\] = Re, Im of sign·w_i·src_i (w absent: unit weights).
 fn stack_weighted<T: Real>(
     src: &[crate::scalar::Complex<T>],
     weight: Option<&[T]>,

@@ -630,15 +630,13 @@ pub fn fit_multistart_discrete<T: Real>(
     search.finish()
 }
 
-/// [`EquationError::restart`] for [`Rational`]: when `suspicious`, or when `fit` has
+/// [`FurtherStarts::further_starts`] for [`Rational`]: when `suspicious`, or when `fit` has
 /// poles the data cannot resolve ([`Fit::unresolved_poles`]), the starts of
 /// [`fit_multistart`] (a partial-fraction model) or of [`fit_multistart_discrete`] (a
 /// discrete-time polynomial model) but the automatic one, which gave `fit`; `None`
 /// otherwise (no evidence, a transient term, the orthonormal polynomial basis, an order
 /// above [`MAX_RESTART_ORDER`]) or when
 /// every start fails. The caller keeps `fit` unless the returned fit has a lower cost.
-///
-/// [`EquationError::restart`]: crate::model::EquationError::restart
 fn restart<T: Real>(
     model: &Rational<T>,
     pipeline: &Pipeline,
