@@ -7,7 +7,7 @@
 //!   of 10, 12, 16, 20, 24, 32);
 //! * `response/{analytic,auto}/p`: `response_into` of the same models (no derivatives);
 //! * `physical/*`: `jacobian_into` of the shipped physical models on 1 000 lines;
-//! * `fit_two_mass_1000`: `fit_ml` of the two-mass drive (motor speed) on 1 000 noisy lines
+//! * `fit_two_mass_1000`: `fit_ml_from` of the two-mass drive (motor speed) on 1 000 noisy lines
 //!   from a start 20 % off.
 //!
 //! Before the criterion groups, the ratio auto/analytic of the Jacobian time per p is
@@ -20,7 +20,7 @@
 //! with `CARGO_PROFILE_BENCH_CODEGEN_UNITS=1`; p = 17 (a 20-component dual) 9.7 and 4.3.
 
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
-use fdid::estimate::greybox::fit_ml;
+use fdid::estimate::greybox::fit_ml_from;
 use fdid::greybox::physical::{DriveOutput, MassSpringDamper, TwoMassDrive};
 use fdid::greybox::{AutoDiff, DualScalar, GreyBox, PhysicalParameters};
 use fdid::{Complex, FrequencyData, ModelStructure, NoiseVariances, Rational};
@@ -228,7 +228,7 @@ fn bench_physical(c: &mut Criterion) {
         .measurement_time(Duration::from_secs(3))
         .warm_up_time(Duration::from_millis(500));
     group.bench_function("fit_two_mass_1000", |b| {
-        b.iter(|| fit_ml(&drive, &data, black_box(&start)).unwrap())
+        b.iter(|| fit_ml_from(&drive, &data, black_box(&start)).unwrap())
     });
     group.finish();
 }

@@ -9,7 +9,7 @@
 //!
 //! Run: `cargo run --release --example greybox`
 
-use fdid::estimate::greybox::{fit_ml, physical_values};
+use fdid::estimate::greybox::{fit_ml_from, physical_values};
 use fdid::greybox::physical::{
     DcMotor, DriveOutput, MassSpringDamper, Rlc, RlcOutput, TwoMassDrive,
 };
@@ -118,7 +118,7 @@ fn mass_spring_damper() {
     let c = -2.0 * p.re * m;
     println!("\nstart from the rational fit: m = {m:.4}, c = {c:.4}, k = {k:.4}");
     let start: Vec<f64> = model.theta_from_physical(&[m, c, k]).unwrap();
-    let fit = fit_ml(&model, &data, &start).unwrap();
+    let fit = fit_ml_from(&model, &data, &start).unwrap();
     print_fit(
         "mass–spring–damper (force → displacement), 200 lines, 2 % noise",
         &fit,
@@ -134,7 +134,7 @@ fn two_mass() {
     let start: Vec<f64> = model
         .theta_from_physical(&[0.025, 0.04, 120.0, 0.07])
         .unwrap();
-    let fit = fit_ml(&model, &data, &start).unwrap();
+    let fit = fit_ml_from(&model, &data, &start).unwrap();
     print_fit(
         "two-mass drive (torque → motor speed), 300 lines, 1 % noise",
         &fit,
@@ -147,7 +147,7 @@ fn rlc() {
     let truth = [10.0, 1e-3, 1e-6];
     let data = simulate(&model, &truth, &logspace(3.0, 6.0, 150), 0.02, 3);
     let start: Vec<f64> = model.theta_from_physical(&[15.0, 0.7e-3, 1.5e-6]).unwrap();
-    let fit = fit_ml(&model, &data, &start).unwrap();
+    let fit = fit_ml_from(&model, &data, &start).unwrap();
     print_fit(
         "series RLC (voltage → current), 150 lines, 2 % noise",
         &fit,
@@ -161,7 +161,7 @@ fn dc_motor() {
     let truth = [0.1, 1e-4, 0.01];
     let data = simulate(&model, &truth, &logspace(0.0, 4.0, 150), 0.02, 4);
     let start: Vec<f64> = model.theta_from_physical(&[0.15, 2e-4, 0.005]).unwrap();
-    let fit = fit_ml(&model, &data, &start).unwrap();
+    let fit = fit_ml_from(&model, &data, &start).unwrap();
     print_fit(
         "DC motor (voltage → speed), R and L held, 150 lines, 2 % noise",
         &fit,
@@ -265,7 +265,7 @@ robot arm: {} excited odd lines, ω = {:.4} … {:.4} rad/sample (no noise varia
         return;
     }
     let start: Vec<f64> = model.theta_from_physical(&[j2, k, c, gain]).unwrap();
-    let lfit = fit_ml(&model, &low, &start).unwrap();
+    let lfit = fit_ml_from(&model, &low, &start).unwrap();
     print_fit(
         "two-mass drive, band ω ≤ 0.6 rad/sample (first mode)",
         &lfit,
@@ -279,7 +279,7 @@ robot arm: {} excited odd lines, ω = {:.4} … {:.4} rad/sample (no noise varia
     let delayed = Delayed::new(model.clone());
     let mut dstart = lfit.theta().to_vec();
     dstart.push(0.0);
-    let dlow = fit_ml(&delayed, &low, &dstart).unwrap();
+    let dlow = fit_ml_from(&delayed, &low, &dstart).unwrap();
     print_fit(
         "two-mass drive × delay, band ω ≤ 0.6 rad/sample",
         &dlow,
@@ -287,7 +287,7 @@ robot arm: {} excited odd lines, ω = {:.4} … {:.4} rad/sample (no noise varia
     );
     println!("  relative residual {:.4}", relative_residual(&dlow, &low));
     // the whole band: the second mode is not in the model
-    let fit = fit_ml(&delayed, &data, dlow.theta()).unwrap();
+    let fit = fit_ml_from(&delayed, &data, dlow.theta()).unwrap();
     print_fit(
         "two-mass drive × delay, full band (second mode unmodelled)",
         &fit,

@@ -25,7 +25,7 @@ use crate::scalar::Real;
 /// basis), see [`fit_each`] to give each data set its own model.
 ///
 /// ```
-/// use fdid::batch::fit_many;
+/// use fdid::estimate::batch::fit_many;
 /// use fdid::prelude::*;
 ///
 /// // noise-free FRFs of G(z) = b / (1 - a z^-1) (Ts = 1); the third is too short to fit
@@ -86,7 +86,7 @@ where
 /// continuous-time models built for each data set's grid by [`crate::Rational::continuous`].
 ///
 /// ```
-/// use fdid::batch::fit_each;
+/// use fdid::estimate::batch::fit_each;
 /// use fdid::prelude::*;
 ///
 /// // G(s) = 1 / (s + p) for p = 1, 2, 3 on grids of 40, 60 and 80 lines

@@ -17,7 +17,7 @@ use crate::solver::{
 ///
 /// ```compile_fail
 /// use fdid::prelude::*;
-/// use fdid::pipeline::estimate;
+/// use fdid::estimate::estimate;
 /// let data = FrequencyData::<f64>::from_frf(vec![1.0, 2.0], vec![Complex::new(1.0, 0.0); 2], None).unwrap();
 /// let model = Rational::continuous(1, 0, data.omega()).unwrap();
 /// // Levy is a linear problem: Levenberg–Marquardt does not accept it

@@ -31,7 +31,7 @@ fn check_start<T: Real, M: ModelStructure<T> + PhysicalParameters>(
 /// [`crate::FdidError::LengthMismatch`] / [`crate::FdidError::NonFinite`] (what `"theta"`) for a bad
 /// start, the model's [`PhysicalParameters::check_theta`] error (e.g. a delay outside its
 /// bounds), then as [`crate::criterion::MlProblem::new`] and the solver.
-pub fn fit_ml<T: Real, M: ModelStructure<T> + PhysicalParameters + Clone>(
+pub fn fit_ml_from<T: Real, M: ModelStructure<T> + PhysicalParameters + Clone>(
     model: &M,
     data: &FrequencyData<T>,
     start: &[T],
@@ -60,9 +60,9 @@ pub fn fit_ml<T: Real, M: ModelStructure<T> + PhysicalParameters + Clone>(
 /// those of the eq. 42 residuals with known noise level (Cov θ̂ = ½(JᵀJ)⁻¹).
 ///
 /// # Errors
-/// As [`fit_ml`] for the start; as [`ErrorsInVariables`]'s problem (no noise variances,
+/// As [`fit_ml_from`] for the start; as [`ErrorsInVariables`]'s problem (no noise variances,
 /// zero input noise, invalid covariances) and the solver.
-pub fn fit_eiv<T: Real, M: ModelStructure<T> + PhysicalParameters + Clone>(
+pub fn fit_eiv_from<T: Real, M: ModelStructure<T> + PhysicalParameters + Clone>(
     model: &M,
     data: &FrequencyData<T>,
     start: &[T],

@@ -50,7 +50,7 @@ use crate::solver::LevenbergMarquardt;
 ///
 /// ```
 /// use fdid::prelude::*;
-/// use fdid::criterion::fit_noise_model;
+/// use fdid::estimate::fit_noise_model;
 /// // noise-free DFT lines of G(z) = 0.5 / (1 − 0.8 z⁻¹), Ts = 1
 /// let n = 64;
 /// let omega: Vec<f64> = (0..=n / 2).map(|k| std::f64::consts::TAU * k as f64 / n as f64).collect();

@@ -26,7 +26,7 @@ use num_traits::Float;
 ///
 /// A θ of the wrong length makes `response_into`/`jacobian_into` write NaN (which every
 /// criterion reports as a numerical failure) instead of panicking; [`AutoDiff::evaluate`]
-/// and [`crate::estimate::greybox::fit_ml`] return typed errors.
+/// and [`crate::estimate::greybox::fit_ml_from`] return typed errors.
 ///
 /// ```
 /// use fdid::prelude::*;

@@ -27,13 +27,14 @@
 //!    (parameters held at known values). The linear criteria (Levy, SK, TLS) need
 //!    [`crate::EquationError`], which a general formula does not have.
 //! 5. **Start from a physical guess** θ₀ (or from the poles of a rational fit, see
-//!    [`physical`]), fit with [`crate::estimate::greybox::fit_ml`] (or [`crate::estimate::greybox::fit_eiv`]).
+//!    [`physical`]), fit with [`crate::estimate::greybox::fit_ml_from`] (or [`crate::estimate::greybox::fit_eiv_from`]).
 //! 6. **Read the result in physical units** with [`crate::estimate::greybox::physical_values`]: value exp(θ̂ᵢ) and,
 //!    by the delta method, std = value·std(θ̂ᵢ), with confidence intervals exp(θ̂ᵢ ± zσᵢ).
 //!
 //! ```
 //! use fdid::prelude::*;
-//! use fdid::greybox::{AutoDiff, DualScalar, GreyBox, Parameter, fit_ml, physical_values};
+//! use fdid::greybox::{AutoDiff, DualScalar, GreyBox, Parameter};
+//! use fdid::estimate::greybox::{fit_ml_from, physical_values};
 //!
 //! /// G(s) = K e^{−sτ_d} / (τ_c s + 1), θ = [ln K, ln τ_c, ln τ_d].
 //! #[derive(Clone)]
@@ -61,7 +62,7 @@
 //! let data = FrequencyData::from_frf(omega, frf, None).unwrap();
 //! // a physical guess, 30–50 % off
 //! let start = model.theta_from_physical(&[3.0, 0.3, 0.15]).unwrap();
-//! let fit = fit_ml(&model, &data, &start).unwrap();
+//! let fit = fit_ml_from(&model, &data, &start).unwrap();
 //! let values = physical_values(&fit);
 //! assert_eq!(values[1].name, "tau_c");
 //! assert!((values[0].value - 2.0).abs() < 1e-9);

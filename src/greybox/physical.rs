@@ -48,13 +48,14 @@ fn gain_factor<S: DualScalar>(theta: &[S], gain: bool, index: usize) -> S {
 ///
 /// ```
 /// use fdid::prelude::*;
-/// use fdid::greybox::{AutoDiff, fit_ml, physical_values, physical::MassSpringDamper};
+/// use fdid::greybox::{AutoDiff, physical::MassSpringDamper};
+/// use fdid::estimate::greybox::{fit_ml_from, physical_values};
 /// let model = AutoDiff::new(MassSpringDamper::new());
 /// let truth: Vec<f64> = model.theta_from_physical(&[2.0, 0.3, 50.0]).unwrap();
 /// let omega: Vec<f64> = (1..=100).map(|k| 0.1 * k as f64).collect();
 /// let data = FrequencyData::from_frf(omega.clone(), model.response(&truth, &omega), None).unwrap();
 /// let start = model.theta_from_physical(&[1.5, 0.5, 40.0]).unwrap();
-/// let fit = fit_ml(&model, &data, &start).unwrap();
+/// let fit = fit_ml_from(&model, &data, &start).unwrap();
 /// let m = &physical_values(&fit)[0];
 /// assert_eq!((m.name.as_str(), m.unit.as_str()), ("m", "kg"));
 /// assert!((m.value - 2.0).abs() < 1e-9);

@@ -134,7 +134,8 @@ impl<G: GreyBox> AutoDiff<G> {
     ///
     /// ```
     /// use fdid::prelude::*;
-    /// use fdid::greybox::{AutoDiff, DualScalar, GreyBox, fit_ml};
+    /// use fdid::greybox::{AutoDiff, DualScalar, GreyBox};
+    /// use fdid::estimate::greybox::fit_ml_from;
     ///
     /// /// G(z⁻¹) = g/(1 − a z⁻¹), θ = [ln g, a], Ts = 1 ms.
     /// #[derive(Clone)]
@@ -166,7 +167,7 @@ impl<G: GreyBox> AutoDiff<G> {
     /// let data = TimeData::new(u, y, 1e-3).unwrap().dft();
     /// let model = AutoDiff::new(Lag).with_transient().unwrap();
     /// // θ = [ln g, a, t₁]
-    /// let fit = fit_ml(&model, &data, &[1.0, 0.5, 0.0]).unwrap();
+    /// let fit = fit_ml_from(&model, &data, &[1.0, 0.5, 0.0]).unwrap();
     /// assert!((fit.theta()[0].exp() - 2.0).abs() < 1e-9);
     /// assert!((fit.theta()[1] - 0.9).abs() < 1e-9);
     /// ```

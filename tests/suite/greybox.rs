@@ -6,7 +6,7 @@
 use crate::common;
 
 use common::{Noise, central_difference, logspace};
-use fdid::estimate::greybox::{fit_eiv, fit_ml, physical_values};
+use fdid::estimate::greybox::{fit_eiv_from, fit_ml_from, physical_values};
 use fdid::estimate::refine_noise_model;
 use fdid::greybox::physical::{
     DcMotor, DriveOutput, MassSpringDamper, Rlc, RlcOutput, TwoMassDrive,
@@ -281,7 +281,7 @@ fn recovery<M: ModelStructure<f64> + PhysicalParameters + Clone>(
     let data = frf_data(model, &theta, omega);
     let guess: Vec<f64> = truth.iter().zip(factors).map(|(t, f)| t * f).collect();
     let start: Vec<f64> = model.theta_from_physical(&guess).unwrap();
-    let fit = fit_ml(model, &data, &start).unwrap();
+    let fit = fit_ml_from(model, &data, &start).unwrap();
     let values: Vec<f64> = physical_values(&fit)
         .iter()
         .filter(|v| !v.fixed)
@@ -413,7 +413,7 @@ fn unidentifiable_parameter_set_has_no_covariance() {
         .theta_from_physical(&[0.1, 1.0, 0.01, 1e-4, 0.01])
         .unwrap();
     let data = frf_data(&model, &truth, &logspace(0.0, 4.0, 100));
-    let fit = fit_ml(&model, &data, &truth).unwrap();
+    let fit = fit_ml_from(&model, &data, &truth).unwrap();
     assert!(fit.covariance().is_none());
     assert!(physical_values(&fit).iter().all(|v| v.std.is_none()));
 }
@@ -433,7 +433,7 @@ fn delayed_grey_box_recovers_delay_and_parameters() {
         .theta_from_physical(&[1.7, 0.4, 45.0])
         .unwrap();
     start.push(0.03);
-    let fit = fit_ml(&model, &data, &start).unwrap();
+    let fit = fit_ml_from(&model, &data, &start).unwrap();
     let v = physical_values(&fit);
     assert_eq!(v[3].name, "tau");
     assert_eq!(v[3].unit, "s");
@@ -455,7 +455,7 @@ fn noise_free_recovery_f32() {
     let data =
         FrequencyData::from_frf(omega.clone(), model.response(&truth, &omega), None).unwrap();
     let start: Vec<f32> = model.theta_from_physical(&[2.4, 0.2, 42.0]).unwrap();
-    let fit = fit_ml(&model, &data, &start).unwrap();
+    let fit = fit_ml_from(&model, &data, &start).unwrap();
     for (p, t) in physical_values(&fit).iter().zip([2.0f32, 0.3, 50.0]) {
         assert!(
             ((p.value - t) / t).abs() < 1e-3,
@@ -497,7 +497,7 @@ fn errors_in_variables_with_delayed_grey_box() {
         .theta_from_physical(&[1.8, 0.35, 47.0])
         .unwrap();
     start.push(0.04);
-    let fit = fit_eiv(&model, &data, &start).unwrap();
+    let fit = fit_eiv_from(&model, &data, &start).unwrap();
     assert_eq!(fit.stages().last().unwrap().kind, StageKind::Eiv);
     for (a, b) in fit.theta().iter().zip(&truth) {
         assert!((a - b).abs() < 1e-9 * b.abs().max(1.0), "{a} vs {b}");
@@ -526,7 +526,7 @@ fn noise_model_ml_over_grey_box() {
         .map(|k| g[k] * u[k] + hk[k] * noise.complex(1e-5))
         .collect();
     let data = FrequencyData::new(omega, y, u, Some(ts)).unwrap();
-    let start = fit_ml(&model, &data, &truth).unwrap();
+    let start = fit_ml_from(&model, &data, &truth).unwrap();
     let fit = refine_noise_model(
         &start,
         &data,
@@ -575,7 +575,7 @@ fn monte_carlo<M: ModelStructure<f64> + PhysicalParameters + Clone>(
             .unwrap()
             .with_noise(NoiseVariances::output_only(vec![var; omega.len()]))
             .unwrap();
-        let fit = fit_ml(model, &data, &theta0).unwrap();
+        let fit = fit_ml_from(model, &data, &theta0).unwrap();
         for (j, v) in physical_values(&fit)
             .iter()
             .filter(|v| !v.fixed)
@@ -695,7 +695,7 @@ fn bad_input_gives_typed_errors() {
     let data = frf_data(&model, &theta, &omega);
     // wrong θ length
     assert!(matches!(
-        fit_ml(&model, &data, &theta[..2]),
+        fit_ml_from(&model, &data, &theta[..2]),
         Err(FdidError::LengthMismatch {
             what: "theta",
             expected: 3,
@@ -714,7 +714,7 @@ fn bad_input_gives_typed_errors() {
     model.jacobian_into(&[0.0, 0.0], &omega, &mut gg, &mut jac);
     assert!(gg.iter().all(|v| v.re.is_nan()));
     // non-finite θ
-    let err = fit_ml(&model, &data, &[0.0, f64::NAN, 1.0]).unwrap_err();
+    let err = fit_ml_from(&model, &data, &[0.0, f64::NAN, 1.0]).unwrap_err();
     assert!(
         matches!(
             err,
@@ -776,13 +776,13 @@ fn bad_input_gives_typed_errors() {
     // a fixed model with a wrong free θ length
     let fixed = Fixed::physical(dc, &[("R", 2.0)]).unwrap();
     assert!(matches!(
-        fit_ml(&fixed, &data, &[0.0; 5]),
+        fit_ml_from(&fixed, &data, &[0.0; 5]),
         Err(FdidError::LengthMismatch { expected: 4, .. })
     ));
     // too few lines
     let short = FrequencyData::from_frf(vec![1.0], vec![Complex::new(1.0, 0.0)], None).unwrap();
     assert!(matches!(
-        fit_ml(&model, &short, &theta),
+        fit_ml_from(&model, &short, &theta),
         Err(FdidError::TooFewFrequencies { .. })
     ));
     // a discrete-time grey box against data of another sample time, and above Nyquist
@@ -794,13 +794,13 @@ fn bad_input_gives_typed_errors() {
     let zd = FrequencyData::from_frf(vec![1.0, 2.0], vec![Complex::new(1.0, 0.0); 2], Some(0.2))
         .unwrap();
     assert!(matches!(
-        fit_ml(&z, &zd, &[0.5, 1.0]),
+        fit_ml_from(&z, &zd, &[0.5, 1.0]),
         Err(FdidError::InvalidArgument { name: "ts", .. })
     ));
     let zd =
         FrequencyData::from_frf(vec![1.0, 40.0], vec![Complex::new(1.0, 0.0); 2], None).unwrap();
     assert!(matches!(
-        fit_ml(&z, &zd, &[0.5, 1.0]),
+        fit_ml_from(&z, &zd, &[0.5, 1.0]),
         Err(FdidError::InvalidArgument { name: "omega", .. })
     ));
     // a delay outside its bounds
@@ -808,7 +808,7 @@ fn bad_input_gives_typed_errors() {
     let mut start = theta.clone();
     start.push(0.5);
     assert!(matches!(
-        fit_ml(&delayed, &data, &start),
+        fit_ml_from(&delayed, &data, &start),
         Err(FdidError::InvalidArgument { name: "delay", .. })
     ));
 }

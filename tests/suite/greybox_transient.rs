@@ -13,7 +13,7 @@
 use crate::common;
 
 use common::{Noise, central_difference, lfilter};
-use fdid::estimate::greybox::{fit_ml, physical_values};
+use fdid::estimate::greybox::{fit_ml_from, physical_values};
 use fdid::greybox::physical::{
     DcMotor, DriveOutput, MassSpringDamper, Rlc, RlcOutput, TwoMassDrive,
 };
@@ -220,9 +220,9 @@ fn dt_resonator_recovered_exactly_with_transient_and_biased_without() {
     let start0 = [-2.0, -0.6, 0.1, 0.3];
     for seed in 0..4u64 {
         let data = dt_record(seed, 128, 0.0);
-        let fit = fit_ml(&plain, &data, &start0).unwrap();
+        let fit = fit_ml_from(&plain, &data, &start0).unwrap();
         let start: Vec<f64> = start0.iter().copied().chain([0.0, 0.0]).collect();
-        let exact = fit_ml(&with, &data, &start).unwrap();
+        let exact = fit_ml_from(&with, &data, &start).unwrap();
         let e = max_rel(&exact.theta()[..4], &RESONATOR_TRUTH);
         let e0 = max_rel(&fit.theta()[..4], &RESONATOR_TRUTH);
         println!("seed {seed}: rel error with transient {e:.2e}, without {e0:.2e}");
@@ -244,8 +244,8 @@ fn ct_mass_spring_damper_recovered_exactly_with_sampled_transient() {
     let start: Vec<f64> = start0.iter().copied().chain([0.0, 0.0]).collect();
     for seed in 0..4u64 {
         let data = msd_record(seed, 0.0, 0.0);
-        let exact = fit_ml(&with, &data, &start).unwrap();
-        let fit = fit_ml(&plain, &data, &start0).unwrap();
+        let exact = fit_ml_from(&with, &data, &start).unwrap();
+        let fit = fit_ml_from(&plain, &data, &start0).unwrap();
         let v: Vec<f64> = physical_values(&exact)[..3]
             .iter()
             .map(|p| p.value)
@@ -292,7 +292,7 @@ fn ct_recovery_property_over_random_systems_f64_and_f32() {
         let mut start = ln(&[m * 1.15, c / 1.15, k * 1.15]);
         start.extend([0.0, 0.0]);
         let truth = [m, c, k];
-        let fit = match fit_ml(&model, &data, &start) {
+        let fit = match fit_ml_from(&model, &data, &start) {
             Ok(f) => f,
             Err(e) => return TestResult::error(format!("seed {seed}: {e}")),
         };
@@ -308,7 +308,7 @@ fn ct_recovery_property_over_random_systems_f64_and_f32() {
         )
         .unwrap();
         let start32: Vec<f32> = start.iter().map(|v| *v as f32).collect();
-        let fit32 = match fit_ml(&model, &data32, &start32) {
+        let fit32 = match fit_ml_from(&model, &data32, &start32) {
             Ok(f) => f,
             Err(e) => return TestResult::error(format!("seed {seed} f32: {e}")),
         };
@@ -376,7 +376,7 @@ fn ct_compositions_fixed_and_delayed_recovered_exactly() {
     );
     let mut start: Vec<f64> = ln(&[0.07, 0.007, 0.0015]);
     start.extend([0.0, 0.0]);
-    let fit = fit_ml(&model, &data, &start).unwrap();
+    let fit = fit_ml_from(&model, &data, &start).unwrap();
     let v: Vec<f64> = physical_values(&fit)
         .iter()
         .filter(|p| !p.fixed && !p.name.starts_with("transient"))
@@ -395,7 +395,7 @@ fn ct_compositions_fixed_and_delayed_recovered_exactly() {
     let data = msd_record(3, tau, 0.0);
     let mut start = ln(&[2.5, 1.6, 42.0]);
     start.extend([0.0, 0.0, 0.02]);
-    let fit = fit_ml(&delayed, &data, &start).unwrap();
+    let fit = fit_ml_from(&delayed, &data, &start).unwrap();
     let vals = physical_values(&fit);
     assert_eq!(vals[5].name, "tau");
     let v: Vec<f64> = [0, 1, 2, 5].iter().map(|i| vals[*i].value).collect();
@@ -658,7 +658,7 @@ fn monte_carlo(runs: usize) {
     for run in 0..runs {
         // noise std 0.02 on y (the output's rms ≈ 0.1): SNR ≈ 14 dB in the time domain
         let data = msd_record(11 + (run as u64) * 0x1_0000_0000, 0.0, 0.02);
-        let fit = fit_ml(&model, &data, &start).unwrap();
+        let fit = fit_ml_from(&model, &data, &start).unwrap();
         est.push(fit.theta()[..3].to_vec());
         pred.push(fit.theta_std().unwrap()[..3].to_vec());
     }
@@ -723,7 +723,7 @@ fn bad_input_gives_typed_errors() {
         .unwrap();
     let data = msd_record(0, 0.0, 0.0);
     // a start without the transient coefficients
-    match fit_ml(&model, &data, &ln(&MSD)) {
+    match fit_ml_from(&model, &data, &ln(&MSD)) {
         Err(FdidError::LengthMismatch {
             what: "theta",
             expected: 5,
@@ -737,7 +737,7 @@ fn bad_input_gives_typed_errors() {
     let other = AutoDiff::new(MassSpringDamper::new())
         .with_sampled_transient(0.01)
         .unwrap();
-    match fit_ml(&other, &data, &start) {
+    match fit_ml_from(&other, &data, &start) {
         Err(FdidError::InvalidArgument { name: "ts", .. }) => {}
         other => panic!("{:?}", other.map(|f| f.theta().to_vec())),
     }
@@ -746,7 +746,7 @@ fn bad_input_gives_typed_errors() {
         .with_sampled_transient(0.5)
         .unwrap();
     let frf = FrequencyData::from_frf(data.omega().to_vec(), data.y().to_vec(), None).unwrap();
-    match fit_ml(&fast, &frf, &start) {
+    match fit_ml_from(&fast, &frf, &start) {
         Err(FdidError::InvalidArgument { name: "omega", .. }) => {}
         other => panic!("{:?}", other.map(|f| f.theta().to_vec())),
     }

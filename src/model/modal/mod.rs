@@ -61,7 +61,8 @@ use num_traits::Float;
 ///
 /// ```
 /// use fdid::prelude::*;
-/// use fdid::model::{Modal, ModalOptions, fit_modal};
+/// use fdid::model::Modal;
+/// use fdid::estimate::{ModalOptions, fit_modal};
 ///
 /// // noise-free data from G(s) = 1/(s + 0.5) + (1 + 2i)/(s + 0.1 − 2i) + (1 − 2i)/(s + 0.1 + 2i)
 /// let (p1, r1) = (Complex::new(-0.5, 0.0), Complex::new(1.0, 0.0));
