@@ -18,9 +18,10 @@ pub struct SpecFit {
     pub spec: ModelSpec,
     /// Number of estimated parameters p (system, delay and noise model).
     pub n_params: usize,
-    /// The estimate θ̂ (layout of the fitted model: for a [`Rational`] the denominator
-    /// and numerator coefficients, then the transient coefficients; then τ for a delay;
-    /// then the noise-model coefficients).
+    /// The estimate θ̂ (layout of the fitted model: for a
+    /// [`Rational`](crate::model::Rational) the denominator and numerator coefficients,
+    /// then the transient coefficients; then τ for a delay; then the noise-model
+    /// coefficients).
     #[cfg_attr(feature = "serde", serde(default))]
     pub theta: Vec<f64>,
     /// The covariance of θ̂ from the fit, (λ/2)(JᵀJ)⁻¹ (first order, McKelvey eqs. 32–34 for
@@ -91,8 +92,9 @@ impl SpecFit {
     /// normaliser c_k = (Y_k − Ŷ_k)/r_k, the residual Jacobian ∂r/∂θ = −(∂Ŷ/∂θ)/c_k
     /// real-stacked, the response Ĝ and output Ŷ = ĜU + T ([`Output`]), the cost and
     /// validation of the fit. When `spec.delay`, τ is the last system parameter (before
-    /// 2·`noise_order` noise-model parameters), as in [`Delayed`]. `poles` is left empty
-    /// (see [`SpecFit::with_poles`]); `custom` is `None` (see [`SpecFit::with_custom`]).
+    /// 2·`noise_order` noise-model parameters), as in [`Delayed`](crate::model::Delayed).
+    /// `poles` is left empty (see [`SpecFit::with_poles`]); `custom` is `None` (see
+    /// [`SpecFit::with_custom`]).
     ///
     /// # Errors
     /// A θ whose delay index does not exist ([`FdidError::LengthMismatch`], what
