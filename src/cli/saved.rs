@@ -2,7 +2,8 @@
 //! later, without the data.
 
 use super::Failure;
-use super::args::{DomainArg, EvalArgs};
+use super::args::EvalArgs;
+use fdid::estimate::RationalFit;
 use fdid::fitted::FittedModel;
 use fdid::model::{Delayed, WithNoiseModel};
 use fdid::prelude::*;
@@ -17,50 +18,42 @@ pub const FORMAT: &str = "fdid-model";
 /// Its `version` key.
 pub const VERSION: u64 = 1;
 
-/// Which model structure a saved file holds.
-#[derive(Debug, Clone, Copy)]
-pub enum Kind {
-    /// `Rational<f64>`.
-    Rational,
-    /// `Delayed<Rational<f64>>`.
-    Delayed,
-    /// `WithNoiseModel<Rational<f64>>`.
-    NoiseModel,
-    /// `WithNoiseModel<Delayed<Rational<f64>>>`.
-    DelayedNoiseModel,
-}
-
-impl Kind {
-    fn name(self) -> &'static str {
-        match self {
-            Self::Rational => "rational",
-            Self::Delayed => "delayed",
-            Self::NoiseModel => "noise_model",
-            Self::DelayedNoiseModel => "delayed_noise_model",
-        }
+/// The `kind` key of a saved model: which model structure the file holds.
+fn kind(fit: &RationalFit) -> &'static str {
+    match fit {
+        RationalFit::Plain(_) => "rational",
+        RationalFit::Delayed(_) => "delayed",
+        RationalFit::NoiseModel(_) => "noise_model",
+        RationalFit::DelayedNoiseModel(_) => "delayed_noise_model",
     }
 }
 
-/// The saved-model JSON object of `fit`:
+/// The saved-model JSON object of `fit`, a fit in `domain` of the data in `source`:
 /// `{"format":"fdid-model","version":1,"kind":..,"domain":"s"|"z","ts":x|null,
 /// "source":FILE,"fitted":{model,theta,covariance,noise_variance,noise_known,cost,lines},
 /// "unresolved_poles":[[re,im],..]}` with `unresolved`, the poles the data did not
 /// resolve ([`Fit::unresolved_poles`]; files without the key have none).
-pub fn saved<M: ModelStructure<f64> + Clone + Serialize>(
-    kind: Kind,
-    domain: DomainArg,
-    ts: Option<f64>,
+pub fn saved(
+    fit: &RationalFit,
+    domain: Domain<f64>,
     source: &str,
-    fit: &Fit<f64, M>,
     unresolved: &[Complex<f64>],
 ) -> Result<Value, Failure> {
-    let fitted = serde_json::to_value(FittedModel::of_fit(fit))
-        .map_err(|e| Failure::runtime(format!("cannot serialise the fitted model: {e}")))?;
+    let fitted = match fit {
+        RationalFit::Plain(f) => fitted(f),
+        RationalFit::Delayed(f) => fitted(f),
+        RationalFit::NoiseModel(f) => fitted(f),
+        RationalFit::DelayedNoiseModel(f) => fitted(f),
+    }?;
+    let (domain, ts) = match domain {
+        Domain::Continuous => ("s", None),
+        Domain::Discrete { ts } => ("z", Some(ts)),
+    };
     Ok(json!({
         "format": FORMAT,
         "version": VERSION,
-        "kind": kind.name(),
-        "domain": match domain { DomainArg::S => "s", DomainArg::Z => "z" },
+        "kind": kind(fit),
+        "domain": domain,
         "ts": ts,
         "source": source,
         "fitted": fitted,
@@ -70,6 +63,12 @@ pub fn saved<M: ModelStructure<f64> + Clone + Serialize>(
         .map_err(|e| Failure::runtime(format!("cannot serialise the unresolved poles: {e}")))?
         ["unresolved_poles"],
     }))
+}
+
+/// The `fitted` object of a saved model ([`FittedModel`]).
+fn fitted<M: ModelStructure<f64> + Clone + Serialize>(fit: &Fit<f64, M>) -> Result<Value, Failure> {
+    serde_json::to_value(FittedModel::of_fit(fit))
+        .map_err(|e| Failure::runtime(format!("cannot serialise the fitted model: {e}")))
 }
 
 /// The keys of a saved-model object read besides `fitted`, each with a default so that
