@@ -385,6 +385,29 @@ fn short(x: f64) -> String {
     }
 }
 
+/// One row of the table of steps: `cells` = step number, effect, detector p and LR p,
+/// then the cost (from `before`, when given), expected cost, max |r| and whiteness p of
+/// `fit`.
+fn step_row(w: &mut String, cells: [&str; 4], fit: &SpecFit, before: Option<f64>) {
+    let [n, effect, p, lr] = cells;
+    let v = match before {
+        Some(b) => format!("{} -> {}", short(b), short(fit.cost)),
+        None => short(fit.cost),
+    };
+    let _ = writeln!(
+        w,
+        "  {:<2} {:<18} {:>9} {:>9} {:>23} {:>10} {:>8} {:>9}",
+        n,
+        effect,
+        p,
+        lr,
+        v,
+        p_text(fit.validation.cost_expected),
+        short(max_residual(fit)),
+        p_text(fit.validation.whiteness_p)
+    );
+}
+
 impl Diagnosis {
     /// The diagnosis of the workflow's `report` on `prepared` (from `file`, with the noise
     /// reference `noise`): the initial and final reports render the fits the workflow
@@ -494,6 +517,15 @@ impl Diagnosis {
     fn text(&self) -> String {
         let mut o = String::new();
         let w = &mut o;
+        self.header_text(w);
+        self.steps_text(w);
+        self.final_text(w);
+        self.conclusion_text(w);
+        o
+    }
+
+    /// The settings, the data, the context, the noise reference and the starting model.
+    fn header_text(&self, w: &mut String) {
         let _ = writeln!(
             w,
             "fdid diagnose: discrepancy workflow, alpha = {}, at most {} step{}",
@@ -513,7 +545,11 @@ impl Diagnosis {
         for n in &self.notes {
             let _ = writeln!(w, "note         {n}");
         }
+    }
 
+    /// The table of steps (the start first) with the revised and unmodelled effects and
+    /// each step's detail, after an empty line.
+    fn steps_text(&self, w: &mut String) {
         let _ = writeln!(w);
         let _ = writeln!(
             w,
@@ -525,46 +561,15 @@ impl Diagnosis {
             "  {:<2} {:<18} {:>9} {:>9} {:>23} {:>10} {:>8} {:>9}",
             "#", "effect", "p", "LR p", "V before -> after", "E V", "max |r|", "white p"
         );
-        let row = |w: &mut String,
-                   n: &str,
-                   effect: &str,
-                   p: &str,
-                   lr: &str,
-                   fit: &SpecFit,
-                   before: Option<f64>| {
-            let v = match before {
-                Some(b) => format!("{} -> {}", short(b), short(fit.cost)),
-                None => short(fit.cost),
-            };
-            let _ = writeln!(
-                w,
-                "  {:<2} {:<18} {:>9} {:>9} {:>23} {:>10} {:>8} {:>9}",
-                n,
-                effect,
-                p,
-                lr,
-                v,
-                p_text(fit.validation.cost_expected),
-                short(max_residual(fit)),
-                p_text(fit.validation.whiteness_p)
-            );
-        };
-        row(w, "0", "(start)", "", "", &self.fits[0], None);
+        step_row(w, ["0", "(start)", "", ""], &self.fits[0], None);
         for (i, (s, fit)) in self.steps.iter().zip(&self.fits[1..]).enumerate() {
             let name = if s.revised {
                 format!("{}*", s.effect)
             } else {
                 s.effect.to_string()
             };
-            row(
-                w,
-                &(i + 1).to_string(),
-                &name,
-                &short(s.p_value),
-                &short(s.lr_p),
-                fit,
-                Some(s.cost_before),
-            );
+            let (n, p, lr) = ((i + 1).to_string(), short(s.p_value), short(s.lr_p));
+            step_row(w, [&n, &name, &p, &lr], fit, Some(s.cost_before));
         }
         if self.steps.iter().any(|s| s.revised) {
             let _ = writeln!(
@@ -591,7 +596,11 @@ impl Diagnosis {
                 let _ = writeln!(w, "  {}: {}", s.effect, parts.join(", "));
             }
         }
+    }
 
+    /// The final model: its structure, its validation and the model part of its report,
+    /// after an empty line.
+    fn final_text(&self, w: &mut String) {
         let last = self.last_fit();
         let _ = writeln!(w);
         let _ = writeln!(
@@ -621,7 +630,11 @@ impl Diagnosis {
             p_text(v.whiteness_p)
         );
         let _ = write!(w, "{}", self.last.model_text());
+    }
 
+    /// Where start and final model disagree with the data, the verdict and its warnings,
+    /// and the detectors' findings on the final fit, after an empty line.
+    fn conclusion_text(&self, w: &mut String) {
         let _ = writeln!(w);
         for (name, fit) in [("start", &self.fits[0]), ("final", self.last_fit())] {
             let _ = writeln!(w, "disagree     {name}: {}", bands_text(fit, self.alpha));
@@ -649,7 +662,8 @@ impl Diagnosis {
             let _ = writeln!(w, "detectors    on the final fit: {}", fired.join(", "));
         }
         let firing = self.remaining.iter().any(|f| f.p_value < self.alpha);
-        if self.stop == Stop::Consistent && firing && last.validation.cost_p.is_none() {
+        let no_cost_test = self.last_fit().validation.cost_p.is_none();
+        if self.stop == Stop::Consistent && firing && no_cost_test {
             let _ = writeln!(
                 w,
                 "warning      detectors fire below alpha on the final fit, but without a cost \
@@ -659,7 +673,6 @@ impl Diagnosis {
                  available"
             );
         }
-        o
     }
 
     /// Whether the final residuals are consistent with the noise, and if not what is

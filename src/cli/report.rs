@@ -749,6 +749,17 @@ impl Report {
     pub fn text(&self) -> String {
         let mut o = String::new();
         let w = &mut o;
+        self.setup_text(w);
+        self.statistics_text(w);
+        self.roots_text(w);
+        self.noise_model_text(w);
+        self.stages_text(w);
+        self.parameters_text(w);
+        o
+    }
+
+    /// Data, domain, orders, criterion, lines and weighting.
+    fn setup_text(&self, w: &mut String) {
         let (fmin, fmax) = (
             self.f_hz.first().copied().unwrap_or(f64::NAN),
             self.f_hz.last().copied().unwrap_or(f64::NAN),
@@ -782,6 +793,11 @@ impl Report {
             g(fmax)
         );
         let _ = writeln!(w, "weighting    {}", self.weighting);
+    }
+
+    /// Cost, noise variance, validation, delay, transient, relative residual, gain,
+    /// stability, the unresolved poles and the notes.
+    fn statistics_text(&self, w: &mut String) {
         let resid = if self.n_transient > 0 {
             "Y - G U - T"
         } else {
@@ -831,52 +847,58 @@ impl Report {
         for n in &self.notes {
             let _ = writeln!(w, "note         {n}");
         }
+    }
 
-        self.roots_text(w);
-
-        if let Some(h) = &self.noise_model {
-            let _ = writeln!(w);
-            let poly = |p: &[f64]| {
-                let mut t = String::from("1");
-                for (k, v) in p.iter().enumerate().skip(1) {
-                    let sign = if *v < 0.0 { '-' } else { '+' };
-                    let _ = write!(t, " {sign} {} z^-{k}", g(v.abs()));
-                }
-                t
-            };
+    /// The noise model H = C/D with its zeros and poles, after an empty line (nothing
+    /// without one).
+    fn noise_model_text(&self, w: &mut String) {
+        let Some(h) = &self.noise_model else {
+            return;
+        };
+        let _ = writeln!(w);
+        let poly = |p: &[f64]| {
+            let mut t = String::from("1");
+            for (k, v) in p.iter().enumerate().skip(1) {
+                let sign = if *v < 0.0 { '-' } else { '+' };
+                let _ = write!(t, " {sign} {} z^-{k}", g(v.abs()));
+            }
+            t
+        };
+        let _ = writeln!(
+            w,
+            "noise model  H = C/D, orders ({}, {}); lambda = {} is the innovation variance",
+            h.c.len() - 1,
+            h.d.len() - 1,
+            g(self.noise_variance)
+        );
+        let _ = writeln!(w, "  C = {}", poly(&h.c));
+        let _ = writeln!(w, "  D = {}", poly(&h.d));
+        for (title, roots) in [("zeros", &h.zeros), ("poles", &h.poles)] {
+            let list: Vec<String> = roots
+                .iter()
+                .map(|z| {
+                    format!(
+                        "{} {} {}i",
+                        g(z.re),
+                        if z.im < 0.0 { "-" } else { "+" },
+                        g(z.im.abs())
+                    )
+                })
+                .collect();
             let _ = writeln!(
                 w,
-                "noise model  H = C/D, orders ({}, {}); lambda = {} is the innovation variance",
-                h.c.len() - 1,
-                h.d.len() - 1,
-                g(self.noise_variance)
+                "  {title} of H (z-plane): {}",
+                if list.is_empty() {
+                    "none".into()
+                } else {
+                    list.join(", ")
+                }
             );
-            let _ = writeln!(w, "  C = {}", poly(&h.c));
-            let _ = writeln!(w, "  D = {}", poly(&h.d));
-            for (title, roots) in [("zeros", &h.zeros), ("poles", &h.poles)] {
-                let list: Vec<String> = roots
-                    .iter()
-                    .map(|z| {
-                        format!(
-                            "{} {} {}i",
-                            g(z.re),
-                            if z.im < 0.0 { "-" } else { "+" },
-                            g(z.im.abs())
-                        )
-                    })
-                    .collect();
-                let _ = writeln!(
-                    w,
-                    "  {title} of H (z-plane): {}",
-                    if list.is_empty() {
-                        "none".into()
-                    } else {
-                        list.join(", ")
-                    }
-                );
-            }
         }
+    }
 
+    /// The table of estimation stages, after an empty line.
+    fn stages_text(&self, w: &mut String) {
         let _ = writeln!(w);
         let _ = writeln!(w, "stages");
         let width = self.stages.iter().map(|s| s.name.len()).max().unwrap_or(0);
@@ -890,7 +912,11 @@ impl Report {
                 g(s.cost)
             );
         }
+    }
 
+    /// The table of θ with standard deviations (and the basis poles of a partial-fraction
+    /// form), after an empty line.
+    fn parameters_text(&self, w: &mut String) {
         let _ = writeln!(w);
         let (names, caption) = self.theta_names();
         let _ = writeln!(w, "parameters theta ({caption})");
@@ -921,7 +947,6 @@ impl Report {
                 "  (no standard deviations: the Jacobian is singular or there are no degrees of freedom)"
             );
         }
-        o
     }
 }
 
