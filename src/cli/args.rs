@@ -1,6 +1,7 @@
 //! Command-line syntax (clap derive) and the translation of clap's errors into one line.
 
 use clap::{Args, Parser, Subcommand, ValueEnum};
+use fdid::estimate::Method;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -369,18 +370,31 @@ pub enum CriterionArg {
     Eiv,
 }
 
-impl CriterionArg {
-    /// The name used in the output.
-    pub fn name(self) -> &'static str {
-        match self {
-            Self::Ml => "ml",
-            Self::Levy => "levy",
-            Self::Sk => "sk",
-            Self::Tls => "tls",
-            Self::Eiv => "eiv",
+impl From<CriterionArg> for Method {
+    fn from(c: CriterionArg) -> Self {
+        match c {
+            CriterionArg::Ml => Method::Ml,
+            CriterionArg::Levy => Method::Levy,
+            CriterionArg::Sk => Method::Sk,
+            CriterionArg::Tls => Method::Tls,
+            CriterionArg::Eiv => Method::Eiv,
         }
     }
+}
 
+impl From<Method> for CriterionArg {
+    fn from(m: Method) -> Self {
+        match m {
+            Method::Ml => CriterionArg::Ml,
+            Method::Levy => CriterionArg::Levy,
+            Method::Sk => CriterionArg::Sk,
+            Method::Tls => CriterionArg::Tls,
+            Method::Eiv => CriterionArg::Eiv,
+        }
+    }
+}
+
+impl CriterionArg {
     /// What the criterion runs.
     pub fn description(self) -> &'static str {
         match self {

@@ -4,22 +4,23 @@
 //! The data are read and prepared as for `fdid fit`; the noise reference that normalises
 //! the residuals r_k = (Y_k − Ŷ_k)/σ_k of McKelvey's ML cost (eq. 23) comes from the
 //! periods, the file, the local polynomial method or — with nothing known — from the
-//! residuals themselves. The initial and final models are refitted through the same
-//! estimator dispatch as `fdid fit` ([`super::fit_report`]), so `initial` and `final` in
-//! the JSON carry exactly the keys of `fdid fit --json`.
+//! residuals themselves. Nothing is refitted here: the initial and final models are the
+//! fits the workflow made ([`fdid::workflow::Report::initial_fit`] and
+//! [`fdid::workflow::Report::final_fit`], each on the data it was fitted on), rendered by
+//! the same report as `fdid fit` ([`super::Report::of`]), so `initial` and `final` in the
+//! JSON carry exactly the keys of `fdid fit --json`; the detectors' findings on the final
+//! fit are the workflow's ([`fdid::workflow::Report::remaining`]).
 
-use super::args::{DiagnoseArgs, DomainArg};
+use super::args::DiagnoseArgs;
 use super::data::{self, Prepared};
 use super::report::{g, num};
-use super::{
-    Failure, FitSpec, Report, check_combinations, check_data_kind, check_orders, fit_report,
-};
-use crate::cli::args::CriterionArg;
+use super::{Failure, Report, check_combinations, check_data_kind, check_orders};
 use fdid::data::Lpm;
+use fdid::estimate::{Method, ModelSpec};
 use fdid::prelude::*;
+use fdid::workflow::Report as WorkflowReport;
 use fdid::workflow::{
-    Context, Effect, Finding, Method, ModelSpec, SpecFit, Step, Workflow, disagreement_bands,
-    segment_disagreement,
+    Context, Effect, Finding, SpecFit, Step, Workflow, disagreement_bands, segment_disagreement,
 };
 use serde_json::{Map, Value, json};
 use std::fmt::Write as _;
@@ -115,29 +116,20 @@ struct Diagnosis {
     prepared: Prepared,
 }
 
-/// `fdid diagnose`.
+/// `fdid diagnose`: the workflow from the flags' starting model, reported from the fits
+/// it made.
 pub fn diagnose(args: &DiagnoseArgs) -> Result<String, Failure> {
     let c = &args.common;
-    check_orders(&[("--na", c.na), ("--nb", c.nb)])?;
-    if !(args.alpha > 0.0 && args.alpha < 1.0) {
-        return Err(Failure::usage(format!(
-            "invalid --alpha {}: the false-alarm level lies strictly between 0 and 1",
-            args.alpha
-        )));
-    }
-    let start_spec = FitSpec {
-        domain: c.domain,
-        na: c.na,
-        nb: c.nb,
-        delay: c.delay,
-        transient: c.transient,
-        noise_order: None,
-        criterion: CriterionArg::Ml,
-    };
-    check_combinations(&start_spec, c.periods)?;
+    check_usage(args)?;
     let mut prepared = data::prepare(c, false)?;
     let file = c.data.display().to_string();
-    check_data_kind(&start_spec, &file, &prepared)?;
+    let start = ModelSpec {
+        domain: prepared.domain,
+        delay: c.delay,
+        transient: c.transient,
+        ..ModelSpec::continuous(c.na, c.nb)
+    };
+    check_data_kind(&start, &file, &prepared)?;
     // a report directory that cannot be made is a usage problem found before the work
     if let Some(dir) = &args.report {
         std::fs::create_dir_all(dir).map_err(|e| {
@@ -147,9 +139,48 @@ pub fn diagnose(args: &DiagnoseArgs) -> Result<String, Failure> {
             ))
         })?;
     }
-
     let noise = noise_reference(c.periods, &mut prepared);
-    let (ctx, context) = match (prepared.time_record, c.periods) {
+    let (ctx, context) = context(args, &prepared);
+    let workflow = Workflow {
+        max_steps: args.max_steps,
+        ..Workflow::default()
+    };
+    let report = workflow.run(&prepared.data, start, ctx)?;
+    let diagnosis = Diagnosis::new(args, file, context, noise, prepared, report)?;
+    let text = diagnosis.text();
+    let json = diagnosis.json();
+    let mut out = if args.json {
+        json.clone()
+    } else {
+        text.clone()
+    };
+    if let Some(dir) = &args.report {
+        let written = write_report(dir, &diagnosis, &text, &json)?;
+        if !args.json {
+            let _ = writeln!(out, "\nreport       {}", written.join(", "));
+        }
+    }
+    Ok(out)
+}
+
+/// The usage checks of `fdid diagnose` before the data are read: the orders, `--alpha`
+/// and the model flags (the starting model is fitted by ML, without a noise model).
+fn check_usage(args: &DiagnoseArgs) -> Result<(), Failure> {
+    let c = &args.common;
+    check_orders(&[("--na", c.na), ("--nb", c.nb)])?;
+    if !(args.alpha > 0.0 && args.alpha < 1.0) {
+        return Err(Failure::usage(format!(
+            "invalid --alpha {}: the false-alarm level lies strictly between 0 and 1",
+            args.alpha
+        )));
+    }
+    check_combinations(c, Method::Ml, None)
+}
+
+/// What the data are (periodic record, one non-periodic record, frequency data): the
+/// workflow's context at `--alpha`, and its description.
+fn context(args: &DiagnoseArgs, prepared: &Prepared) -> (Context, &'static str) {
+    match (prepared.time_record, args.common.periods) {
         (true, Some(p)) => {
             // with two or more periods the measurement-level detectors (input noise,
             // time variation) see the record; a record they cannot use leaves them out
@@ -175,81 +206,7 @@ pub fn diagnose(args: &DiagnoseArgs) -> Result<String, Failure> {
             Context::frequency_data(args.alpha),
             "frequency data (no time record: no transient, no noise model)",
         ),
-    };
-    let domain = match (c.domain, prepared.ts) {
-        (DomainArg::S, _) => Domain::Continuous,
-        (DomainArg::Z, Some(ts)) => Domain::Discrete { ts },
-        (DomainArg::Z, None) => {
-            return Err(Failure::usage(
-                "--domain z needs a sample time: pass --ts SECONDS".into(),
-            ));
-        }
-    };
-    let start = ModelSpec {
-        domain,
-        na: c.na,
-        nb: c.nb,
-        delay: c.delay,
-        transient: c.transient,
-        noise_order: None,
-        ..ModelSpec::continuous(c.na, c.nb)
-    };
-
-    let Run {
-        steps,
-        fits,
-        final_data,
-        consistent,
-        unmodelled,
-    } = run_steps(&prepared.data, start, ctx.clone(), args.max_steps)?;
-    let last_fit = fits.last().expect("the starting fit is always there");
-    let stop = if consistent {
-        Stop::Consistent
-    } else if steps.len() >= args.max_steps {
-        Stop::StepLimit
-    } else {
-        Stop::NothingAccepted
-    };
-    let remaining = Workflow::default()
-        .detectors
-        .iter()
-        .filter_map(|d| d.detect(&final_data, last_fit, &ctx))
-        .collect();
-    let initial = fit_report(&FitSpec::of_model_spec(&fits[0].spec), &file, &prepared)?;
-    let last = fit_report(&FitSpec::of_model_spec(&last_fit.spec), &file, &prepared)?;
-    let diagnosis = Diagnosis {
-        file,
-        alpha: args.alpha,
-        max_steps: args.max_steps,
-        context,
-        noise,
-        source: prepared.source.clone(),
-        notes: prepared.notes.clone(),
-        segments: segments_text(&prepared, c.periods.is_none(), &fits, args.alpha),
-        steps,
-        unmodelled,
-        fits,
-        stop,
-        remaining,
-        initial,
-        last,
-        prepared,
-    };
-
-    let text = diagnosis.text();
-    let json = diagnosis.json();
-    let mut out = if args.json {
-        json.clone()
-    } else {
-        text.clone()
-    };
-    if let Some(dir) = &args.report {
-        let written = write_report(dir, &diagnosis, &text, &json)?;
-        if !args.json {
-            let _ = writeln!(out, "\nreport       {}", written.join(", "));
-        }
     }
-    Ok(out)
 }
 
 /// Attaches the best available noise reference to the data and says which it is: the
@@ -300,44 +257,6 @@ fn noise_reference(periods: Option<usize>, prepared: &mut Prepared) -> NoiseRefe
             why: format!("the local polynomial method does not apply: {e}"),
         },
     }
-}
-
-/// A workflow run: its steps, the fit before the first and after every step, and the
-/// data with the final noise reference.
-struct Run {
-    steps: Vec<Step>,
-    fits: Vec<SpecFit>,
-    final_data: FrequencyData<f64>,
-    consistent: bool,
-    unmodelled: Vec<Effect>,
-}
-
-/// Runs the workflow from `start`.
-fn run_steps(
-    data: &FrequencyData<f64>,
-    start: ModelSpec,
-    ctx: Context,
-    max_steps: usize,
-) -> Result<Run, Failure> {
-    let workflow = Workflow {
-        max_steps,
-        ..Workflow::default()
-    };
-    let report = workflow.run(data, start, ctx)?;
-    let mut fits = vec![report.initial_fit];
-    fits.extend(report.step_fits);
-    // the revision pass may change the final model after the last step fit was recorded
-    if let Some(last) = fits.last_mut() {
-        *last = report.final_fit;
-    }
-    let final_data = report.final_data.unwrap_or_else(|| data.clone());
-    Ok(Run {
-        steps: report.steps,
-        fits,
-        final_data,
-        consistent: report.consistent_with_noise,
-        unmodelled: report.unmodelled,
-    })
 }
 
 /// The frequency bands where `fit` and the data disagree at family-wise level α
@@ -466,7 +385,87 @@ fn short(x: f64) -> String {
     }
 }
 
+/// One row of the table of steps: `cells` = step number, effect, detector p and LR p,
+/// then the cost (from `before`, when given), expected cost, max |r| and whiteness p of
+/// `fit`.
+fn step_row(w: &mut String, cells: [&str; 4], fit: &SpecFit, before: Option<f64>) {
+    let [n, effect, p, lr] = cells;
+    let v = match before {
+        Some(b) => format!("{} -> {}", short(b), short(fit.cost)),
+        None => short(fit.cost),
+    };
+    let _ = writeln!(
+        w,
+        "  {:<2} {:<18} {:>9} {:>9} {:>23} {:>10} {:>8} {:>9}",
+        n,
+        effect,
+        p,
+        lr,
+        v,
+        p_text(fit.validation.cost_expected),
+        short(max_residual(fit)),
+        p_text(fit.validation.whiteness_p)
+    );
+}
+
 impl Diagnosis {
+    /// The diagnosis of the workflow's `report` on `prepared` (from `file`, with the noise
+    /// reference `noise`): the initial and final reports render the fits the workflow
+    /// made, each with the data it was fitted on.
+    fn new(
+        args: &DiagnoseArgs,
+        file: String,
+        context: &'static str,
+        noise: NoiseReference,
+        prepared: Prepared,
+        report: WorkflowReport,
+    ) -> Result<Self, Failure> {
+        let render = |fit: &SpecFit, data: &FrequencyData<f64>| {
+            let typed = fit.fit.as_ref().ok_or_else(|| {
+                Failure::runtime(format!(
+                    "the workflow kept no fit of the model {}",
+                    describe(&fit.spec)
+                ))
+            })?;
+            Report::of(&fit.spec, &file, &prepared, data, typed)
+        };
+        let initial = render(&report.initial_fit, &prepared.data)?;
+        let final_data = report.final_data.as_ref().unwrap_or(&prepared.data);
+        let last = render(&report.final_fit, final_data)?;
+        let stop = if report.consistent_with_noise {
+            Stop::Consistent
+        } else if report.steps.len() >= args.max_steps {
+            Stop::StepLimit
+        } else {
+            Stop::NothingAccepted
+        };
+        let mut fits = vec![report.initial_fit];
+        fits.extend(report.step_fits);
+        // the revision pass may change the final model after the last step fit was recorded
+        if let Some(last) = fits.last_mut() {
+            *last = report.final_fit;
+        }
+        let non_periodic = args.common.periods.is_none();
+        Ok(Self {
+            alpha: args.alpha,
+            max_steps: args.max_steps,
+            context,
+            noise,
+            source: prepared.source.clone(),
+            notes: prepared.notes.clone(),
+            segments: segments_text(&prepared, non_periodic, &fits, args.alpha),
+            steps: report.steps,
+            unmodelled: report.unmodelled,
+            fits,
+            stop,
+            remaining: report.remaining,
+            initial,
+            last,
+            file,
+            prepared,
+        })
+    }
+
     fn last_fit(&self) -> &SpecFit {
         self.fits.last().expect("the starting fit is always there")
     }
@@ -518,6 +517,15 @@ impl Diagnosis {
     fn text(&self) -> String {
         let mut o = String::new();
         let w = &mut o;
+        self.header_text(w);
+        self.steps_text(w);
+        self.final_text(w);
+        self.conclusion_text(w);
+        o
+    }
+
+    /// The settings, the data, the context, the noise reference and the starting model.
+    fn header_text(&self, w: &mut String) {
         let _ = writeln!(
             w,
             "fdid diagnose: discrepancy workflow, alpha = {}, at most {} step{}",
@@ -537,7 +545,11 @@ impl Diagnosis {
         for n in &self.notes {
             let _ = writeln!(w, "note         {n}");
         }
+    }
 
+    /// The table of steps (the start first) with the revised and unmodelled effects and
+    /// each step's detail, after an empty line.
+    fn steps_text(&self, w: &mut String) {
         let _ = writeln!(w);
         let _ = writeln!(
             w,
@@ -549,46 +561,15 @@ impl Diagnosis {
             "  {:<2} {:<18} {:>9} {:>9} {:>23} {:>10} {:>8} {:>9}",
             "#", "effect", "p", "LR p", "V before -> after", "E V", "max |r|", "white p"
         );
-        let row = |w: &mut String,
-                   n: &str,
-                   effect: &str,
-                   p: &str,
-                   lr: &str,
-                   fit: &SpecFit,
-                   before: Option<f64>| {
-            let v = match before {
-                Some(b) => format!("{} -> {}", short(b), short(fit.cost)),
-                None => short(fit.cost),
-            };
-            let _ = writeln!(
-                w,
-                "  {:<2} {:<18} {:>9} {:>9} {:>23} {:>10} {:>8} {:>9}",
-                n,
-                effect,
-                p,
-                lr,
-                v,
-                p_text(fit.validation.cost_expected),
-                short(max_residual(fit)),
-                p_text(fit.validation.whiteness_p)
-            );
-        };
-        row(w, "0", "(start)", "", "", &self.fits[0], None);
+        step_row(w, ["0", "(start)", "", ""], &self.fits[0], None);
         for (i, (s, fit)) in self.steps.iter().zip(&self.fits[1..]).enumerate() {
             let name = if s.revised {
                 format!("{}*", s.effect)
             } else {
                 s.effect.to_string()
             };
-            row(
-                w,
-                &(i + 1).to_string(),
-                &name,
-                &short(s.p_value),
-                &short(s.lr_p),
-                fit,
-                Some(s.cost_before),
-            );
+            let (n, p, lr) = ((i + 1).to_string(), short(s.p_value), short(s.lr_p));
+            step_row(w, [&n, &name, &p, &lr], fit, Some(s.cost_before));
         }
         if self.steps.iter().any(|s| s.revised) {
             let _ = writeln!(
@@ -614,7 +595,11 @@ impl Diagnosis {
                 let _ = writeln!(w, "  {}: {}", s.effect, parts.join(", "));
             }
         }
+    }
 
+    /// The final model: its structure, its validation and the model part of its report,
+    /// after an empty line.
+    fn final_text(&self, w: &mut String) {
         let last = self.last_fit();
         let _ = writeln!(w);
         let _ = writeln!(
@@ -644,7 +629,11 @@ impl Diagnosis {
             p_text(v.whiteness_p)
         );
         let _ = write!(w, "{}", self.last.model_text());
+    }
 
+    /// Where start and final model disagree with the data, the verdict and its warnings,
+    /// and the detectors' findings on the final fit, after an empty line.
+    fn conclusion_text(&self, w: &mut String) {
         let _ = writeln!(w);
         for (name, fit) in [("start", &self.fits[0]), ("final", self.last_fit())] {
             let _ = writeln!(w, "disagree     {name}: {}", bands_text(fit, self.alpha));
@@ -672,7 +661,8 @@ impl Diagnosis {
             let _ = writeln!(w, "detectors    on the final fit: {}", fired.join(", "));
         }
         let firing = self.remaining.iter().any(|f| f.p_value < self.alpha);
-        if self.stop == Stop::Consistent && firing && last.validation.cost_p.is_none() {
+        let no_cost_test = self.last_fit().validation.cost_p.is_none();
+        if self.stop == Stop::Consistent && firing && no_cost_test {
             let _ = writeln!(
                 w,
                 "warning      detectors fire below alpha on the final fit, but without a cost \
@@ -682,7 +672,6 @@ impl Diagnosis {
                  available"
             );
         }
-        o
     }
 
     /// Whether the final residuals are consistent with the noise, and if not what is

@@ -1,9 +1,11 @@
 //! The results of a fit, as text or as one JSON object.
 
-use super::args::{CriterionArg, DomainArg};
+use super::Failure;
+use super::args::CriterionArg;
 use super::data::Prepared;
-use super::{Failure, FitSpec};
 use fdid::basis::PolyBasis;
+use fdid::estimate::{Method, ModelSpec, RationalFit};
+use fdid::fit::Stage;
 use fdid::model::Output;
 use fdid::prelude::*;
 use fdid::solver::Termination;
@@ -18,6 +20,21 @@ struct StageRow {
     iterations: usize,
     termination: &'static str,
     cost: f64,
+}
+
+impl StageRow {
+    fn of(stage: &Stage<f64>) -> Self {
+        Self {
+            name: stage.kind.name(),
+            iterations: stage.solution.iterations,
+            termination: match stage.solution.termination {
+                Termination::Direct => "direct",
+                Termination::Converged => "converged",
+                Termination::MaxIterations => "iteration cap reached",
+            },
+            cost: stage.solution.cost,
+        }
+    }
 }
 
 /// How θ parameterises the fitted model.
@@ -49,20 +66,64 @@ impl Form {
 }
 
 /// What the fitted model holds besides its rational part, and how it was estimated.
-pub struct Parts<'a> {
+struct Parts<'a> {
     /// The (inner) rational model: the form and naming of its θ entries, which come first.
-    pub rational: &'a Rational<f64>,
+    rational: &'a Rational<f64>,
     /// θ holds a delay τ (s) after the rational entries.
-    pub delay: bool,
+    delay: bool,
     /// θ ends with the parameters η = [c₁ … c_nc, d₁ … d_nd] of this noise model.
-    pub noise: Option<NoiseModel<f64>>,
+    noise: Option<NoiseModel<f64>>,
     /// What the estimator ran.
-    pub description: String,
+    description: String,
     /// How the lines are weighted, when the criterion decides it (else the data's).
-    pub weighting: Option<String>,
-    /// The poles the data do not resolve ([`Fit::unresolved_poles`]; one of each
-    /// conjugate pair), in the plane of the poles.
-    pub unresolved: Vec<Complex<f64>>,
+    weighting: Option<String>,
+}
+
+impl<'a> Parts<'a> {
+    /// The parts of `fit`, a fit of `spec`.
+    fn of(spec: &ModelSpec, fit: &'a RationalFit) -> Self {
+        let (description, weighting) = estimator(spec);
+        Self {
+            rational: fit.rational(),
+            delay: fit.has_delay(),
+            noise: fit.noise_model(),
+            description,
+            weighting,
+        }
+    }
+}
+
+/// How `spec` is estimated, for the report: what the estimator runs, and the line
+/// weighting when the criterion decides it (else the data's weighting applies).
+fn estimator(spec: &ModelSpec) -> (String, Option<String>) {
+    let eiv = spec.criterion == Method::Eiv;
+    let mut description = if spec.delay {
+        "delay from the phase slope, Levy -> Sanathanan-Koerner -> maximum likelihood on \
+         the delay-compensated lines, maximum likelihood of the delayed model (eq. 23)"
+            .to_string()
+    } else {
+        CriterionArg::from(spec.criterion).description().to_string()
+    };
+    let mut weighting = None;
+    if spec.delay && eiv {
+        description.push_str(", errors-in-variables maximum likelihood (eq. 42)");
+    }
+    if eiv {
+        weighting = Some(
+            "1/sigma_k(theta), sigma_k^2 = var_y + |G|^2 var_u - 2 Re(conj(G) cov_yu) \
+             (errors-in-variables, eq. 42)"
+                .into(),
+        );
+    }
+    if let Some(n) = spec.noise_order {
+        description = format!(
+            "start: {description}, with flat weighting; then maximum likelihood with the \
+             noise model H = C/D of orders ({n}, {n}) (eq. 26)"
+        );
+        weighting =
+            Some("1/|H_k| from the estimated noise model; lambda estimated (eq. 25)".into());
+    }
+    (description, weighting)
 }
 
 /// A pole the data do not resolve, with why: with s = σ + iω_p (s = p, or ln(p)/Ts), no
@@ -82,8 +143,8 @@ pub struct UnresolvedPole {
 impl UnresolvedPole {
     /// The details of `pole` (one [`Fit::unresolved_poles`] flagged) on the lines `omega`
     /// (rad/s, ascending).
-    pub fn of(domain: DomainArg, ts: Option<f64>, omega: &[f64], pole: Complex<f64>) -> Self {
-        let s = s_of(domain, ts, pole);
+    pub fn of(domain: Domain<f64>, omega: &[f64], pole: Complex<f64>) -> Self {
+        let s = s_of(domain, pole);
         let (lo, _) = Self::band_of(s);
         let k = omega.partition_point(|x| *x < lo);
         Self {
@@ -101,16 +162,13 @@ impl UnresolvedPole {
     }
 
     /// The warning line of the text report (without the `warning` label).
-    pub fn text(&self, domain: DomainArg) -> String {
+    pub fn text(&self, domain: Domain<f64>) -> String {
         let hz = |w: f64| g(w / std::f64::consts::TAU);
-        let plane = match domain {
-            DomainArg::S => "rad/s",
-            DomainArg::Z => "z-plane",
-        };
+        let plane = plane(domain);
         let sign = if self.pole.im == 0.0 { "+" } else { "+/-" };
         let s = match domain {
-            DomainArg::S => String::new(),
-            DomainArg::Z => format!(
+            Domain::Continuous => String::new(),
+            Domain::Discrete { .. } => format!(
                 "; s = ln(z)/Ts = {} {sign} {}i rad/s",
                 g(self.s.re),
                 g(self.s.im.abs())
@@ -152,29 +210,30 @@ impl UnresolvedPole {
 }
 
 /// The poles that [`fdid::validation::unresolved_poles`] (the rule of
-/// [`Fit::unresolved_poles`]) flags for a model whose poles are `poles` (those of its
-/// rational part) fitted on the lines `omega` (rad/s, ascending), for any fit; none in z
-/// without a sample time.
+/// [`Fit::unresolved_poles`]) flags for a model in `domain` whose poles are `poles`
+/// (those of its rational part) fitted on the lines `omega` (rad/s, ascending), for any
+/// fit.
 pub fn unresolved_poles(
-    domain: DomainArg,
-    ts: Option<f64>,
+    domain: Domain<f64>,
     omega: &[f64],
     poles: &[Complex<f64>],
 ) -> Vec<Complex<f64>> {
-    let domain = match (domain, ts) {
-        (DomainArg::S, _) => fdid::model::Domain::Continuous,
-        (DomainArg::Z, Some(ts)) => fdid::model::Domain::Discrete { ts },
-        (DomainArg::Z, None) => return vec![],
-    };
     fdid::validation::unresolved_poles(poles, domain, omega)
 }
 
-/// s of a pole: itself (s), or ln(z)/Ts (z; NaN without a sample time).
-fn s_of(domain: DomainArg, ts: Option<f64>, p: Complex<f64>) -> Complex<f64> {
-    match (domain, ts) {
-        (DomainArg::S, _) => p,
-        (DomainArg::Z, Some(ts)) => p.ln() / ts,
-        (DomainArg::Z, None) => Complex::new(f64::NAN, f64::NAN),
+/// s of a pole: itself (s), or ln(z)/Ts (z).
+fn s_of(domain: Domain<f64>, p: Complex<f64>) -> Complex<f64> {
+    match domain {
+        Domain::Continuous => p,
+        Domain::Discrete { ts } => p.ln() / ts,
+    }
+}
+
+/// The plane of the poles and zeros: `rad/s` (s) or `z-plane` (z).
+fn plane(domain: Domain<f64>) -> &'static str {
+    match domain {
+        Domain::Continuous => "rad/s",
+        Domain::Discrete { .. } => "z-plane",
     }
 }
 
@@ -186,11 +245,47 @@ struct NoiseRow {
     poles: Vec<Complex<f64>>,
 }
 
+impl NoiseRow {
+    /// The noise model `h` at its parameters `eta`.
+    fn of(h: &NoiseModel<f64>, eta: &[f64]) -> Result<Self, Failure> {
+        let (c, d) = h.polynomials(eta);
+        Ok(Self {
+            c,
+            d,
+            zeros: h.zeros(eta)?,
+            poles: h.poles(eta)?,
+        })
+    }
+}
+
+/// What a report is made of besides the fit: the spec fitted, the file and how it was
+/// prepared, and the lines the fit was made on.
+#[derive(Clone, Copy)]
+struct Source<'a> {
+    spec: &'a ModelSpec,
+    file: &'a str,
+    prepared: &'a Prepared,
+    data: &'a FrequencyData<f64>,
+}
+
+/// `roots` sorted by natural frequency (those without one first), then imaginary part.
+fn sorted_roots(domain: Domain<f64>, mut roots: Vec<Complex<f64>>) -> Vec<Complex<f64>> {
+    let key = |z: &Complex<f64>| {
+        let (wn, _) = natural(domain, *z);
+        (if wn.is_finite() { wn } else { -1.0 }, z.im)
+    };
+    roots.sort_by(|a, b| {
+        key(a)
+            .partial_cmp(&key(b))
+            .unwrap_or(std::cmp::Ordering::Equal)
+    });
+    roots
+}
+
 /// Everything printed about a fit.
 pub struct Report {
     form: Form,
-    domain: DomainArg,
-    ts: Option<f64>,
+    domain: Domain<f64>,
     record_ts: Option<f64>,
     na: usize,
     nb: usize,
@@ -226,64 +321,58 @@ pub struct Report {
     /// The poles the data do not resolve.
     unresolved: Vec<UnresolvedPole>,
     stages: Vec<StageRow>,
-    /// The saved-model object of `fdid fit --save` (see `saved::saved`).
-    pub saved: Option<Value>,
 }
 
 impl Report {
-    /// The report with the saved-model object of `fdid fit --save`.
-    pub fn with_saved(mut self, saved: Value) -> Self {
-        self.saved = Some(saved);
-        self
-    }
-
     /// The fitted response on the data's lines and its standard deviation, if known.
     pub fn response(&self) -> (&[Complex<f64>], Option<&[f64]>) {
         (&self.frf, self.frf_std.as_deref())
     }
 
-    /// Collects the results of `fit`, a model whose θ is laid out as `parts` says:
-    /// [rational (with its transient coefficients last), τ, c₁ … c_nc, d₁ … d_nd].
-    pub fn new<M: ModelStructure<f64> + PolesZeros<f64>>(
-        args: &FitSpec,
+    /// The report of `fit`, the fit of `spec` on `data` (prepared as `prepared` says; the
+    /// lines of `data` give the relative residual).
+    pub fn of(
+        spec: &ModelSpec,
         file: &str,
         prepared: &Prepared,
+        data: &FrequencyData<f64>,
+        fit: &RationalFit,
+    ) -> Result<Self, Failure> {
+        let parts = Parts::of(spec, fit);
+        let source = Source {
+            spec,
+            file,
+            prepared,
+            data,
+        };
+        match fit {
+            RationalFit::Plain(f) => Self::new(&source, f, parts),
+            RationalFit::Delayed(f) => Self::new(&source, f, parts),
+            RationalFit::NoiseModel(f) => Self::new(&source, f, parts),
+            RationalFit::DelayedNoiseModel(f) => Self::new(&source, f, parts),
+        }
+    }
+
+    /// Collects the results of `fit`, a model whose θ is laid out as `parts` says:
+    /// [rational (with its transient coefficients last), τ, c₁ … c_nc, d₁ … d_nd].
+    fn new<M: ModelStructure<f64> + PolesZeros<f64>>(
+        source: &Source<'_>,
         fit: &Fit<f64, M>,
         parts: Parts<'_>,
     ) -> Result<Self, Failure> {
-        let ts = prepared.ts;
-        let key = |z: &Complex<f64>| {
-            let (wn, _) = natural(args.domain, ts, *z);
-            (if wn.is_finite() { wn } else { -1.0 }, z.im)
+        let Source {
+            spec,
+            file,
+            prepared,
+            data,
+        } = *source;
+        let domain = spec.domain;
+        let poles = sorted_roots(domain, fit.poles()?);
+        let zeros = sorted_roots(domain, fit.zeros()?);
+        let stable = match domain {
+            Domain::Continuous => poles.iter().all(|p| p.re < 0.0),
+            Domain::Discrete { .. } => poles.iter().all(|p| p.norm() < 1.0),
         };
-        let sort = |mut v: Vec<Complex<f64>>| {
-            v.sort_by(|a, b| {
-                key(a)
-                    .partial_cmp(&key(b))
-                    .unwrap_or(std::cmp::Ordering::Equal)
-            });
-            v
-        };
-        let poles = sort(fit.poles()?);
-        let zeros = sort(fit.zeros()?);
-        let stable = match args.domain {
-            DomainArg::S => poles.iter().all(|p| p.re < 0.0),
-            DomainArg::Z => poles.iter().all(|p| p.norm() < 1.0),
-        };
-        let stages = fit
-            .stages()
-            .iter()
-            .map(|s| StageRow {
-                name: s.kind.name(),
-                iterations: s.solution.iterations,
-                termination: match s.solution.termination {
-                    Termination::Direct => "direct",
-                    Termination::Converged => "converged",
-                    Termination::MaxIterations => "iteration cap reached",
-                },
-                cost: s.solution.cost,
-            })
-            .collect();
         let theta = fit.theta().to_vec();
         let theta_std = fit.theta_std();
         let n_transient = parts.rational.n_transient();
@@ -298,21 +387,11 @@ impl Report {
             .flatten();
         let noise_model = match parts.noise {
             None => None,
-            Some(h) => {
-                let eta = &theta[theta.len() - h.n_params()..];
-                let (c, d) = h.polynomials(eta);
-                Some(NoiseRow {
-                    c,
-                    d,
-                    zeros: h.zeros(eta)?,
-                    poles: h.poles(eta)?,
-                })
-            }
+            Some(h) => Some(NoiseRow::of(&h, &theta[theta.len() - h.n_params()..])?),
         };
-        let unresolved = parts
-            .unresolved
-            .iter()
-            .map(|p| UnresolvedPole::of(args.domain, ts, fit.omega(), *p))
+        let unresolved = unresolved_poles(domain, fit.omega(), &fit.poles()?)
+            .into_iter()
+            .map(|p| UnresolvedPole::of(domain, fit.omega(), p))
             .collect();
         let covariance = fit.covariance().map(|c| {
             c.row_iter()
@@ -321,12 +400,11 @@ impl Report {
         });
         Ok(Self {
             form: Form::of(parts.rational.basis()),
-            domain: args.domain,
-            ts,
+            domain,
             record_ts: prepared.record_ts,
-            na: args.na,
-            nb: args.nb,
-            criterion: args.criterion.name(),
+            na: spec.na,
+            nb: spec.nb,
+            criterion: spec.criterion.name(),
             criterion_description: parts.description,
             file: file.to_string(),
             source: prepared.source.clone(),
@@ -344,8 +422,8 @@ impl Report {
             cost: fit.cost(),
             noise_variance: fit.noise_variance(),
             noise_known: fit.noise_known(),
-            errors_in_variables: args.criterion == CriterionArg::Eiv,
-            relative_residual: relative_residual(fit.model(), fit.theta(), &prepared.data),
+            errors_in_variables: spec.criterion == Method::Eiv,
+            relative_residual: relative_residual(fit.model(), fit.theta(), data),
             poles,
             zeros,
             gain: fit.gain(),
@@ -359,15 +437,22 @@ impl Report {
             delay,
             noise_model,
             unresolved,
-            stages,
-            saved: None,
+            stages: fit.stages().iter().map(StageRow::of).collect(),
         })
+    }
+
+    /// The model's sample time (z only).
+    fn ts(&self) -> Option<f64> {
+        match self.domain {
+            Domain::Continuous => None,
+            Domain::Discrete { ts } => Some(ts),
+        }
     }
 
     fn domain_name(&self) -> &'static str {
         match self.domain {
-            DomainArg::S => "s",
-            DomainArg::Z => "z",
+            Domain::Continuous => "s",
+            Domain::Discrete { .. } => "z",
         }
     }
 
@@ -477,10 +562,7 @@ impl Report {
 
     /// The tables of poles and zeros, each after an empty line.
     fn roots_text(&self, w: &mut String) {
-        let plane = match self.domain {
-            DomainArg::S => "rad/s",
-            DomainArg::Z => "z-plane",
-        };
+        let plane = plane(self.domain);
         for (title, roots) in [("poles", &self.poles), ("zeros", &self.zeros)] {
             let _ = writeln!(w);
             if roots.is_empty() {
@@ -491,8 +573,8 @@ impl Report {
                 w,
                 "{title} ({plane}){}",
                 match self.domain {
-                    DomainArg::S => "",
-                    DomainArg::Z => "; f_n and damping of s = ln(z)/Ts",
+                    Domain::Continuous => "",
+                    Domain::Discrete { .. } => "; f_n and damping of s = ln(z)/Ts",
                 }
             );
             let _ = writeln!(
@@ -501,7 +583,7 @@ impl Report {
                 "re", "im", "f_n (Hz)", "damping"
             );
             for z in roots.iter() {
-                let (wn, zeta) = natural(self.domain, self.ts, *z);
+                let (wn, zeta) = natural(self.domain, *z);
                 let _ = writeln!(
                     w,
                     "  {:>14} {:>14}  {:>12} {:>10}",
@@ -629,7 +711,7 @@ impl Report {
             "frf": frf,
             "na": self.na,
             "nb": self.nb,
-            "ts": self.ts.map_or(Value::Null, num),
+            "ts": self.ts().map_or(Value::Null, num),
             "criterion": self.criterion,
             "lines": self.f_hz.len(),
             "gain": num(self.gain),
@@ -667,13 +749,24 @@ impl Report {
     pub fn text(&self) -> String {
         let mut o = String::new();
         let w = &mut o;
+        self.setup_text(w);
+        self.statistics_text(w);
+        self.roots_text(w);
+        self.noise_model_text(w);
+        self.stages_text(w);
+        self.parameters_text(w);
+        o
+    }
+
+    /// Data, domain, orders, criterion, lines and weighting.
+    fn setup_text(&self, w: &mut String) {
         let (fmin, fmax) = (
             self.f_hz.first().copied().unwrap_or(f64::NAN),
             self.f_hz.last().copied().unwrap_or(f64::NAN),
         );
         let _ = writeln!(w, "data         {}: {}", self.file, self.source);
-        match (self.domain, self.ts) {
-            (DomainArg::Z, Some(ts)) => {
+        match self.domain {
+            Domain::Discrete { ts } => {
                 let _ = writeln!(w, "domain       z (discrete time, Ts = {} s)", g(ts));
             }
             _ => {
@@ -700,6 +793,11 @@ impl Report {
             g(fmax)
         );
         let _ = writeln!(w, "weighting    {}", self.weighting);
+    }
+
+    /// Cost, noise variance, validation, delay, transient, relative residual, gain,
+    /// stability, the unresolved poles and the notes.
+    fn statistics_text(&self, w: &mut String) {
         let resid = if self.n_transient > 0 {
             "Y - G U - T"
         } else {
@@ -739,8 +837,8 @@ impl Report {
             "gain         {}{}",
             g(self.gain),
             match self.domain {
-                DomainArg::S => "  (G = gain * prod(s - zero) / prod(s - pole))",
-                DomainArg::Z =>
+                Domain::Continuous => "  (G = gain * prod(s - zero) / prod(s - pole))",
+                Domain::Discrete { .. } =>
                     "  (first nonzero b coefficient: G = gain * z^k * prod(z - zero) / prod(z - pole))",
             }
         );
@@ -749,52 +847,58 @@ impl Report {
         for n in &self.notes {
             let _ = writeln!(w, "note         {n}");
         }
+    }
 
-        self.roots_text(w);
-
-        if let Some(h) = &self.noise_model {
-            let _ = writeln!(w);
-            let poly = |p: &[f64]| {
-                let mut t = String::from("1");
-                for (k, v) in p.iter().enumerate().skip(1) {
-                    let sign = if *v < 0.0 { '-' } else { '+' };
-                    let _ = write!(t, " {sign} {} z^-{k}", g(v.abs()));
-                }
-                t
-            };
+    /// The noise model H = C/D with its zeros and poles, after an empty line (nothing
+    /// without one).
+    fn noise_model_text(&self, w: &mut String) {
+        let Some(h) = &self.noise_model else {
+            return;
+        };
+        let _ = writeln!(w);
+        let poly = |p: &[f64]| {
+            let mut t = String::from("1");
+            for (k, v) in p.iter().enumerate().skip(1) {
+                let sign = if *v < 0.0 { '-' } else { '+' };
+                let _ = write!(t, " {sign} {} z^-{k}", g(v.abs()));
+            }
+            t
+        };
+        let _ = writeln!(
+            w,
+            "noise model  H = C/D, orders ({}, {}); lambda = {} is the innovation variance",
+            h.c.len() - 1,
+            h.d.len() - 1,
+            g(self.noise_variance)
+        );
+        let _ = writeln!(w, "  C = {}", poly(&h.c));
+        let _ = writeln!(w, "  D = {}", poly(&h.d));
+        for (title, roots) in [("zeros", &h.zeros), ("poles", &h.poles)] {
+            let list: Vec<String> = roots
+                .iter()
+                .map(|z| {
+                    format!(
+                        "{} {} {}i",
+                        g(z.re),
+                        if z.im < 0.0 { "-" } else { "+" },
+                        g(z.im.abs())
+                    )
+                })
+                .collect();
             let _ = writeln!(
                 w,
-                "noise model  H = C/D, orders ({}, {}); lambda = {} is the innovation variance",
-                h.c.len() - 1,
-                h.d.len() - 1,
-                g(self.noise_variance)
+                "  {title} of H (z-plane): {}",
+                if list.is_empty() {
+                    "none".into()
+                } else {
+                    list.join(", ")
+                }
             );
-            let _ = writeln!(w, "  C = {}", poly(&h.c));
-            let _ = writeln!(w, "  D = {}", poly(&h.d));
-            for (title, roots) in [("zeros", &h.zeros), ("poles", &h.poles)] {
-                let list: Vec<String> = roots
-                    .iter()
-                    .map(|z| {
-                        format!(
-                            "{} {} {}i",
-                            g(z.re),
-                            if z.im < 0.0 { "-" } else { "+" },
-                            g(z.im.abs())
-                        )
-                    })
-                    .collect();
-                let _ = writeln!(
-                    w,
-                    "  {title} of H (z-plane): {}",
-                    if list.is_empty() {
-                        "none".into()
-                    } else {
-                        list.join(", ")
-                    }
-                );
-            }
         }
+    }
 
+    /// The table of estimation stages, after an empty line.
+    fn stages_text(&self, w: &mut String) {
         let _ = writeln!(w);
         let _ = writeln!(w, "stages");
         let width = self.stages.iter().map(|s| s.name.len()).max().unwrap_or(0);
@@ -808,7 +912,11 @@ impl Report {
                 g(s.cost)
             );
         }
+    }
 
+    /// The table of θ with standard deviations (and the basis poles of a partial-fraction
+    /// form), after an empty line.
+    fn parameters_text(&self, w: &mut String) {
         let _ = writeln!(w);
         let (names, caption) = self.theta_names();
         let _ = writeln!(w, "parameters theta ({caption})");
@@ -839,7 +947,6 @@ impl Report {
                 "  (no standard deviations: the Jacobian is singular or there are no degrees of freedom)"
             );
         }
-        o
     }
 }
 
@@ -862,10 +969,10 @@ fn relative_residual<M: ModelStructure<f64>>(
 }
 
 /// Natural frequency (rad/s) and damping ratio of a root: of s itself, or of s = ln(z)/Ts.
-fn natural(domain: DomainArg, ts: Option<f64>, z: Complex<f64>) -> (f64, f64) {
-    let s = match (domain, ts) {
-        (DomainArg::S, _) => z,
-        (DomainArg::Z, Some(ts)) if z.norm() > 0.0 => z.ln() / ts,
+fn natural(domain: Domain<f64>, z: Complex<f64>) -> (f64, f64) {
+    let s = match domain {
+        Domain::Continuous => z,
+        Domain::Discrete { ts } if z.norm() > 0.0 => z.ln() / ts,
         _ => return (f64::NAN, f64::NAN),
     };
     let wn = s.norm();
@@ -957,13 +1064,13 @@ mod tests {
         assert_eq!(lib.len(), 1, "{lib:?}");
         let fitted = fit.poles().unwrap();
         assert_eq!(
-            unresolved_poles(DomainArg::S, None, fit.omega(), &fitted),
+            unresolved_poles(Domain::Continuous, fit.omega(), &fitted),
             lib
         );
-        let u = UnresolvedPole::of(DomainArg::S, None, fit.omega(), lib[0]);
+        let u = UnresolvedPole::of(Domain::Continuous, fit.omega(), lib[0]);
         assert!(u.below.unwrap() < 1.0 - 2e-3 && u.above.unwrap() > 1.0 + 2e-3);
         assert!(
-            u.text(DomainArg::S)
+            u.text(Domain::Continuous)
                 .starts_with("unresolved pole -1.000000e-4 +/- ")
         );
     }
@@ -976,24 +1083,25 @@ mod tests {
         let resolved = (Complex::new(-1.0, 19.97) * ts).exp();
         let poles = [flagged, flagged.conj(), resolved, resolved.conj()];
         assert_eq!(
-            unresolved_poles(DomainArg::Z, Some(ts), &omega, &poles),
+            unresolved_poles(Domain::Discrete { ts }, &omega, &poles),
             vec![flagged]
         );
-        let text = UnresolvedPole::of(DomainArg::Z, Some(ts), &omega, flagged).text(DomainArg::Z);
+        let text = UnresolvedPole::of(Domain::Discrete { ts }, &omega, flagged)
+            .text(Domain::Discrete { ts });
         assert!(
             text.contains("(z-plane; s = ln(z)/Ts = -1.000000e-4 +/- 1.000000i rad/s)"),
             "{text}"
         );
         // without lines nothing is flagged
-        assert!(unresolved_poles(DomainArg::Z, Some(ts), &[], &poles).is_empty());
+        assert!(unresolved_poles(Domain::Discrete { ts }, &[], &poles).is_empty());
     }
 
     #[test]
     fn natural_frequency_and_damping() {
-        let (wn, zeta) = natural(DomainArg::S, None, Complex::new(-0.2, 0.96f64.sqrt()));
+        let (wn, zeta) = natural(Domain::Continuous, Complex::new(-0.2, 0.96f64.sqrt()));
         assert!((wn - 1.0).abs() < 1e-12 && (zeta - 0.2).abs() < 1e-12);
         let z = (Complex::new(-0.2, 0.96f64.sqrt()) * 0.1).exp();
-        let (wn, zeta) = natural(DomainArg::Z, Some(0.1), z);
+        let (wn, zeta) = natural(Domain::Discrete { ts: 0.1 }, z);
         assert!((wn - 1.0).abs() < 1e-12 && (zeta - 0.2).abs() < 1e-12);
     }
 }

@@ -2,7 +2,8 @@
 //! later, without the data.
 
 use super::Failure;
-use super::args::{DomainArg, EvalArgs};
+use super::args::EvalArgs;
+use fdid::estimate::RationalFit;
 use fdid::fitted::FittedModel;
 use fdid::model::{Delayed, WithNoiseModel};
 use fdid::prelude::*;
@@ -17,50 +18,42 @@ pub const FORMAT: &str = "fdid-model";
 /// Its `version` key.
 pub const VERSION: u64 = 1;
 
-/// Which model structure a saved file holds.
-#[derive(Debug, Clone, Copy)]
-pub enum Kind {
-    /// `Rational<f64>`.
-    Rational,
-    /// `Delayed<Rational<f64>>`.
-    Delayed,
-    /// `WithNoiseModel<Rational<f64>>`.
-    NoiseModel,
-    /// `WithNoiseModel<Delayed<Rational<f64>>>`.
-    DelayedNoiseModel,
-}
-
-impl Kind {
-    fn name(self) -> &'static str {
-        match self {
-            Self::Rational => "rational",
-            Self::Delayed => "delayed",
-            Self::NoiseModel => "noise_model",
-            Self::DelayedNoiseModel => "delayed_noise_model",
-        }
+/// The `kind` key of a saved model: which model structure the file holds.
+fn kind(fit: &RationalFit) -> &'static str {
+    match fit {
+        RationalFit::Plain(_) => "rational",
+        RationalFit::Delayed(_) => "delayed",
+        RationalFit::NoiseModel(_) => "noise_model",
+        RationalFit::DelayedNoiseModel(_) => "delayed_noise_model",
     }
 }
 
-/// The saved-model JSON object of `fit`:
+/// The saved-model JSON object of `fit`, a fit in `domain` of the data in `source`:
 /// `{"format":"fdid-model","version":1,"kind":..,"domain":"s"|"z","ts":x|null,
 /// "source":FILE,"fitted":{model,theta,covariance,noise_variance,noise_known,cost,lines},
 /// "unresolved_poles":[[re,im],..]}` with `unresolved`, the poles the data did not
 /// resolve ([`Fit::unresolved_poles`]; files without the key have none).
-pub fn saved<M: ModelStructure<f64> + Clone + Serialize>(
-    kind: Kind,
-    domain: DomainArg,
-    ts: Option<f64>,
+pub fn saved(
+    fit: &RationalFit,
+    domain: Domain<f64>,
     source: &str,
-    fit: &Fit<f64, M>,
     unresolved: &[Complex<f64>],
 ) -> Result<Value, Failure> {
-    let fitted = serde_json::to_value(FittedModel::of_fit(fit))
-        .map_err(|e| Failure::runtime(format!("cannot serialise the fitted model: {e}")))?;
+    let fitted = match fit {
+        RationalFit::Plain(f) => fitted(f),
+        RationalFit::Delayed(f) => fitted(f),
+        RationalFit::NoiseModel(f) => fitted(f),
+        RationalFit::DelayedNoiseModel(f) => fitted(f),
+    }?;
+    let (domain, ts) = match domain {
+        Domain::Continuous => ("s", None),
+        Domain::Discrete { ts } => ("z", Some(ts)),
+    };
     Ok(json!({
         "format": FORMAT,
         "version": VERSION,
-        "kind": kind.name(),
-        "domain": match domain { DomainArg::S => "s", DomainArg::Z => "z" },
+        "kind": kind(fit),
+        "domain": domain,
         "ts": ts,
         "source": source,
         "fitted": fitted,
@@ -70,6 +63,12 @@ pub fn saved<M: ModelStructure<f64> + Clone + Serialize>(
         .map_err(|e| Failure::runtime(format!("cannot serialise the unresolved poles: {e}")))?
         ["unresolved_poles"],
     }))
+}
+
+/// The `fitted` object of a saved model ([`FittedModel`]).
+fn fitted<M: ModelStructure<f64> + Clone + Serialize>(fit: &Fit<f64, M>) -> Result<Value, Failure> {
+    serde_json::to_value(FittedModel::of_fit(fit))
+        .map_err(|e| Failure::runtime(format!("cannot serialise the fitted model: {e}")))
 }
 
 /// The keys of a saved-model object read besides `fitted`, each with a default so that
@@ -94,7 +93,34 @@ pub fn write(path: &std::path::Path, value: &Value) -> Result<(), Failure> {
 pub fn eval(args: &EvalArgs) -> Result<String, Failure> {
     let name = args.model.display().to_string();
     let f_hz = parse_freq(&args.freq).map_err(Failure::usage)?;
-    let text = std::fs::read_to_string(&args.model)
+    let (value, envelope) = read(&args.model, &name)?;
+    let omega: Vec<f64> = f_hz.iter().map(|f| std::f64::consts::TAU * f).collect();
+    let fitted = &value["fitted"];
+    let response = match value["kind"].as_str() {
+        Some("rational") => respond::<Rational<f64>>(fitted, &omega, &name)?,
+        Some("delayed") => respond::<Delayed<Rational<f64>>>(fitted, &omega, &name)?,
+        Some("noise_model") => respond::<WithNoiseModel<Rational<f64>>>(fitted, &omega, &name)?,
+        Some("delayed_noise_model") => {
+            respond::<WithNoiseModel<Delayed<Rational<f64>>>>(fitted, &omega, &name)?
+        }
+        _ => {
+            return Err(Failure::runtime(format!(
+                "{name}: unknown model kind {}",
+                value["kind"]
+            )));
+        }
+    };
+    Ok(if args.json {
+        eval_json(&f_hz, &response, &envelope)
+    } else {
+        eval_csv(&f_hz, &response, &envelope, &value, &name)
+    })
+}
+
+/// The saved-model object in `path` (named `name`), checked for its format and version,
+/// and its keys besides `fitted`.
+fn read(path: &std::path::Path, name: &str) -> Result<(Value, Envelope), Failure> {
+    let text = std::fs::read_to_string(path)
         .map_err(|e| Failure::runtime(format!("cannot read {name}: {e}")))?;
     let value: Value = serde_json::from_str(&text)
         .map_err(|e| Failure::runtime(format!("{name}: not JSON: {e}")))?;
@@ -113,45 +139,48 @@ pub fn eval(args: &EvalArgs) -> Result<String, Failure> {
     }
     let envelope: Envelope = serde_json::from_value(value.clone())
         .map_err(|e| Failure::runtime(format!("{name}: bad saved model: {e}")))?;
-    let omega: Vec<f64> = f_hz.iter().map(|f| std::f64::consts::TAU * f).collect();
-    let fitted = &value["fitted"];
-    let (g, std) = match value["kind"].as_str() {
-        Some("rational") => respond::<Rational<f64>>(fitted, &omega, &name)?,
-        Some("delayed") => respond::<Delayed<Rational<f64>>>(fitted, &omega, &name)?,
-        Some("noise_model") => respond::<WithNoiseModel<Rational<f64>>>(fitted, &omega, &name)?,
-        Some("delayed_noise_model") => {
-            respond::<WithNoiseModel<Delayed<Rational<f64>>>>(fitted, &omega, &name)?
-        }
-        _ => {
-            return Err(Failure::runtime(format!(
-                "{name}: unknown model kind {}",
-                value["kind"]
-            )));
-        }
-    };
-    let finite = |x: f64| if x.is_finite() { json!(x) } else { Value::Null };
-    if args.json {
-        let frf: Vec<Value> = f_hz
-            .iter()
-            .zip(&g)
-            .map(|(f, g)| json!([f, finite(g.re), finite(g.im)]))
-            .collect();
-        let frf_std = std
-            .as_ref()
-            .map(|s| Value::Array(s.iter().map(|x| finite(*x)).collect()));
-        let unresolved: Vec<Value> = envelope
-            .unresolved_poles
-            .iter()
-            .map(|p| json!([finite(p.re), finite(p.im)]))
-            .collect();
-        return Ok(json!({
-            "frf": frf,
-            "frf_std": frf_std,
-            "unresolved_poles": unresolved,
-        })
-        .to_string()
-            + "\n");
-    }
+    Ok((value, envelope))
+}
+
+/// A JSON number, or null when not finite.
+fn finite(x: f64) -> Value {
+    if x.is_finite() { json!(x) } else { Value::Null }
+}
+
+/// The output of `fdid eval --json`: `{"frf":[[f,re,im],..],"frf_std":[..]|null,
+/// "unresolved_poles":[[re,im],..]}`.
+fn eval_json(f_hz: &[f64], (g, std): &Evaluated, envelope: &Envelope) -> String {
+    let frf: Vec<Value> = f_hz
+        .iter()
+        .zip(g)
+        .map(|(f, g)| json!([f, finite(g.re), finite(g.im)]))
+        .collect();
+    let frf_std = std
+        .as_ref()
+        .map(|s| Value::Array(s.iter().map(|x| finite(*x)).collect()));
+    let unresolved: Vec<Value> = envelope
+        .unresolved_poles
+        .iter()
+        .map(|p| json!([finite(p.re), finite(p.im)]))
+        .collect();
+    json!({
+        "frf": frf,
+        "frf_std": frf_std,
+        "unresolved_poles": unresolved,
+    })
+    .to_string()
+        + "\n"
+}
+
+/// The CSV output of `fdid eval`: a comment line on the saved model `value` (from
+/// `name`), a `# warning:` line for each unresolved pole, then `f,re,im[,std]`.
+fn eval_csv(
+    f_hz: &[f64],
+    (g, std): &Evaluated,
+    envelope: &Envelope,
+    value: &Value,
+    name: &str,
+) -> String {
     let mut out = String::new();
     let _ = writeln!(
         out,
@@ -170,14 +199,14 @@ pub fn eval(args: &EvalArgs) -> Result<String, Failure> {
         );
     }
     let _ = writeln!(out, "f,re,im{}", if std.is_some() { ",std" } else { "" });
-    for (k, (f, g)) in f_hz.iter().zip(&g).enumerate() {
+    for (k, (f, g)) in f_hz.iter().zip(g).enumerate() {
         let _ = write!(out, "{f:e},{:e},{:e}", g.re, g.im);
-        if let Some(s) = &std {
+        if let Some(s) = std {
             let _ = write!(out, ",{:e}", s[k]);
         }
         out.push('\n');
     }
-    Ok(out)
+    out
 }
 
 /// A response and its standard deviation, when known.
