@@ -8,7 +8,8 @@ mod merge;
 mod periodic;
 mod time;
 
-pub use distortion::{DetectionLine, DetectionTest, DistortionAnalysis, OddMultisineDesign};
+pub(crate) use distortion::check_band_order;
+pub use distortion::{DetectionLine, DetectionTest, DistortionAnalysis};
 pub use frequency::{FrequencyData, NoiseVariances};
 pub use lpm::{Lpm, LpmEstimate, lpm};
 pub use merge::merge;
