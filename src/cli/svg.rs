@@ -5,6 +5,8 @@
 
 use fdid::prelude::*;
 use fdid::workflow::SpecFit;
+use plotters::coord::Shift;
+use plotters::coord::types::RangedCoordf64;
 use plotters::prelude::*;
 use std::f64::consts::TAU;
 use std::result::Result;
@@ -114,40 +116,184 @@ pub fn bode_curves(
     curves: &[Curve<'_>],
     residual: bool,
 ) -> Result<String, String> {
-    let f: Vec<f64> = data.omega().iter().map(|w| w / TAU).collect();
-    let keep: Vec<bool> = f.iter().map(|x| *x > 0.0).collect();
-    let ratio: Vec<Complex<f64>> = data.y().iter().zip(data.u()).map(|(y, u)| y / u).collect();
-    let sigma: Option<Vec<f64>> = data.noise().map(|n| {
-        n.var_y
-            .iter()
-            .zip(data.u())
-            .map(|(v, u)| v.sqrt() / u.norm())
-            .collect()
-    });
-    let pos = |v: &[f64]| -> Vec<f64> {
-        v.iter()
-            .zip(&keep)
-            .filter(|(_, k)| **k)
-            .map(|(x, _)| *x)
-            .collect()
-    };
-    let fp = pos(&f);
-    let (fmin, fmax) = match (fp.first(), fp.last()) {
-        (Some(a), Some(b)) if b > a => (*a, *b),
-        (Some(a), _) => (*a * 0.5, *a * 2.0),
-        _ => return Err("no line with a positive frequency to plot".into()),
-    };
-    let resid: Option<Vec<Complex<f64>>> = curves
-        .last()
-        .filter(|_| residual)
-        .map(|c| ratio.iter().zip(c.response).map(|(r, g)| r - g).collect());
+    let bode = Bode::new(data, curves, residual)?;
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, SIZE).into_drawing_area();
+        root.fill(&WHITE).map_err(text)?;
+        let (upper, lower) = root.split_vertically(SIZE.1 / 2);
+        bode.draw_magnitude(&upper, curves)?;
+        bode.draw_phase(&lower, curves)?;
+        root.present().map_err(text)?;
+    }
+    Ok(svg)
+}
+
+/// A drawing area of an SVG figure.
+type Area<'b> = DrawingArea<SVGBackend<'b>, Shift>;
+
+/// The magnitude chart of a Bode plot: frequency on a log scale, magnitude in dB.
+type MagnitudeChart<'a, 'b> =
+    ChartContext<'a, SVGBackend<'b>, Cartesian2d<LogCoord<f64>, RangedCoordf64>>;
+
+/// What a Bode plot shows besides its model curves.
+struct Bode {
+    /// Frequency (Hz) of each line of the data.
+    f: Vec<f64>,
+    /// The data Y/U.
+    ratio: Vec<Complex<f64>>,
+    /// The noise level σ_G = sqrt(var_y)/|U|, when the data carry noise variances.
+    sigma: Option<Vec<f64>>,
+    /// The residual Y/U − Ĝ of the last curve, when asked for.
+    resid: Option<Vec<Complex<f64>>>,
+    /// The frequency axis (Hz).
+    freq: (f64, f64),
+    /// The magnitude axis (dB).
+    magnitude: (f64, f64),
+}
+
+impl Bode {
+    /// The series of `data` and the axes that hold them and the `curves`.
+    fn new(
+        data: &FrequencyData<f64>,
+        curves: &[Curve<'_>],
+        residual: bool,
+    ) -> Result<Self, String> {
+        let f: Vec<f64> = data.omega().iter().map(|w| w / TAU).collect();
+        let ratio: Vec<Complex<f64>> = data.y().iter().zip(data.u()).map(|(y, u)| y / u).collect();
+        let sigma: Option<Vec<f64>> = data.noise().map(|n| {
+            n.var_y
+                .iter()
+                .zip(data.u())
+                .map(|(v, u)| v.sqrt() / u.norm())
+                .collect()
+        });
+        let freq = frequency_axis(&f)?;
+        let resid: Option<Vec<Complex<f64>>> = curves
+            .last()
+            .filter(|_| residual)
+            .map(|c| ratio.iter().zip(c.response).map(|(r, g)| r - g).collect());
+        let magnitude = magnitude_axis(&ratio, curves, sigma.as_deref(), resid.as_deref());
+        Ok(Self {
+            f,
+            ratio,
+            sigma,
+            resid,
+            freq,
+            magnitude,
+        })
+    }
+
+    /// The magnitude chart: data, curves with their bands, residual, noise level, legend.
+    fn draw_magnitude(&self, area: &Area<'_>, curves: &[Curve<'_>]) -> Result<(), String> {
+        let mut mag = ChartBuilder::on(area)
+            .caption("Bode plot: magnitude", ("sans-serif", 18))
+            .margin(10)
+            .x_label_area_size(35)
+            .y_label_area_size(60)
+            .build_cartesian_2d(
+                (self.freq.0..self.freq.1).log_scale(),
+                self.magnitude.0..self.magnitude.1,
+            )
+            .map_err(text)?;
+        mag.configure_mesh()
+            .x_desc("frequency (Hz)")
+            .y_desc("|G| (dB)")
+            .draw()
+            .map_err(text)?;
+        mag.draw_series(
+            points(&self.f, &self.ratio, db)
+                .into_iter()
+                .map(|p| Circle::new(p, 2, DATA.filled())),
+        )
+        .map_err(text)?
+        .label("data Y/U")
+        .legend(|(x, y)| Circle::new((x, y), 3, DATA.filled()));
+        for (i, curve) in curves.iter().enumerate() {
+            draw_model(&mut mag, &self.f, curve, curve_colour(i, curves.len()))?;
+        }
+        if let Some(r) = &self.resid {
+            mag.draw_series(
+                points(&self.f, r, db)
+                    .into_iter()
+                    .map(|p| Cross::new(p, 2, RESIDUAL.stroke_width(1))),
+            )
+            .map_err(text)?
+            .label("residual |Y/U - G|")
+            .legend(|(x, y)| Cross::new((x, y), 3, RESIDUAL.stroke_width(1)));
+        }
+        if let Some(s) = &self.sigma {
+            draw_noise_level(&mut mag, &self.f, s)?;
+        }
+        mag.configure_series_labels()
+            .position(SeriesLabelPosition::LowerLeft)
+            .background_style(WHITE.mix(0.8))
+            .border_style(BLACK)
+            .draw()
+            .map_err(text)
+    }
+
+    /// The phase chart: data and curves, each curve split where its phase wraps.
+    fn draw_phase(&self, area: &Area<'_>, curves: &[Curve<'_>]) -> Result<(), String> {
+        let mut phase = ChartBuilder::on(area)
+            .caption("Bode plot: phase", ("sans-serif", 18))
+            .margin(10)
+            .x_label_area_size(35)
+            .y_label_area_size(60)
+            .build_cartesian_2d((self.freq.0..self.freq.1).log_scale(), -180.0..180.0)
+            .map_err(text)?;
+        phase
+            .configure_mesh()
+            .x_desc("frequency (Hz)")
+            .y_desc("phase (degrees)")
+            .draw()
+            .map_err(text)?;
+        phase
+            .draw_series(
+                points(&self.f, &self.ratio, |z| z.arg().to_degrees())
+                    .into_iter()
+                    .map(|p| Circle::new(p, 2, DATA.filled())),
+            )
+            .map_err(text)?;
+        for (i, curve) in curves.iter().enumerate() {
+            let colour = curve_colour(i, curves.len());
+            for piece in phase_pieces(&self.f, curve.response) {
+                phase
+                    .draw_series(LineSeries::new(
+                        piece.into_iter().filter(|(x, _)| *x > 0.0),
+                        colour.stroke_width(2),
+                    ))
+                    .map_err(text)?;
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The frequency axis (Hz) of the lines `f` with a positive frequency.
+fn frequency_axis(f: &[f64]) -> Result<(f64, f64), String> {
+    let fp: Vec<f64> = f.iter().copied().filter(|x| *x > 0.0).collect();
+    match (fp.first(), fp.last()) {
+        (Some(a), Some(b)) if b > a => Ok((*a, *b)),
+        (Some(a), _) => Ok((*a * 0.5, *a * 2.0)),
+        _ => Err("no line with a positive frequency to plot".into()),
+    }
+}
+
+/// The magnitude axis (dB) of the data, the curves, the noise level and the residual.
+fn magnitude_axis(
+    ratio: &[Complex<f64>],
+    curves: &[Curve<'_>],
+    sigma: Option<&[f64]>,
+    resid: Option<&[Complex<f64>]>,
+) -> (f64, f64) {
     let mags = ratio
         .iter()
         .chain(curves.iter().flat_map(|c| c.response.iter()))
         .map(|z| db(*z))
-        .chain(sigma.iter().flatten().map(|s| 20.0 * s.log10()));
+        .chain(sigma.iter().copied().flatten().map(|s| 20.0 * s.log10()));
     let (mut mlo, mhi) = range(mags, 0.05, (-1.0, 1.0));
-    if let Some(r) = &resid {
+    if let Some(r) = resid {
         // the residual may sit far below the response (down to rounding on noise-free
         // data): show at most 60 dB below the lowest curve
         let rlo = r
@@ -159,141 +305,77 @@ pub fn bode_curves(
             mlo = rlo.max(mlo - 60.0).min(mlo);
         }
     }
+    (mlo, mhi)
+}
 
-    let mut svg = String::new();
-    {
-        let root = SVGBackend::with_string(&mut svg, SIZE).into_drawing_area();
-        root.fill(&WHITE).map_err(text)?;
-        let (upper, lower) = root.split_vertically(SIZE.1 / 2);
-        let mut mag = ChartBuilder::on(&upper)
-            .caption("Bode plot: magnitude", ("sans-serif", 18))
-            .margin(10)
-            .x_label_area_size(35)
-            .y_label_area_size(60)
-            .build_cartesian_2d((fmin..fmax).log_scale(), mlo..mhi)
-            .map_err(text)?;
-        mag.configure_mesh()
-            .x_desc("frequency (Hz)")
-            .y_desc("|G| (dB)")
-            .draw()
-            .map_err(text)?;
-        let points = |g: &[Complex<f64>], val: fn(Complex<f64>) -> f64| -> Vec<(f64, f64)> {
-            f.iter()
-                .zip(g)
-                .filter(|(x, z)| **x > 0.0 && val(**z).is_finite())
-                .map(|(x, z)| (*x, val(*z)))
-                .collect()
-        };
-        mag.draw_series(
-            points(&ratio, db)
-                .into_iter()
-                .map(|p| Circle::new(p, 2, DATA.filled())),
-        )
-        .map_err(text)?
-        .label("data Y/U")
-        .legend(|(x, y)| Circle::new((x, y), 3, DATA.filled()));
-        for (i, curve) in curves.iter().enumerate() {
-            let colour = if i + 1 == curves.len() {
-                FINAL
-            } else {
-                INITIAL
-            };
-            mag.draw_series(LineSeries::new(
-                points(curve.response, db),
-                colour.stroke_width(2),
-            ))
-            .map_err(text)?
-            .label(curve.name)
-            .legend(move |(x, y)| {
-                PathElement::new(vec![(x, y), (x + 20, y)], colour.stroke_width(2))
-            });
-            if let Some(std) = curve.std {
-                for sign in [1.0, -1.0] {
-                    let band: Vec<(f64, f64)> = f
-                        .iter()
-                        .zip(curve.response.iter().zip(std))
-                        .map(|(x, (g, s))| (*x, g.norm() + sign * 2.0 * s))
-                        .filter(|(x, m)| *x > 0.0 && *m > 0.0 && m.is_finite())
-                        .map(|(x, m)| (x, 20.0 * m.log10()))
-                        .collect();
-                    let series = mag
-                        .draw_series(LineSeries::new(band, colour.mix(0.5).stroke_width(1)))
-                        .map_err(text)?;
-                    if sign > 0.0 {
-                        series.label("model +/- 2 sigma_G").legend(move |(x, y)| {
-                            PathElement::new(vec![(x, y), (x + 20, y)], colour.mix(0.5))
-                        });
-                    }
-                }
-            }
-        }
-        if let Some(r) = &resid {
-            mag.draw_series(
-                points(r, db)
-                    .into_iter()
-                    .map(|p| Cross::new(p, 2, RESIDUAL.stroke_width(1))),
-            )
-            .map_err(text)?
-            .label("residual |Y/U - G|")
-            .legend(|(x, y)| Cross::new((x, y), 3, RESIDUAL.stroke_width(1)));
-        }
-        if let Some(s) = &sigma {
-            let line: Vec<(f64, f64)> = f
-                .iter()
-                .zip(s)
-                .filter(|(x, v)| **x > 0.0 && **v > 0.0 && v.is_finite())
-                .map(|(x, v)| (*x, 20.0 * v.log10()))
-                .collect();
-            mag.draw_series(LineSeries::new(line, NOISE.stroke_width(1)))
-                .map_err(text)?
-                .label("noise level sigma_G = sqrt(var_y)/|U|")
-                .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], NOISE));
-        }
-        mag.configure_series_labels()
-            .position(SeriesLabelPosition::LowerLeft)
-            .background_style(WHITE.mix(0.8))
-            .border_style(BLACK)
-            .draw()
-            .map_err(text)?;
+/// The colour of curve `i` of `n`: the last one is the final model.
+fn curve_colour(i: usize, n: usize) -> RGBColor {
+    if i + 1 == n { FINAL } else { INITIAL }
+}
 
-        let mut phase = ChartBuilder::on(&lower)
-            .caption("Bode plot: phase", ("sans-serif", 18))
-            .margin(10)
-            .x_label_area_size(35)
-            .y_label_area_size(60)
-            .build_cartesian_2d((fmin..fmax).log_scale(), -180.0..180.0)
+/// The points `(f, val(g))` at positive frequencies where the value is finite.
+fn points(f: &[f64], g: &[Complex<f64>], val: fn(Complex<f64>) -> f64) -> Vec<(f64, f64)> {
+    f.iter()
+        .zip(g)
+        .filter(|(x, z)| **x > 0.0 && val(**z).is_finite())
+        .map(|(x, z)| (*x, val(*z)))
+        .collect()
+}
+
+/// One model curve on the magnitude chart, with its band |Ĝ| ± 2σ_G when σ_G is given.
+fn draw_model(
+    mag: &mut MagnitudeChart<'_, '_>,
+    f: &[f64],
+    curve: &Curve<'_>,
+    colour: RGBColor,
+) -> Result<(), String> {
+    mag.draw_series(LineSeries::new(
+        points(f, curve.response, db),
+        colour.stroke_width(2),
+    ))
+    .map_err(text)?
+    .label(curve.name)
+    .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], colour.stroke_width(2)));
+    let Some(std) = curve.std else {
+        return Ok(());
+    };
+    for sign in [1.0, -1.0] {
+        let band: Vec<(f64, f64)> = f
+            .iter()
+            .zip(curve.response.iter().zip(std))
+            .map(|(x, (g, s))| (*x, g.norm() + sign * 2.0 * s))
+            .filter(|(x, m)| *x > 0.0 && *m > 0.0 && m.is_finite())
+            .map(|(x, m)| (x, 20.0 * m.log10()))
+            .collect();
+        let series = mag
+            .draw_series(LineSeries::new(band, colour.mix(0.5).stroke_width(1)))
             .map_err(text)?;
-        phase
-            .configure_mesh()
-            .x_desc("frequency (Hz)")
-            .y_desc("phase (degrees)")
-            .draw()
-            .map_err(text)?;
-        phase
-            .draw_series(
-                points(&ratio, |z| z.arg().to_degrees())
-                    .into_iter()
-                    .map(|p| Circle::new(p, 2, DATA.filled())),
-            )
-            .map_err(text)?;
-        for (i, curve) in curves.iter().enumerate() {
-            let colour = if i + 1 == curves.len() {
-                FINAL
-            } else {
-                INITIAL
-            };
-            for piece in phase_pieces(&f, curve.response) {
-                phase
-                    .draw_series(LineSeries::new(
-                        piece.into_iter().filter(|(x, _)| *x > 0.0),
-                        colour.stroke_width(2),
-                    ))
-                    .map_err(text)?;
-            }
+        if sign > 0.0 {
+            series
+                .label("model +/- 2 sigma_G")
+                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], colour.mix(0.5)));
         }
-        root.present().map_err(text)?;
     }
-    Ok(svg)
+    Ok(())
+}
+
+/// The noise level σ_G of the data on the magnitude chart.
+fn draw_noise_level(
+    mag: &mut MagnitudeChart<'_, '_>,
+    f: &[f64],
+    sigma: &[f64],
+) -> Result<(), String> {
+    let line: Vec<(f64, f64)> = f
+        .iter()
+        .zip(sigma)
+        .filter(|(x, v)| **x > 0.0 && **v > 0.0 && v.is_finite())
+        .map(|(x, v)| (*x, 20.0 * v.log10()))
+        .collect();
+    mag.draw_series(LineSeries::new(line, NOISE.stroke_width(1)))
+        .map_err(text)?
+        .label("noise level sigma_G = sqrt(var_y)/|U|")
+        .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], NOISE));
+    Ok(())
 }
 
 /// The residual spectrum: |r_k| in noise standard deviations (r_k/√λ̂ when λ is
@@ -305,32 +387,8 @@ pub fn bode_curves(
 /// # Errors
 /// The drawing backend's, as text.
 pub fn residuals(initial: &SpecFit, last: &SpecFit, alpha: f64) -> Result<String, String> {
-    let series = |fit: &SpecFit| -> Vec<(f64, f64)> {
-        let scale = if fit.noise_known {
-            1.0
-        } else {
-            let dof = fit.residuals.len() as f64 - fit.n_params as f64 / 2.0;
-            if dof > 0.0 {
-                fit.cost / dof
-            } else {
-                fit.noise_variance
-            }
-        };
-        fit.omega
-            .iter()
-            .zip(&fit.residuals)
-            .map(|(w, r)| (w / TAU, r.norm() / scale.sqrt()))
-            .filter(|(f, r)| *f > 0.0 && *r > 0.0 && r.is_finite())
-            .collect()
-    };
-    let (a, b) = (series(initial), series(last));
-    let level = match last.variance_dof.filter(|_| last.noise_known) {
-        Some(nu) if nu > 0 => {
-            let nu = nu as f64;
-            (nu * (alpha.powf(-1.0 / nu) - 1.0)).sqrt()
-        }
-        _ => (-alpha.ln()).sqrt(),
-    };
+    let (a, b) = (normalised_residuals(initial), normalised_residuals(last));
+    let level = level_per_line(last, alpha);
     let (fmin, fmax) = range(a.iter().chain(&b).map(|p| p.0.ln()), 0.0, (0.0, 1.0));
     let (fmin, fmax) = (fmin.exp(), fmax.exp());
     if fmax.partial_cmp(&fmin) != Some(std::cmp::Ordering::Greater) {
@@ -344,56 +402,101 @@ pub fn residuals(initial: &SpecFit, last: &SpecFit, alpha: f64) -> Result<String
         0.05,
         (-1.0, 1.0),
     );
-    let (rlo, rhi) = (rlo.exp(), rhi.exp());
-
+    let axes = ((fmin, fmax), (rlo.exp(), rhi.exp()));
     let mut svg = String::new();
     {
         let root =
             SVGBackend::with_string(&mut svg, (SIZE.0, SIZE.1 / 2 + 100)).into_drawing_area();
         root.fill(&WHITE).map_err(text)?;
-        let mut chart = ChartBuilder::on(&root)
-            .caption("Normalised residual spectrum |r_k|", ("sans-serif", 18))
-            .margin(10)
-            .x_label_area_size(35)
-            .y_label_area_size(60)
-            .build_cartesian_2d((fmin..fmax).log_scale(), (rlo..rhi).log_scale())
-            .map_err(text)?;
-        chart
-            .configure_mesh()
-            .x_desc("frequency (Hz)")
-            .y_desc("|r_k| (noise std)")
-            .draw()
-            .map_err(text)?;
-        for (pts, colour, name) in [(a, INITIAL, "initial fit"), (b, FINAL, "final fit")] {
-            chart
-                .draw_series(LineSeries::new(pts, colour.stroke_width(1)))
-                .map_err(text)?
-                .label(name)
-                .legend(move |(x, y)| {
-                    PathElement::new(vec![(x, y), (x + 20, y)], colour.stroke_width(2))
-                });
-        }
-        chart
-            .draw_series(LineSeries::new([(fmin, 1.0), (fmax, 1.0)], BLACK))
-            .map_err(text)?
-            .label("1 (noise level)")
-            .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLACK));
-        chart
-            .draw_series(LineSeries::new(
-                [(fmin, level), (fmax, level)],
-                NOISE.stroke_width(2),
-            ))
-            .map_err(text)?
-            .label(format!("alpha = {alpha} level per line ({level:.3})"))
-            .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], NOISE.stroke_width(2)));
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::LowerLeft)
-            .background_style(WHITE.mix(0.8))
-            .border_style(BLACK)
-            .draw()
-            .map_err(text)?;
+        draw_residuals(&root, axes, [a, b], level, alpha)?;
         root.present().map_err(text)?;
     }
     Ok(svg)
+}
+
+/// The points (f in Hz, |r_k| in noise standard deviations) of a fit's residuals at
+/// positive frequencies.
+fn normalised_residuals(fit: &SpecFit) -> Vec<(f64, f64)> {
+    let scale = if fit.noise_known {
+        1.0
+    } else {
+        let dof = fit.residuals.len() as f64 - fit.n_params as f64 / 2.0;
+        if dof > 0.0 {
+            fit.cost / dof
+        } else {
+            fit.noise_variance
+        }
+    };
+    fit.omega
+        .iter()
+        .zip(&fit.residuals)
+        .map(|(w, r)| (w / TAU, r.norm() / scale.sqrt()))
+        .filter(|(f, r)| *f > 0.0 && *r > 0.0 && r.is_finite())
+        .collect()
+}
+
+/// The level c that one line of a correct model exceeds with probability `alpha`.
+fn level_per_line(last: &SpecFit, alpha: f64) -> f64 {
+    match last.variance_dof.filter(|_| last.noise_known) {
+        Some(nu) if nu > 0 => {
+            let nu = nu as f64;
+            (nu * (alpha.powf(-1.0 / nu) - 1.0)).sqrt()
+        }
+        _ => (-alpha.ln()).sqrt(),
+    }
+}
+
+/// The residual chart on `root` with the axes `((fmin, fmax), (rlo, rhi))`: the initial
+/// and final residuals `fits`, the level 1 and the level per line.
+fn draw_residuals(
+    root: &Area<'_>,
+    axes: ((f64, f64), (f64, f64)),
+    fits: [Vec<(f64, f64)>; 2],
+    level: f64,
+    alpha: f64,
+) -> Result<(), String> {
+    let ((fmin, fmax), (rlo, rhi)) = axes;
+    let mut chart = ChartBuilder::on(root)
+        .caption("Normalised residual spectrum |r_k|", ("sans-serif", 18))
+        .margin(10)
+        .x_label_area_size(35)
+        .y_label_area_size(60)
+        .build_cartesian_2d((fmin..fmax).log_scale(), (rlo..rhi).log_scale())
+        .map_err(text)?;
+    chart
+        .configure_mesh()
+        .x_desc("frequency (Hz)")
+        .y_desc("|r_k| (noise std)")
+        .draw()
+        .map_err(text)?;
+    let [a, b] = fits;
+    for (pts, colour, name) in [(a, INITIAL, "initial fit"), (b, FINAL, "final fit")] {
+        chart
+            .draw_series(LineSeries::new(pts, colour.stroke_width(1)))
+            .map_err(text)?
+            .label(name)
+            .legend(move |(x, y)| {
+                PathElement::new(vec![(x, y), (x + 20, y)], colour.stroke_width(2))
+            });
+    }
+    chart
+        .draw_series(LineSeries::new([(fmin, 1.0), (fmax, 1.0)], BLACK))
+        .map_err(text)?
+        .label("1 (noise level)")
+        .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLACK));
+    chart
+        .draw_series(LineSeries::new(
+            [(fmin, level), (fmax, level)],
+            NOISE.stroke_width(2),
+        ))
+        .map_err(text)?
+        .label(format!("alpha = {alpha} level per line ({level:.3})"))
+        .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], NOISE.stroke_width(2)));
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::LowerLeft)
+        .background_style(WHITE.mix(0.8))
+        .border_style(BLACK)
+        .draw()
+        .map_err(text)
 }

@@ -369,105 +369,19 @@ pub fn lpm<T: Real>(data: &FrequencyData<T>, settings: Lpm) -> Result<LpmEstimat
     }
     check_uniform_grid(data.omega())?;
 
-    let half = settings.half_width();
-    let cols = settings.parameters();
-    let order = settings.degree + 1;
-    let q = T::from_usize_lossy(settings.dof());
-    let n_t = T::from_usize_lossy(half);
-    let zero = Complex::new(T::zero(), T::zero());
-    let (y, u) = (data.y(), data.u());
-    // conditioning threshold for the Frobenius condition number of the scaled regressor
-    let max_condition = T::one() / (T::lit(100.0) * T::epsilon());
-
+    let mut regression = LocalRegression::new(data, &settings);
     let mut frf = Vec::with_capacity(lines);
     let mut frf_variance = Vec::with_capacity(lines);
     let mut noise_variance = Vec::with_capacity(lines);
     let mut transient = Vec::with_capacity(lines);
     let mut transient_variance = Vec::with_capacity(lines);
-    let mut k_mat = DMatrix::from_element(width, cols, zero);
-    let mut rhs = DVector::from_element(width, zero);
-    let mut scale = vec![T::one(); cols];
-
     for k in 0..lines {
-        let start = k.saturating_sub(half).min(lines - width);
-        let centre = T::from_usize_lossy(start + half);
-        for (row, j) in (start..start + width).enumerate() {
-            // offset from the window centre, scaled to [−1, 1]
-            let x = (T::from_usize_lossy(j) - centre) / n_t;
-            let mut p = T::one();
-            for s in 0..order {
-                k_mat[(row, s)] = u[j] * p;
-                k_mat[(row, order + s)] = Complex::new(p, T::zero());
-                p *= x;
-            }
-            rhs[row] = y[j];
-        }
-        let singular = |condition: f64| -> FdidError {
-            match (start..start + width).find(|j| u[*j].norm_sqr() == T::zero()) {
-                Some(index) => FdidError::ZeroInput {
-                    index,
-                    omega: data.omega()[index].to_f64_lossless(),
-                },
-                None => FdidError::InvalidArgument {
-                    name: "u",
-                    value: format!(
-                        "window of line {k} (ω = {} rad/s, lines {start}..={})",
-                        data.omega()[k],
-                        start + width - 1
-                    ),
-                    reason: format!(
-                        "the local polynomial regression is singular (condition number \
-                         {condition:.3e}): the input does not vary enough over the window \
-                         to separate G from the transient, or the degree is too high for \
-                         the precision"
-                    ),
-                },
-            }
-        };
-        for (c, s) in scale.iter_mut().enumerate() {
-            let norm = k_mat.column(c).norm();
-            if !(norm > T::zero()) || !Float::is_finite(norm) {
-                return Err(singular(f64::INFINITY));
-            }
-            *s = norm;
-            k_mat.column_mut(c).unscale_mut(norm);
-        }
-        let qr = k_mat.clone().qr();
-        let r = qr.r();
-        let r_inv = r
-            .solve_upper_triangular(&DMatrix::identity(cols, cols))
-            .ok_or_else(|| singular(f64::INFINITY))?;
-        let condition = r.norm() * r_inv.norm();
-        if !(condition <= max_condition) {
-            return Err(singular(condition.to_f64_lossless()));
-        }
-        let mut qty = rhs.clone();
-        qr.q_tr_mul(&mut qty);
-        let theta = &r_inv * qty.rows(0, cols);
-        let resid = &rhs - &k_mat * &theta;
-        let sigma2 = resid.norm_squared() / q;
-        // the local polynomials evaluated at line k (x_k = 0 except in shifted windows):
-        // value aᵀθ̂ and variance σ̂² ‖aᵀ R⁻¹‖² for a = (x_k^s / d_s) on one block
-        let x_k = (T::from_usize_lossy(k) - centre) / n_t;
-        let evaluate = |block: usize| -> (Complex<T>, T) {
-            let mut value = zero;
-            let mut row = r_inv.row(block) * Complex::new(T::zero(), T::zero());
-            let mut p = T::one();
-            for s in block..block + order {
-                let a = p / scale[s];
-                value += theta[s] * a;
-                row += r_inv.row(s) * Complex::new(a, T::zero());
-                p *= x_k;
-            }
-            (value, sigma2 * row.norm_squared())
-        };
-        let (g_k, var_g) = evaluate(0);
-        let (t_k, var_t) = evaluate(order);
-        frf.push(g_k);
-        transient.push(t_k);
-        noise_variance.push(sigma2);
-        frf_variance.push(var_g);
-        transient_variance.push(var_t);
+        let line = regression.line(k)?;
+        frf.push(line.frf);
+        transient.push(line.transient);
+        noise_variance.push(line.noise_variance);
+        frf_variance.push(line.frf_variance);
+        transient_variance.push(line.transient_variance);
     }
     crate::error::check_finite_complex("LPM frequency response", &frf)?;
     crate::error::check_finite_complex("LPM transient", &transient)?;
@@ -483,6 +397,173 @@ pub fn lpm<T: Real>(data: &FrequencyData<T>, settings: Lpm) -> Result<LpmEstimat
         transient_variance,
         settings,
     })
+}
+
+/// The estimates of the LPM at one line.
+struct LineEstimate<T: Real> {
+    /// `Ĝ_k`.
+    frf: Complex<T>,
+    /// Its variance.
+    frf_variance: T,
+    /// `T̂_k`, the transient.
+    transient: Complex<T>,
+    /// Its variance.
+    transient_variance: T,
+    /// `σ̂²_V,k`, the noise variance of the residual of the window.
+    noise_variance: T,
+}
+
+/// The local polynomial regression over the window of each line, with the buffers it
+/// reuses from line to line.
+struct LocalRegression<'a, T: Real> {
+    data: &'a FrequencyData<T>,
+    /// Half-width `n` and width `2n + 1` of the window.
+    half: usize,
+    width: usize,
+    /// Parameters `2(R + 1)` and coefficients `R + 1` of one polynomial.
+    cols: usize,
+    order: usize,
+    /// Residual degrees of freedom `q`.
+    q: T,
+    /// `n` in `T`: the line offsets are scaled to `[−1, 1]` by it.
+    n_t: T,
+    /// Conditioning threshold for the Frobenius condition number of the scaled regressor.
+    max_condition: T,
+    /// The regressor of the window, its columns scaled to unit norm by `scale`.
+    k_mat: DMatrix<Complex<T>>,
+    /// The outputs of the window.
+    rhs: DVector<Complex<T>>,
+    scale: Vec<T>,
+}
+
+impl<'a, T: Real> LocalRegression<'a, T> {
+    fn new(data: &'a FrequencyData<T>, settings: &Lpm) -> Self {
+        let width = settings.window();
+        let cols = settings.parameters();
+        let zero = Complex::new(T::zero(), T::zero());
+        Self {
+            data,
+            half: settings.half_width(),
+            width,
+            cols,
+            order: settings.degree + 1,
+            q: T::from_usize_lossy(settings.dof()),
+            n_t: T::from_usize_lossy(settings.half_width()),
+            max_condition: T::one() / (T::lit(100.0) * T::epsilon()),
+            k_mat: DMatrix::from_element(width, cols, zero),
+            rhs: DVector::from_element(width, zero),
+            scale: vec![T::one(); cols],
+        }
+    }
+
+    /// The estimates at line `k` from its window (shifted at the ends of the band).
+    fn line(&mut self, k: usize) -> Result<LineEstimate<T>> {
+        let lines = self.data.len();
+        let start = k.saturating_sub(self.half).min(lines - self.width);
+        let centre = T::from_usize_lossy(start + self.half);
+        self.fill(start, centre);
+        for c in 0..self.cols {
+            let norm = self.k_mat.column(c).norm();
+            if !(norm > T::zero()) || !Float::is_finite(norm) {
+                return Err(self.singular(k, start, f64::INFINITY));
+            }
+            self.scale[c] = norm;
+            self.k_mat.column_mut(c).unscale_mut(norm);
+        }
+        let qr = self.k_mat.clone().qr();
+        let r = qr.r();
+        let r_inv = r
+            .solve_upper_triangular(&DMatrix::identity(self.cols, self.cols))
+            .ok_or_else(|| self.singular(k, start, f64::INFINITY))?;
+        let condition = r.norm() * r_inv.norm();
+        if !(condition <= self.max_condition) {
+            return Err(self.singular(k, start, condition.to_f64_lossless()));
+        }
+        let mut qty = self.rhs.clone();
+        qr.q_tr_mul(&mut qty);
+        let theta = &r_inv * qty.rows(0, self.cols);
+        let resid = &self.rhs - &self.k_mat * &theta;
+        let sigma2 = resid.norm_squared() / self.q;
+        // the local polynomials evaluated at line k (x_k = 0 except in shifted windows)
+        let x_k = (T::from_usize_lossy(k) - centre) / self.n_t;
+        let (frf, frf_variance) = self.evaluate(&theta, &r_inv, sigma2, x_k, 0);
+        let (transient, transient_variance) =
+            self.evaluate(&theta, &r_inv, sigma2, x_k, self.order);
+        Ok(LineEstimate {
+            frf,
+            frf_variance,
+            transient,
+            transient_variance,
+            noise_variance: sigma2,
+        })
+    }
+
+    /// The regressor and the outputs of the window of lines `start..start + width`
+    /// centred on `centre`: `U_j x^s` and `x^s` with `x` the line offset scaled to
+    /// `[−1, 1]`.
+    fn fill(&mut self, start: usize, centre: T) {
+        let (y, u) = (self.data.y(), self.data.u());
+        for (row, j) in (start..start + self.width).enumerate() {
+            // offset from the window centre, scaled to [−1, 1]
+            let x = (T::from_usize_lossy(j) - centre) / self.n_t;
+            let mut p = T::one();
+            for s in 0..self.order {
+                self.k_mat[(row, s)] = u[j] * p;
+                self.k_mat[(row, self.order + s)] = Complex::new(p, T::zero());
+                p *= x;
+            }
+            self.rhs[row] = y[j];
+        }
+    }
+
+    /// The local polynomial of one block (`G` from column 0, the transient from column
+    /// `R + 1`) at `x_k`: value `aᵀθ̂` and variance `σ̂² ‖aᵀ R⁻¹‖²` for `a = (x_k^s / d_s)`
+    /// on the block.
+    fn evaluate(
+        &self,
+        theta: &DVector<Complex<T>>,
+        r_inv: &DMatrix<Complex<T>>,
+        sigma2: T,
+        x_k: T,
+        block: usize,
+    ) -> (Complex<T>, T) {
+        let mut value = Complex::new(T::zero(), T::zero());
+        let mut row = r_inv.row(block) * Complex::new(T::zero(), T::zero());
+        let mut p = T::one();
+        for s in block..block + self.order {
+            let a = p / self.scale[s];
+            value += theta[s] * a;
+            row += r_inv.row(s) * Complex::new(a, T::zero());
+            p *= x_k;
+        }
+        (value, sigma2 * row.norm_squared())
+    }
+
+    /// The error of a singular regression at line `k` (window from `start`): a zero input
+    /// in the window, else the conditioning.
+    fn singular(&self, k: usize, start: usize, condition: f64) -> FdidError {
+        let (u, omega) = (self.data.u(), self.data.omega());
+        match (start..start + self.width).find(|j| u[*j].norm_sqr() == T::zero()) {
+            Some(index) => FdidError::ZeroInput {
+                index,
+                omega: omega[index].to_f64_lossless(),
+            },
+            None => FdidError::InvalidArgument {
+                name: "u",
+                value: format!(
+                    "window of line {k} (ω = {} rad/s, lines {start}..={})",
+                    omega[k],
+                    start + self.width - 1
+                ),
+                reason: format!(
+                    "the local polynomial regression is singular (condition number \
+                     {condition:.3e}): the input does not vary enough over the window \
+                     to separate G from the transient, or the degree is too high for \
+                     the precision"
+                ),
+            },
+        }
+    }
 }
 
 /// Checks that the lines are equally spaced (consecutive DFT lines): every step within

@@ -10,7 +10,8 @@ mod periodic;
 mod time;
 mod weighting;
 
-pub use distortion::{DetectionLine, DetectionTest, DistortionAnalysis, OddMultisineDesign};
+pub(crate) use distortion::check_band_order;
+pub use distortion::{DetectionLine, DetectionTest, DistortionAnalysis};
 pub use frequency::{FrequencyData, NoiseVariances};
 pub use grid::{SAMPLE_TIME_TOLERANCE, nyquist_slack};
 pub use lpm::{Lpm, LpmEstimate, lpm};

@@ -47,85 +47,17 @@ impl<T: Real> PeriodicAverage<T> {
     /// - [`FdidError::TooShort`] when a period has fewer than 2 samples;
     /// - [`FdidError::NonFinite`] if a variance overflows `T`.
     pub fn new(record: &TimeData<T>, periods: usize) -> Result<Self> {
-        let n = record.len();
-        if periods == 0 {
-            return Err(FdidError::InvalidArgument {
-                name: "periods",
-                value: "0".into(),
-                reason: "at least one period is needed".into(),
-            });
-        }
-        if !n.is_multiple_of(periods) {
-            return Err(FdidError::InvalidArgument {
-                name: "periods",
-                value: periods.to_string(),
-                reason: format!(
-                    "the record length N = {n} is not a multiple of the number of periods {periods}"
-                ),
-            });
-        }
-        let m = n / periods;
-        if m < 2 {
-            return Err(FdidError::TooShort {
-                what: "samples per period",
-                needed: 2,
-                got: m,
-            });
-        }
-        let plan = FftPlanner::<T>::new().plan_fft_forward(m);
-        // one packed FFT of u and y per period, as TimeData::dft
-        type Spectra<T> = Vec<Vec<Complex<T>>>;
-        let (u_p, y_p): (Spectra<T>, Spectra<T>) = record
-            .u()
-            .chunks_exact(m)
-            .zip(record.y().chunks_exact(m))
-            .map(|(u, y)| dft_pair_with(plan.as_ref(), u, y))
-            .unzip();
+        let m = period_length(record.len(), periods)?;
+        let (u_p, y_p) = period_spectra(record, m);
         let lines = m / 2 + 1;
         let p_t = T::from_usize_lossy(periods);
-        let mean = |x: &[Vec<Complex<T>>]| -> Vec<Complex<T>> {
-            (0..lines)
-                .map(|k| {
-                    x.iter()
-                        .fold(Complex::new(T::zero(), T::zero()), |acc, xp| acc + xp[k])
-                        / p_t
-                })
-                .collect()
-        };
-        let u_mean = mean(&u_p);
-        let y_mean = mean(&y_p);
-
+        let u_mean = mean_over_periods(&u_p, lines, p_t);
+        let y_mean = mean_over_periods(&y_p, lines, p_t);
         let sample = if periods >= 2 {
-            let dof = T::from_usize_lossy(periods - 1);
-            let mut var_y = vec![T::zero(); lines];
-            let mut var_u = vec![T::zero(); lines];
-            let mut cov_yu = vec![Complex::new(T::zero(), T::zero()); lines];
-            for (up, yp) in u_p.iter().zip(&y_p) {
-                for k in 0..lines {
-                    let du = up[k] - u_mean[k];
-                    let dy = yp[k] - y_mean[k];
-                    var_y[k] += dy.norm_sqr();
-                    var_u[k] += du.norm_sqr();
-                    cov_yu[k] += dy * du.conj();
-                }
-            }
-            for k in 0..lines {
-                var_y[k] /= dof;
-                var_u[k] /= dof;
-                cov_yu[k] /= dof;
-            }
-            check_finite("var_y", &var_y)?;
-            check_finite("var_u", &var_u)?;
-            check_finite_complex("cov_yu", &cov_yu)?;
-            Some(NoiseVariances {
-                var_y,
-                var_u,
-                cov_yu,
-            })
+            Some(sample_variances(&u_p, &y_p, &u_mean, &y_mean)?)
         } else {
             None
         };
-
         let omega = line_frequencies(m, record.ts());
         let mut data = FrequencyData::new(omega, y_mean, u_mean, Some(record.ts()))?;
         if let Some(s) = &sample {
@@ -171,6 +103,101 @@ impl<T: Real> PeriodicAverage<T> {
     pub fn into_frequency_data(self) -> FrequencyData<T> {
         self.data
     }
+}
+
+/// The samples per period `M = N / P` of a record of `n` samples in `periods` periods.
+fn period_length(n: usize, periods: usize) -> Result<usize> {
+    if periods == 0 {
+        return Err(FdidError::InvalidArgument {
+            name: "periods",
+            value: "0".into(),
+            reason: "at least one period is needed".into(),
+        });
+    }
+    if !n.is_multiple_of(periods) {
+        return Err(FdidError::InvalidArgument {
+            name: "periods",
+            value: periods.to_string(),
+            reason: format!(
+                "the record length N = {n} is not a multiple of the number of periods {periods}"
+            ),
+        });
+    }
+    let m = n / periods;
+    if m < 2 {
+        return Err(FdidError::TooShort {
+            what: "samples per period",
+            needed: 2,
+            got: m,
+        });
+    }
+    Ok(m)
+}
+
+/// Per period a spectrum on the lines `k = 0, …, ⌊M/2⌋`.
+type Spectra<T> = Vec<Vec<Complex<T>>>;
+
+/// The DFTs `U_p`, `Y_p` of each period of `m` samples of `record`: one packed FFT of `u`
+/// and `y` per period, as [`TimeData::dft`].
+fn period_spectra<T: Real>(record: &TimeData<T>, m: usize) -> (Spectra<T>, Spectra<T>) {
+    let plan = FftPlanner::<T>::new().plan_fft_forward(m);
+    record
+        .u()
+        .chunks_exact(m)
+        .zip(record.y().chunks_exact(m))
+        .map(|(u, y)| dft_pair_with(plan.as_ref(), u, y))
+        .unzip()
+}
+
+/// `X̄[k] = (1/P) Σ_p X_p[k]` on the lines `k < lines`, with `p_t = P`.
+fn mean_over_periods<T: Real>(x: &[Vec<Complex<T>>], lines: usize, p_t: T) -> Vec<Complex<T>> {
+    (0..lines)
+        .map(|k| {
+            x.iter()
+                .fold(Complex::new(T::zero(), T::zero()), |acc, xp| acc + xp[k])
+                / p_t
+        })
+        .collect()
+}
+
+/// The per-period sample (co)variances `s²_Y`, `s²_U`, `s_YU` (divisor `P − 1`) of the
+/// spectra `u_p`, `y_p` of `P ≥ 2` periods around their means.
+///
+/// # Errors
+/// [`FdidError::NonFinite`] if a variance overflows `T`.
+fn sample_variances<T: Real>(
+    u_p: &[Vec<Complex<T>>],
+    y_p: &[Vec<Complex<T>>],
+    u_mean: &[Complex<T>],
+    y_mean: &[Complex<T>],
+) -> Result<NoiseVariances<T>> {
+    let lines = u_mean.len();
+    let dof = T::from_usize_lossy(u_p.len() - 1);
+    let mut var_y = vec![T::zero(); lines];
+    let mut var_u = vec![T::zero(); lines];
+    let mut cov_yu = vec![Complex::new(T::zero(), T::zero()); lines];
+    for (up, yp) in u_p.iter().zip(y_p) {
+        for k in 0..lines {
+            let du = up[k] - u_mean[k];
+            let dy = yp[k] - y_mean[k];
+            var_y[k] += dy.norm_sqr();
+            var_u[k] += du.norm_sqr();
+            cov_yu[k] += dy * du.conj();
+        }
+    }
+    for k in 0..lines {
+        var_y[k] /= dof;
+        var_u[k] /= dof;
+        cov_yu[k] /= dof;
+    }
+    check_finite("var_y", &var_y)?;
+    check_finite("var_u", &var_u)?;
+    check_finite_complex("cov_yu", &cov_yu)?;
+    Ok(NoiseVariances {
+        var_y,
+        var_u,
+        cov_yu,
+    })
 }
 
 impl<T: Real> TimeData<T> {

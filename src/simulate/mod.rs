@@ -5,6 +5,8 @@
 //! and seeded coloured noise at a chosen SNR — the set-up of their section V.
 //!
 //! - [`Multisine`]: `u(t) = Σ A_i cos(2π k_i t / T_period + φ_i)` with exact derivatives.
+//! - [`OddMultisineDesign`]: a random-phase odd multisine with detection lines for
+//!   nonlinear distortion (analysed by [`DistortionAnalysis`](crate::data::DistortionAnalysis)).
 //! - [`TimeVaryingOde`] with [`Coefficient`]s, integrated by [`DormandPrince`]: samples
 //!   `y(k T_s)` of the response from a given initial state.
 //! - [`ColouredNoise`], [`DtFilter`], [`snr_db`]: disturbances at a target SNR.
@@ -13,11 +15,13 @@
 
 mod multisine;
 mod noise;
+mod odd_multisine;
 mod ode;
 mod rng;
 
 pub use multisine::{LineSelection, Multisine};
 pub use noise::{ColouredNoise, DtFilter, snr_db};
+pub use odd_multisine::OddMultisineDesign;
 pub use ode::{Coefficient, DormandPrince, OdeSolution, TimeVaryingOde};
 pub use rng::SplitMix64;
 

@@ -5,9 +5,8 @@
 
 #![allow(dead_code)]
 
-use fdid::data::OddMultisineDesign;
 use fdid::prelude::*;
-use fdid::simulate::SplitMix64;
+use fdid::simulate::{OddMultisineDesign, SplitMix64};
 use fdid::workflow::{Context, ModelSpec, Report, Workflow};
 
 /// Significance level of the workflow's tests.

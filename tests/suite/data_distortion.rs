@@ -19,8 +19,8 @@
 //!   single-realisation estimate interpolated from the odd detection lines.
 //! - Bad inputs give typed errors.
 
-use fdid::data::{DistortionAnalysis, OddMultisineDesign};
-use fdid::simulate::{DtFilter, SplitMix64};
+use fdid::data::DistortionAnalysis;
+use fdid::simulate::{DtFilter, OddMultisineDesign, SplitMix64};
 use fdid::{Complex, FdidError, Real, TimeData};
 use quickcheck::{QuickCheck, TestResult};
 

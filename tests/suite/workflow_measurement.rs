@@ -8,9 +8,9 @@
 //! `cargo test --release --all-features --test suite workflow_measurement:: -- --ignored --nocapture`.
 
 use crate::measurement::{ALPHA, BAND, CLEAN, M, Sim, context, run, simulate, truth};
-use fdid::data::OddMultisineDesign;
 use fdid::estimate::Method;
 use fdid::prelude::*;
+use fdid::simulate::OddMultisineDesign;
 use fdid::workflow::detectors::{InputNoise, NonlinearDistortion, TimeVariation};
 use fdid::workflow::{
     Acceptance, Context, Detector, Effect, ModelSpec, Report, Workflow, fit_spec,

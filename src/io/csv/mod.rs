@@ -1,0 +1,305 @@
+//! The CSV file contract of the `fdid` command.
+
+mod checks;
+mod header;
+mod records;
+
+use self::checks::{check_frequencies, check_time_grid};
+use self::header::{Kind, Layout};
+use self::records::Lines;
+use super::Measurement;
+use crate::data::{FrequencyData, NoiseVariances, TimeData};
+use crate::error::{FdidError, Result};
+use crate::scalar::{Complex, Real};
+use std::io::Read;
+use std::path::Path;
+
+/// Reads a data file; see [`parse_csv`] for the format. Errors name the file.
+///
+/// # Errors
+/// [`FdidError::Io`] when the file cannot be opened or read, otherwise as [`parse_csv`].
+pub fn read_csv<T: Real>(path: &Path) -> Result<Measurement<T>> {
+    let file =
+        std::fs::File::open(path).map_err(|e| FdidError::Io(format!("{}: {e}", path.display())))?;
+    parse_csv(file, &path.display().to_string())
+}
+
+/// Parses a data file from `reader`; `name` is used in error messages.
+///
+/// # Format
+///
+/// UTF-8 text (a leading byte-order mark is ignored), one row per line (`\n` or `\r\n`),
+/// fields separated by commas; spaces around a field and one pair of double quotes
+/// wrapping it are removed (quoted fields cannot contain commas or line breaks). Blank
+/// lines and lines whose first non-blank character is `#` are ignored anywhere. The first
+/// other line is the header: it names the columns (case-insensitive, any order). Three
+/// layouts exist:
+///
+/// | layout | required columns | optional columns |
+/// | --- | --- | --- |
+/// | frequency response | `f`, `re`, `im` | `var` |
+/// | spectra | `f`, `u_re`, `u_im`, `y_re`, `y_im` | `var_u`, `var_y` |
+/// | time record | `t`, `u`, `y` | — |
+///
+/// - `f` is in Hz and is converted to `ω = 2πf` rad/s. Frequencies must be non-negative
+///   and strictly increasing. Frequency data carry no sample time.
+/// - FRF rows give `G = re + i·im`, stored as `Y = G`, `U = 1`. `var` is the FRF noise
+///   variance `E|N_G|²` (stored as `var_y`, with `var_u = 0`, `cov_yu = 0`).
+/// - Spectra rows give `U = u_re + i·u_im` and `Y = y_re + i·y_im`; `var_u = E|N_U|²`,
+///   `var_y = E|N_Y|²` (a missing one of the two is zero; `cov_yu = 0`).
+/// - Time rows give samples `u(t)`, `y(t)` at times `t` (s) that must increase strictly
+///   and be uniform: `Ts = (t_{N−1} − t_0)/(N − 1)` and every `t_i` within `10⁻³·Ts` of
+///   `t_0 + i·Ts`. At least two rows are needed.
+///
+/// # Errors
+/// - [`FdidError::Parse`] (with the 1-based line number, or line 0 for the file as a
+///   whole) for: no header, an unrecognized header, a missing, unknown, empty or duplicate
+///   column name, a row with the wrong number of fields, a field that is not a number,
+///   NaN or infinite, a value out of range of `T`, a negative variance, a decreasing or
+///   non-uniform time column, invalid UTF-8;
+/// - [`FdidError::TooShort`] when there are no data rows (or one row of a time record);
+/// - [`FdidError::NegativeFrequency`], [`FdidError::Unsorted`],
+///   [`FdidError::DuplicateFrequency`] for bad frequencies (the index is the 0-based data
+///   row, the values are in Hz);
+/// - [`FdidError::Io`] when reading fails.
+pub fn parse_csv<T: Real, R: Read>(reader: R, name: &str) -> Result<Measurement<T>> {
+    let mut lines = Lines::new(reader);
+    let (header_line, names) = read_header(&mut lines, name)?;
+    let layout = Layout::from_header(&names).map_err(|m| parse_error(name, header_line, m))?;
+    let table = read_rows::<T, R>(&mut lines, layout, name)?;
+    match table.layout.kind {
+        Kind::Time => table.time_record(name),
+        Kind::Frf | Kind::Spectra => table.frequency_data(name),
+    }
+}
+
+/// A [`FdidError::Parse`] of the file `name` at `line`.
+fn parse_error(name: &str, line: usize, message: String) -> FdidError {
+    FdidError::Parse {
+        path: name.to_string(),
+        line,
+        message,
+    }
+}
+
+/// The header: the first record, its line and its column names in lower case.
+fn read_header<R: Read>(lines: &mut Lines<R>, name: &str) -> Result<(usize, Vec<String>)> {
+    match lines.next_record().map_err(|e| e.into_error(name))? {
+        None => Err(parse_error(name, 0, "no header line (empty file)".into())),
+        Some((line, fields)) => Ok((
+            line,
+            fields
+                .iter()
+                .map(|f| f.to_lowercase())
+                .collect::<Vec<String>>(),
+        )),
+    }
+}
+
+/// The columns of a file as numbers, with the line of each row.
+struct Table {
+    layout: Layout,
+    /// One `f64` per row in each column, in the order of the header.
+    columns: Vec<Vec<f64>>,
+    /// The line number of each row.
+    lines: Vec<usize>,
+}
+
+/// The data rows after the header: one number per column, finite in `f64` and in `T`.
+fn read_rows<T: Real, R: Read>(lines: &mut Lines<R>, layout: Layout, name: &str) -> Result<Table> {
+    let names = &layout.names;
+    let ncols = names.len();
+    let mut columns: Vec<Vec<f64>> = vec![Vec::new(); ncols];
+    let mut lines_of_rows: Vec<usize> = Vec::new();
+    while let Some((line, fields)) = lines.next_record().map_err(|e| e.into_error(name))? {
+        if fields.len() != ncols {
+            return Err(parse_error(
+                name,
+                line,
+                format!(
+                    "expected {ncols} fields ({}), found {}: `{}`",
+                    names.join(","),
+                    fields.len(),
+                    shorten(&fields.join(","))
+                ),
+            ));
+        }
+        for (j, text) in fields.iter().enumerate() {
+            let v = field_value::<T>(&names[j], text).map_err(|m| parse_error(name, line, m))?;
+            columns[j].push(v);
+        }
+        lines_of_rows.push(line);
+    }
+    Ok(Table {
+        layout,
+        columns,
+        lines: lines_of_rows,
+    })
+}
+
+/// The number of the field `text` of column `col`: finite, and finite in `T`.
+fn field_value<T: Real>(col: &str, text: &str) -> std::result::Result<f64, String> {
+    let v: f64 = text
+        .parse()
+        .map_err(|_| format!("column `{col}`: `{}` is not a number", shorten(text)))?;
+    if !v.is_finite() {
+        return Err(format!("column `{col}`: value `{text}` is not finite"));
+    }
+    if !num_traits::Float::is_finite(T::lit(v)) {
+        return Err(format!(
+            "column `{col}`: value `{text}` is out of range for {}",
+            std::any::type_name::<T>()
+        ));
+    }
+    Ok(v)
+}
+
+/// The values of a column in `T`.
+fn to_real<T: Real>(v: &[f64]) -> Vec<T> {
+    v.iter().map(|x| T::lit(*x)).collect()
+}
+
+/// The complex values `re + i·im` of two columns in `T`.
+fn complex<T: Real>(re: &[f64], im: &[f64]) -> Vec<Complex<T>> {
+    re.iter()
+        .zip(im)
+        .map(|(r, i)| Complex::new(T::lit(*r), T::lit(*i)))
+        .collect()
+}
+
+impl Table {
+    /// The column named `c`, if the file has it.
+    fn col(&self, c: &str) -> Option<&[f64]> {
+        self.layout.index(c).map(|j| self.columns[j].as_slice())
+    }
+
+    /// The column named `c`, empty if the file does not have it.
+    fn required(&self, c: &str) -> &[f64] {
+        self.col(c).unwrap_or_default()
+    }
+
+    /// A time record: at least two rows on a uniform time grid.
+    fn time_record<T: Real>(&self, name: &str) -> Result<Measurement<T>> {
+        let (t, u, y) = (self.required("t"), self.required("u"), self.required("y"));
+        if t.len() < 2 {
+            return Err(FdidError::TooShort {
+                what: "data rows of a time record",
+                needed: 2,
+                got: t.len(),
+            });
+        }
+        let ts = check_time_grid(t, &self.lines).map_err(|(line, m)| parse_error(name, line, m))?;
+        let ts_t = T::lit(ts);
+        if !(num_traits::Float::is_finite(ts_t) && ts_t > T::zero()) {
+            return Err(parse_error(
+                name,
+                0,
+                format!(
+                    "sample time Ts = {ts} s is not representable in {}",
+                    std::any::type_name::<T>()
+                ),
+            ));
+        }
+        Ok(Measurement::Time(TimeData::new(
+            to_real(u),
+            to_real(y),
+            ts_t,
+        )?))
+    }
+
+    /// Frequency data: an FRF or spectra, with their variances if given.
+    fn frequency_data<T: Real>(&self, name: &str) -> Result<Measurement<T>> {
+        let f = self.required("f");
+        if f.is_empty() {
+            return Err(FdidError::TooShort {
+                what: "data rows",
+                needed: 1,
+                got: 0,
+            });
+        }
+        check_frequencies(f)?;
+        let omega = self.omega::<T>(f, name)?;
+        self.check_variances(name)?;
+        let data = if self.layout.kind == Kind::Frf {
+            self.frf(omega)?
+        } else {
+            self.spectra(omega)?
+        };
+        Ok(Measurement::Frequency(data))
+    }
+
+    /// `ω = 2πf` in `T` of the frequencies `f` (Hz).
+    fn omega<T: Real>(&self, f: &[f64], name: &str) -> Result<Vec<T>> {
+        let mut omega = Vec::with_capacity(f.len());
+        for (i, fi) in f.iter().enumerate() {
+            let w = T::lit(std::f64::consts::TAU * fi);
+            if !num_traits::Float::is_finite(w) {
+                return Err(parse_error(
+                    name,
+                    self.lines[i],
+                    format!(
+                        "column `f`: 2π·{fi} Hz is out of range for {}",
+                        std::any::type_name::<T>()
+                    ),
+                ));
+            }
+            omega.push(w);
+        }
+        Ok(omega)
+    }
+
+    /// Every variance given is non-negative.
+    fn check_variances(&self, name: &str) -> Result<()> {
+        for var in ["var", "var_u", "var_y"] {
+            if let Some(v) = self.col(var)
+                && let Some(i) = v.iter().position(|x| *x < 0.0)
+            {
+                return Err(parse_error(
+                    name,
+                    self.lines[i],
+                    format!("column `{var}`: negative variance {}", v[i]),
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// FRF rows `G = re + i·im` as `Y = G`, `U = 1`, with `var` as the output variance.
+    fn frf<T: Real>(&self, omega: Vec<T>) -> Result<FrequencyData<T>> {
+        let g = complex(self.required("re"), self.required("im"));
+        let d = FrequencyData::from_frf(omega, g, None)?;
+        match self.col("var") {
+            Some(v) => d.with_noise(NoiseVariances::output_only(to_real(v))),
+            None => Ok(d),
+        }
+    }
+
+    /// Spectra rows `U`, `Y` with `var_u`, `var_y` (a missing one of the two is zero).
+    fn spectra<T: Real>(&self, omega: Vec<T>) -> Result<FrequencyData<T>> {
+        let u = complex(self.required("u_re"), self.required("u_im"));
+        let y = complex(self.required("y_re"), self.required("y_im"));
+        let n = omega.len();
+        let d = FrequencyData::new(omega, y, u, None)?;
+        let (vu, vy) = (self.col("var_u"), self.col("var_y"));
+        if vu.is_none() && vy.is_none() {
+            return Ok(d);
+        }
+        let zeros = vec![T::zero(); n];
+        d.with_noise(NoiseVariances {
+            var_y: vy.map(to_real).unwrap_or_else(|| zeros.clone()),
+            var_u: vu.map(to_real).unwrap_or(zeros),
+            cov_yu: vec![Complex::new(T::zero(), T::zero()); n],
+        })
+    }
+}
+
+/// Text for messages, cut to at most 200 characters.
+fn shorten(s: &str) -> String {
+    if s.chars().count() > 200 {
+        let mut t: String = s.chars().take(200).collect();
+        t.push('…');
+        t
+    } else {
+        s.to_string()
+    }
+}
