@@ -35,7 +35,18 @@
 //! Levy → SK → ML; [`estimate::estimate()`] composes any criterion with any solver that
 //! accepts its problem.
 //! [`estimate::batch::fit_many`] fits many independent data sets with one pipeline, on rayon's
-//! thread pool with the `rayon` feature.
+//! thread pool with the `rayon` feature. [`estimate::ModelSpec`] names a whole structure
+//! (domain, orders, delay, transient, noise model, criterion) and
+//! [`estimate::ModelSpec::fit`] picks the strategy for it; the discrepancy workflow
+//! ([`workflow`]) augments one step by step.
+//!
+//! **Layers.** Each module belongs to one layer and imports only from its own and lower
+//! ones: foundation (`scalar`, `error`, `stats`) → linear algebra (`linalg`, `basis`,
+//! `roots`) → data (`data`, `simulate`, `io`) → models (`model`, `greybox`) → criteria
+//! (`problem`, `criterion`) → solvers (`solver`) → fits (`fit`, `fitted`, `validation`) →
+//! estimation strategies (`estimate`, `ltv`) → the workflow (`workflow`). Models and
+//! criteria describe; only `estimate` runs them. The table is kept, and checked on every
+//! file, by the test `tests/suite/architecture.rs`.
 //!
 //! Equation numbers refer to T. McKelvey, *Frequency domain identification methods*
 //! (Circuits Systems Signal Processing, 2002).

@@ -112,8 +112,8 @@ fn reduced_poles<T: Real>(poles: &[Complex<T>]) -> Vec<Vec<Complex<T>>> {
 /// but its own automatic one) when its fit shows evidence of a local minimum (see
 /// [`Pipeline`]); here they always run, and the starts use the chain without them. On
 /// random stable systems of order ≤ 10 at 40 dB SNR this reaches the best optimum found
-/// far more often than the chain from its automatic start alone (see the README's Tests
-/// section for the figures).
+/// far more often than the chain from its automatic start alone (see docs/testing.md,
+/// "Numerical stress and optimisation robustness", for the figures).
 ///
 /// # Errors
 /// `na = 0` or `nb > na`; when every start fails, the error of the first.

@@ -244,7 +244,7 @@ fn bundled_data_sets_have_no_unresolved_poles() {
 
 /// The first resonance of the robot arm (ζ ≈ 0.004 at 0.058 Hz) has a half-power band of
 /// 4.4·10⁻⁴ Hz, narrower than the line spacing 1/1024 Hz of the 1024-sample record: it
-/// falls between two lines and is named (as the README shows); the second is resolved.
+/// falls between two lines and is named (as the README's `fit` example shows); the second is resolved.
 #[test]
 fn robot_arm_first_resonance_falls_between_two_lines() {
     let file = bundled("robot_arm.csv");

@@ -6,7 +6,7 @@
 //! `cargo run --release --example optimisation_robustness` for the full study with the
 //! failures' seeds and costs.
 //!
-//! Measured on the 500 systems of seeds 1000–1499 (README, Tests): `Pipeline::fit`, which
+//! Measured on the 500 systems of seeds 1000–1499 (docs/testing.md): `Pipeline::fit`, which
 //! runs further starts when its fit shows evidence of a local minimum, reaches the optimum
 //! on 97.8 % (continuous time 98.8 %, discrete time 96.8 %), below the 99 % target; the
 //! chain alone (`restarts: false`) on 84.0 %; the multistart fits (`fit_multistart`,
