@@ -66,7 +66,8 @@ fn rust_files(dir: &Path, out: &mut Vec<PathBuf>) {
     }
 }
 
-/// The code of a Rust file with comments and string literals blanked.
+/// The code of a Rust file with comments, string literals (raw ones included) and
+/// character literals blanked, so that a quote inside `'"'` or `r#"…"#` cannot hide code.
 fn code_only(src: &str) -> String {
     let b = src.as_bytes();
     let mut out = String::with_capacity(src.len());
@@ -77,21 +78,10 @@ fn code_only(src: &str) -> String {
                 i += 1;
             }
         } else if b[i] == b'/' && b.get(i + 1) == Some(&b'*') {
-            let mut depth = 0;
-            while i < b.len() {
-                if b[i] == b'/' && b.get(i + 1) == Some(&b'*') {
-                    depth += 1;
-                    i += 2;
-                } else if b[i] == b'*' && b.get(i + 1) == Some(&b'/') {
-                    depth -= 1;
-                    i += 2;
-                    if depth == 0 {
-                        break;
-                    }
-                } else {
-                    i += 1;
-                }
-            }
+            i = block_comment_end(b, i);
+        } else if let Some(end) = raw_string_end(b, i) {
+            i = end;
+            out.push_str("\"\"");
         } else if b[i] == b'"' {
             i += 1;
             while i < b.len() && b[i] != b'"' {
@@ -99,6 +89,9 @@ fn code_only(src: &str) -> String {
             }
             i += 1;
             out.push_str("\"\"");
+        } else if let Some(end) = char_literal_end(src, i) {
+            i = end;
+            out.push_str("' '");
         } else {
             let c = src[i..].chars().next().expect("char");
             out.push(c);
@@ -106,6 +99,72 @@ fn code_only(src: &str) -> String {
         }
     }
     out
+}
+
+/// The index after the (nested) block comment starting at `i`.
+fn block_comment_end(b: &[u8], mut i: usize) -> usize {
+    let mut depth = 0;
+    while i < b.len() {
+        if b[i] == b'/' && b.get(i + 1) == Some(&b'*') {
+            depth += 1;
+            i += 2;
+        } else if b[i] == b'*' && b.get(i + 1) == Some(&b'/') {
+            depth -= 1;
+            i += 2;
+            if depth == 0 {
+                break;
+            }
+        } else {
+            i += 1;
+        }
+    }
+    i
+}
+
+/// The index after a raw string `r"…"`, `r#"…"#`, … starting at `i`, if one starts there
+/// (and `r` does not end an identifier).
+fn raw_string_end(b: &[u8], i: usize) -> Option<usize> {
+    let ident_before = i > 0 && (b[i - 1].is_ascii_alphanumeric() || b[i - 1] == b'_');
+    if b[i] != b'r' || ident_before {
+        return None;
+    }
+    let hashes = b[i + 1..].iter().take_while(|c| **c == b'#').count();
+    let open = i + 1 + hashes;
+    if b.get(open) != Some(&b'"') {
+        return None;
+    }
+    let mut k = open + 1;
+    while k < b.len() {
+        if b[k] == b'"'
+            && b[k + 1..]
+                .iter()
+                .take(hashes)
+                .filter(|c| **c == b'#')
+                .count()
+                == hashes
+        {
+            return Some(k + 1 + hashes);
+        }
+        k += 1;
+    }
+    Some(b.len())
+}
+
+/// The index after a character literal (`'x'`, `'\n'`, `'\u{…}'`) starting at `i`;
+/// `None` for a lifetime or a label (`'a`).
+fn char_literal_end(src: &str, i: usize) -> Option<usize> {
+    let rest = src.get(i..)?;
+    let mut chars = rest.char_indices();
+    if chars.next()?.1 != '\'' {
+        return None;
+    }
+    let (_, first) = chars.next()?;
+    if first == '\\' {
+        // an escape: up to the closing quote
+        return rest[2..].find('\'').map(|k| i + 2 + k + 1);
+    }
+    let (k, second) = chars.next()?;
+    (second == '\'').then_some(i + k + 1)
 }
 
 fn ident_at(s: &str) -> &str {
@@ -311,10 +370,12 @@ fn no_import_cycles() {
 fn the_reader_finds_paths_in_groups_and_skips_comments() {
     let code = code_only(
         "use crate::a::X;\n// crate::b\nuse crate::{c::Y, d};\nlet s = \"crate::e\";\n\
-         /* crate::f */ let v = crate::g::h();\nmacro_rules! m { () => { $crate::i } }",
+         /* crate::f */ let v = crate::g::h();\nmacro_rules! m { () => { $crate::i } }\n\
+         let q = '\"'; let v = crate::j::k(); let r = r#\"crate::l \" \"#;\n\
+         fn f<'a>(x: &'a str) -> &'a str { crate::m::n(x) }",
     );
     let found: Vec<_> = crate_paths(&code).into_iter().collect();
-    assert_eq!(found, ["a", "c", "d", "g"]);
+    assert_eq!(found, ["a", "c", "d", "g", "j", "m"]);
     let mut g = Graph::new();
     for (a, b) in [("x", "y"), ("y", "z"), ("z", "x"), ("z", "w")] {
         g.entry(a.into()).or_default().entry(b.into()).or_default();
