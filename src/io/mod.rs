@@ -11,7 +11,7 @@ mod touchstone;
 
 pub use self::csv::{parse_csv, read_csv};
 pub use self::touchstone::{
-    NumberFormat, Parameter, Touchstone, TouchstoneVersion, is_touchstone, parse_touchstone,
+    NetworkParameter, NumberFormat, Touchstone, TouchstoneVersion, is_touchstone, parse_touchstone,
     parse_touchstone_v2, read_touchstone, touchstone_ports,
 };
 

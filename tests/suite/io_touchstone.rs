@@ -2,7 +2,7 @@
 #![cfg(feature = "csv")]
 
 use fdid::Complex;
-use fdid::io::{NumberFormat, Parameter, read_touchstone};
+use fdid::io::{NetworkParameter, NumberFormat, read_touchstone};
 use std::path::Path;
 
 /// S11 and S21 of a series R–L–C (5 Ω, 1 µH, 1 nF) between two 50 Ω ports at f Hz.
@@ -23,7 +23,7 @@ fn bundled_s2p_matches_the_circuit() {
     let t = read_touchstone(&bundled("rlc_bandpass.s2p")).unwrap();
     assert_eq!(
         (t.ports, t.parameter, t.format),
-        (2, Parameter::S, NumberFormat::DecibelAngle)
+        (2, NetworkParameter::S, NumberFormat::DecibelAngle)
     );
     assert_eq!(t.freq_hz.len(), 37);
     assert_eq!(t.freq_hz[0], 1e6);

@@ -8,8 +8,8 @@ use crate::cli_common as cli;
 use fdid::Complex;
 use fdid::error::FdidError;
 use fdid::io::{
-    NumberFormat, Parameter, Touchstone, TouchstoneVersion, parse_touchstone, parse_touchstone_v2,
-    read_touchstone,
+    NetworkParameter, NumberFormat, Touchstone, TouchstoneVersion, parse_touchstone,
+    parse_touchstone_v2, read_touchstone,
 };
 use std::path::Path;
 
@@ -94,7 +94,7 @@ fn version_2_two_port_equals_version_1() {
         assert_eq!(v2.values, v1.values, "{order} {matrix}");
         assert_eq!(
             (v2.ports, v2.parameter, v2.format, v2.reference),
-            (2, Parameter::S, NumberFormat::DecibelAngle, 50.0)
+            (2, NetworkParameter::S, NumberFormat::DecibelAngle, 50.0)
         );
         assert_eq!(v2.references, vec![50.0, 50.0]);
         // the bundled .ts file is the 12_21 full form

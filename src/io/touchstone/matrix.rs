@@ -2,7 +2,7 @@
 //! each version.
 
 use super::options::Options;
-use super::{NumberFormat, Parameter};
+use super::{NetworkParameter, NumberFormat};
 use crate::scalar::Complex;
 
 /// How the `[Network Data]` of a version 2 file writes each matrix (`[Matrix Format]`).
@@ -71,12 +71,12 @@ impl Options {
     fn scale(&self, i: usize, j: usize) -> f64 {
         let r = self.reference;
         match (self.parameter, i == j, i) {
-            (Parameter::S, _, _) => 1.0,
-            (Parameter::Z, _, _) => r,
-            (Parameter::Y, _, _) => 1.0 / r,
-            (Parameter::H, true, 0) | (Parameter::G, true, 1) => r,
-            (Parameter::H, true, _) | (Parameter::G, true, _) => 1.0 / r,
-            (Parameter::H | Parameter::G, false, _) => 1.0,
+            (NetworkParameter::S, _, _) => 1.0,
+            (NetworkParameter::Z, _, _) => r,
+            (NetworkParameter::Y, _, _) => 1.0 / r,
+            (NetworkParameter::H, true, 0) | (NetworkParameter::G, true, 1) => r,
+            (NetworkParameter::H, true, _) | (NetworkParameter::G, true, _) => 1.0 / r,
+            (NetworkParameter::H | NetworkParameter::G, false, _) => 1.0,
         }
     }
 }

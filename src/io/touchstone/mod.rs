@@ -23,7 +23,7 @@ use std::path::Path;
 /// Kind of network parameters in a Touchstone file (the second field of the option line).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
-pub enum Parameter {
+pub enum NetworkParameter {
     /// Scattering parameters (dimensionless).
     S,
     /// Admittance parameters (S).
@@ -36,7 +36,7 @@ pub enum Parameter {
     G,
 }
 
-impl Parameter {
+impl NetworkParameter {
     /// The letter of the option line.
     pub fn letter(self) -> char {
         match self {
@@ -80,7 +80,7 @@ pub struct Touchstone {
     /// Number of ports, 1 or 2.
     pub ports: usize,
     /// The kind of parameters.
-    pub parameter: Parameter,
+    pub parameter: NetworkParameter,
     /// How the file wrote them.
     pub format: NumberFormat,
     /// Reference resistance R (Ω) of the option line (50 by default).

@@ -1,13 +1,13 @@
 //! The option line `# <unit> <parameter> <format> R <ref>` of both versions.
 
-use super::{NumberFormat, Parameter};
+use super::{NetworkParameter, NumberFormat};
 
 /// The settings of the option line.
 #[derive(Debug, Clone, Copy)]
 pub(super) struct Options {
     /// Hz per frequency unit.
     pub(super) unit: f64,
-    pub(super) parameter: Parameter,
+    pub(super) parameter: NetworkParameter,
     pub(super) format: NumberFormat,
     pub(super) reference: f64,
 }
@@ -16,7 +16,7 @@ impl Default for Options {
     fn default() -> Self {
         Self {
             unit: 1e9,
-            parameter: Parameter::S,
+            parameter: NetworkParameter::S,
             format: NumberFormat::MagnitudeAngle,
             reference: 50.0,
         }
@@ -75,13 +75,13 @@ fn unit(field: &str) -> Option<f64> {
 }
 
 /// The kind of parameters of an upper-case parameter field.
-fn parameter(field: &str) -> Option<Parameter> {
+fn parameter(field: &str) -> Option<NetworkParameter> {
     match field {
-        "S" => Some(Parameter::S),
-        "Y" => Some(Parameter::Y),
-        "Z" => Some(Parameter::Z),
-        "H" => Some(Parameter::H),
-        "G" => Some(Parameter::G),
+        "S" => Some(NetworkParameter::S),
+        "Y" => Some(NetworkParameter::Y),
+        "Z" => Some(NetworkParameter::Z),
+        "H" => Some(NetworkParameter::H),
+        "G" => Some(NetworkParameter::G),
         _ => None,
     }
 }

@@ -57,7 +57,7 @@ fn defaults_are_ghz_s_ma_50_ohm() {
     assert_eq!(t.freq_hz, vec![1e9]);
     assert_eq!(
         (t.parameter, t.format, t.reference),
-        (Parameter::S, NumberFormat::MagnitudeAngle, 50.0)
+        (NetworkParameter::S, NumberFormat::MagnitudeAngle, 50.0)
     );
     assert!((t.values[0][0] - Complex::new(0.0, 1.0)).norm() < 1e-15);
 }

@@ -3,7 +3,7 @@
 
 use super::{Reader, Section};
 use crate::error::Result;
-use crate::io::touchstone::Parameter;
+use crate::io::touchstone::NetworkParameter;
 use crate::io::touchstone::matrix::MatrixFormat;
 use crate::io::touchstone::text::shorten;
 
@@ -154,7 +154,12 @@ impl Reader<'_> {
                 ),
             ));
         }
-        if n == 1 && matches!(self.opts.parameter, Parameter::H | Parameter::G) {
+        if n == 1
+            && matches!(
+                self.opts.parameter,
+                NetworkParameter::H | NetworkParameter::G
+            )
+        {
             return Err(self.error(
                 line,
                 format!(
