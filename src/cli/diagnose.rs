@@ -19,7 +19,7 @@ use fdid::data::Lpm;
 use fdid::estimate::{Method, ModelSpec};
 use fdid::prelude::*;
 use fdid::workflow::Report as WorkflowReport;
-use fdid::workflow::{
+use fdid::workflow::{Attempt, Elimination, Outcome, 
     Context, Effect, Finding, SpecFit, Step, Workflow, disagreement_bands, segment_disagreement,
 };
 use serde_json::{Map, Value, json};
@@ -109,6 +109,12 @@ struct Diagnosis {
     stop: Stop,
     /// The detectors' findings on the final fit.
     remaining: Vec<Finding>,
+    /// The refits tried at the last step when none was accepted, with their outcome.
+    attempts: Vec<Attempt>,
+    /// The steps the backward-elimination pass removed.
+    eliminated: Vec<Elimination>,
+    /// The effects in the final model, in order.
+    effects: Vec<Effect>,
     initial: Report,
     last: Report,
     /// The data the workflow ran on (for the figures).
@@ -459,6 +465,9 @@ impl Diagnosis {
             fits,
             stop,
             remaining: report.remaining,
+            attempts: report.attempts,
+            eliminated: report.eliminated,
+            effects: report.effects,
             initial,
             last,
             file,
@@ -494,10 +503,48 @@ impl Diagnosis {
                 })
             })
             .collect();
-        let effects: Vec<&str> = self.steps.iter().map(|s| s.effect.as_str()).collect();
+        let effects: Vec<&str> = self.effects.iter().map(|e| e.as_str()).collect();
+        let attempts: Vec<Value> = self
+            .attempts
+            .iter()
+            .map(|a| {
+                let mut o = json!({
+                    "effect": a.effect.as_str(),
+                    "p_value": num(a.p_value),
+                    "outcome": outcome_name(&a.outcome),
+                });
+                match &a.outcome {
+                    Outcome::Failed { reason } => o["reason"] = json!(reason),
+                    Outcome::Rejected { lr_p, level } => {
+                        o["lr_p"] = num(*lr_p);
+                        o["level"] = num(*level);
+                    }
+                    Outcome::Outexplained { lr_p } | Outcome::Accepted { lr_p } => {
+                        o["lr_p"] = num(*lr_p);
+                    }
+                    Outcome::NotApplicable | Outcome::NotLarger | Outcome::Unstable => {}
+                }
+                o
+            })
+            .collect();
+        let eliminated: Vec<Value> = self
+            .eliminated
+            .iter()
+            .map(|e| {
+                json!({
+                    "effect": e.effect.as_str(),
+                    "step": e.step + 1,
+                    "cost_with": num(e.cost_with),
+                    "cost_without": num(e.cost_without),
+                    "lr_p": num(e.lr_p),
+                })
+            })
+            .collect();
         let obj = json!({
             "steps": steps,
             "effects": effects,
+            "refits_rejected": attempts,
+            "eliminated": eliminated,
             "consistent_with_noise": self.stop == Stop::Consistent,
             "unmodelled": self.unmodelled.iter().map(|e| e.as_str()).collect::<Vec<_>>(),
             "noise_reference": self.noise.name(),
@@ -583,6 +630,18 @@ impl Diagnosis {
                 w,
                 "  {e}: named, but the model class cannot absorb it (the residual holds it, \
                  not a model error)"
+            );
+        }
+        for e in &self.eliminated {
+            let _ = writeln!(
+                w,
+                "  {} (step {}): removed by backward elimination, no longer significant given \
+                 the other effects (V {} without vs {} with, LR p = {} >= alpha)",
+                e.effect,
+                e.step + 1,
+                g(e.cost_without),
+                g(e.cost_with),
+                short(e.lr_p)
             );
         }
         for s in &self.steps {
@@ -708,12 +767,19 @@ impl Diagnosis {
                     .collect();
                 if fired.is_empty() {
                     "no detector fires".into()
-                } else {
+                } else if self.attempts.is_empty() {
                     format!(
-                        "{} fire{} but no refit passes the likelihood-ratio test",
+                        "{} fire{} on the final fit",
                         fired.join(", "),
                         if fired.len() == 1 { "s" } else { "" }
                     )
+                } else {
+                    let tried: Vec<String> = self
+                        .attempts
+                        .iter()
+                        .map(|a| format!("{} ({})", a.effect, a.outcome.describe()))
+                        .collect();
+                    format!("no refit is accepted: {}", tried.join(", "))
                 }
             }
         };
@@ -765,4 +831,17 @@ fn write_report(
         );
     }
     Ok(written)
+}
+
+/// The JSON name of a refit's outcome.
+fn outcome_name(outcome: &Outcome) -> &'static str {
+    match outcome {
+        Outcome::Failed { .. } => "failed",
+        Outcome::NotApplicable => "not_applicable",
+        Outcome::NotLarger => "not_larger",
+        Outcome::Unstable => "unstable",
+        Outcome::Rejected { .. } => "rejected",
+        Outcome::Outexplained { .. } => "outexplained",
+        Outcome::Accepted { .. } => "accepted",
+    }
 }

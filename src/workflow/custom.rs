@@ -314,7 +314,7 @@ impl Workflow {
     /// - `missing_resonance`: G_M · F with F a flexible mode of unit DC gain
     ///   ([`FlexibleModes`]: (1 + 2ζ_z s/ω_z + (s/ω_z)²)/(1 + 2ζ_p s/ω_p + (s/ω_p)²)), the
     ///   shape a second mass on a compliant shaft adds, started at ω_p = the detector's
-    ///   `peak_omega` and at the peak of the measured-to-modelled ratio |Y_k|/|Ŷ_k| over the
+    ///   `peak_hz` and at the peak of the measured-to-modelled ratio |Y_k|/|Ŷ_k| over the
     ///   lines of significant residual, ζ_p = the detector's `damping` (clamped to
     ///   [0.005, 0.5]) and 0.02, ζ_z = ζ_p and ω_z ∈ {0.5, 0.7, 0.85, 1.25}·ω_p, keeping the
     ///   start of least cost.
@@ -429,6 +429,8 @@ impl Workflow {
                 final_fit: current.summary,
                 time_varying: None,
                 remaining,
+                attempts: run.attempts,
+                eliminated: Vec::new(),
             },
             not_added,
             fit: current.fit,
@@ -472,7 +474,7 @@ fn proposal<M: ModelStructure<f64> + Clone>(
         }
         Effect::MissingResonance => {
             let resonance = finding.detail.missing_resonance()?;
-            let peak = resonance.peak_omega;
+            let peak = resonance.peak_omega();
             let zeta = resonance.damping.clamp(0.005, 0.5);
             let mut modes = vec![(peak, zeta), (peak, LIGHT_DAMPING)];
             if let Some(w) = ratio_peak(data, &current.summary) {
@@ -507,7 +509,7 @@ fn proposal<M: ModelStructure<f64> + Clone>(
 /// the lines whose residual is significant (|r_k|² > 9 times its null mean): a missing
 /// resonance multiplies the response by a factor peaking at ω_p whatever the absolute
 /// level, while the residual power peaks where |G| is largest (the detector's
-/// `peak_omega`, which at high SNR can sit at the low-frequency end).
+/// `peak_hz`, which at high SNR can sit at the low-frequency end).
 fn ratio_peak(data: &FrequencyData<f64>, fit: &SpecFit) -> Option<f64> {
     let (power, mean, _) = super::finding::residual_power(fit);
     (0..fit.residuals.len())

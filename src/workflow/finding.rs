@@ -465,6 +465,15 @@ pub trait Detector {
         false
     }
 
+    /// Whether `finding` (of this measurement-level detector) rests on a test that assumes
+    /// the model is adequate, its residuals noise (e.g. the drift of the parameters fitted
+    /// on time segments): such a finding is not acted on while structural detectors fire,
+    /// since a missing pole or delay makes the segment fits disagree too. Default `false`.
+    fn model_based(&self, finding: &Finding) -> bool {
+        let _ = finding;
+        false
+    }
+
     /// The number S of time segments of the piecewise time-invariant model
     /// ([`piecewise_model`](super::detectors::piecewise_model)) the workflow switches to
     /// when this detector's finding is acted on by [`Remedy::NotAbsorbed`] (the effect is
@@ -561,12 +570,12 @@ mod tests {
             ),
             (
                 Detail::MissingResonance(MissingResonanceDetail {
-                    peak_omega: 1.2,
-                    width: 0.1,
+                    peak_hz: 1.2,
+                    width_hz: 0.1,
                     damping: 0.1 / 2.4,
                     lines: 5,
                 }),
-                vec!["peak_omega", "width", "damping", "lines"],
+                vec!["peak_hz", "width_hz", "damping", "lines"],
             ),
             (
                 Detail::Transient(TransientDetail {

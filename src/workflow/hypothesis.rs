@@ -9,10 +9,11 @@
 //! hypothesis ([`Hypothesis::augment`]), refitted and judged by the likelihood-ratio
 //! test; the one that explains most is kept.
 
+use super::attempt::{Attempt, Outcome};
 use super::detectors::TimeVarying;
 use super::finding::{Context, Detector, Effect, Finding, Remedy};
 use super::spec::SpecFit;
-use super::{Acceptance, Step, Workflow, better, consistent, lr_accept, negative_log_likelihood};
+use super::{Acceptance, Step, Workflow, better, consistent, lr_p_value, negative_log_likelihood};
 use crate::data::FrequencyData;
 use crate::error::Result;
 
@@ -102,6 +103,51 @@ pub(crate) struct Exploration<H> {
     pub time_varying: Option<(TimeVarying, usize)>,
     /// Measurement-level findings whose criterion switch the structure does not make.
     pub not_switched: Vec<Finding>,
+    /// The refits tried at the last structural step when it accepted none (the loop's
+    /// end): why each was rejected. Empty when the loop ended otherwise.
+    pub attempts: Vec<Attempt>,
+}
+
+impl<H: Hypothesis> Exploration<H> {
+    /// Takes the measurement step `measured` (its effect is then acted on); whether the
+    /// refinement stops.
+    fn take(&mut self, measured: Measured<H>, acted: &mut Vec<Effect>) -> bool {
+        match measured {
+            Measured::NotSwitched(finding) => {
+                acted.push(finding.effect);
+                self.not_switched.push(finding);
+                false
+            }
+            Measured::Step(measured) => {
+                let MeasurementStep {
+                    step,
+                    next,
+                    data,
+                    absorbed,
+                    piecewise,
+                } = *measured;
+                if let Some(tv) = piecewise {
+                    let segments = tv.segments.len();
+                    self.time_varying = Some((tv, segments));
+                }
+                acted.push(step.effect);
+                self.cost_only |= step.acceptance() == Acceptance::NoiseReference;
+                if !absorbed {
+                    self.unmodelled.push(step.effect);
+                }
+                self.steps.push(step);
+                if let Some(d) = data {
+                    self.data = d;
+                }
+                let stop = next.is_none();
+                if let Some(next) = next {
+                    self.current = next;
+                }
+                self.step_fits.push(self.current.fit().clone());
+                stop
+            }
+        }
+    }
 }
 
 /// A measurement-level step: the step, the new fit (`None`: the effect is not absorbed
@@ -142,47 +188,21 @@ impl Workflow {
             cost_only: false,
             time_varying: None,
             not_switched: Vec::new(),
+            attempts: Vec::new(),
         };
         let mut acted: Vec<Effect> = Vec::new();
         while run.steps.len() < self.max_steps {
-            match self.measurement_step(&run.data, &run.current, ctx, &acted) {
-                Some(Measured::NotSwitched(finding)) => {
-                    acted.push(finding.effect);
-                    run.not_switched.push(finding);
-                    continue;
+            // the structural detectors first: while they fire, the model may be missing a
+            // term, and a measurement test that assumes an adequate model is deferred
+            let structural = self.structural_findings(&run.data, &run.current, ctx);
+            let firing = structural.iter().any(|f| f.p_value < alpha);
+            if let Some(measured) =
+                self.measurement_step(&run.data, &run.current, ctx, &acted, firing)
+            {
+                if run.take(measured, &mut acted) {
+                    break;
                 }
-                Some(Measured::Step(measured)) => {
-                    let MeasurementStep {
-                        step,
-                        next,
-                        data: new_data,
-                        absorbed,
-                        piecewise,
-                    } = *measured;
-                    if let Some(tv) = piecewise {
-                        let segments = tv.segments.len();
-                        run.time_varying = Some((tv, segments));
-                    }
-                    acted.push(step.effect);
-                    run.cost_only |= step.acceptance() == Acceptance::NoiseReference;
-                    if !absorbed {
-                        run.unmodelled.push(step.effect);
-                    }
-                    run.steps.push(step);
-                    if let Some(d) = new_data {
-                        run.data = d;
-                    }
-                    let stop = next.is_none();
-                    if let Some(next) = next {
-                        run.current = next;
-                    }
-                    run.step_fits.push(run.current.fit().clone());
-                    if stop {
-                        break;
-                    }
-                    continue;
-                }
-                None => {}
+                continue;
             }
             // without a cost test (the noise level estimated, or sample variances of too
             // few periods) a passing whiteness test is weak evidence (a missing delay
@@ -197,8 +217,21 @@ impl Workflow {
             } else {
                 false
             };
-            let Some((step, next)) = self.structural_step(&run.data, &run.current, ctx, strict)
-            else {
+            let (chosen, attempts) =
+                self.structural_step(&run.data, &run.current, ctx, strict, structural);
+            let Some((step, next)) = chosen else {
+                run.attempts = attempts;
+                // no structural refit is accepted: the deferred model-based measurement
+                // findings may now be acted on
+                if firing
+                    && let Some(measured) =
+                        self.measurement_step(&run.data, &run.current, ctx, &acted, false)
+                {
+                    run.attempts.clear();
+                    if !run.take(measured, &mut acted) {
+                        continue;
+                    }
+                }
                 break;
             };
             run.steps.push(step);
@@ -211,13 +244,16 @@ impl Workflow {
     /// The most significant measurement-level finding not acted on yet whose remedy
     /// succeeds: each applicable test at α/(2m) over the m that apply (Bonferroni), so
     /// that together they raise a false alarm with probability at most α/2, the other half
-    /// going to the structural steps (gated by the consistency tests).
+    /// going to the structural steps (gated by the consistency tests). With `defer`
+    /// (structural detectors fire), findings of tests that assume an adequate model
+    /// ([`Detector::model_based`]) are passed over.
     fn measurement_step<H: Hypothesis>(
         &self,
         data: &FrequencyData<f64>,
         current: &H,
         ctx: &Context,
         acted: &[Effect],
+        defer: bool,
     ) -> Option<Measured<H>> {
         let fit = current.fit();
         let applicable: Vec<(&dyn Detector, Finding)> = self
@@ -233,6 +269,9 @@ impl Workflow {
             .collect();
         findings.sort_by(|a, b| a.1.p_value.total_cmp(&b.1.p_value));
         for (detector, finding) in findings {
+            if defer && detector.model_based(&finding) {
+                continue;
+            }
             // the detector's own test accepts a measurement-level step
             let step =
                 |cost_after: f64| Step::new(finding.clone(), fit.cost, cost_after, finding.p_value);
@@ -292,49 +331,140 @@ impl Workflow {
         None
     }
 
-    /// Adds every significant structural finding to the hypothesis; keeps those the
-    /// likelihood-ratio test accepts (at α, or α/m over the m detectors when `strict`)
-    /// and takes the one that explains most: smallest LR p-value, then (when p-values
-    /// underflow) the largest cost drop per added parameter. A larger model that turns a
-    /// stable fit unstable explains the data with a spurious pole (e.g. a peak at the
-    /// band edge): not an acceptable step.
+    /// Every structural detector's finding on the current fit, significant or not.
+    fn structural_findings<H: Hypothesis>(
+        &self,
+        data: &FrequencyData<f64>,
+        current: &H,
+        ctx: &Context,
+    ) -> Vec<Finding> {
+        let now = current.fit();
+        self.detectors
+            .iter()
+            .filter(|d| !d.measurement())
+            .filter_map(|d| d.detect(data, now, ctx))
+            .collect()
+    }
+
+    /// Adds every significant structural finding (of `all`, the structural detectors'
+    /// findings on the current fit) to the hypothesis; keeps those the likelihood-ratio
+    /// test accepts (at α, or α/m over the m detectors when `strict`) and takes the one
+    /// that explains most: smallest LR p-value, then (when p-values underflow) the largest
+    /// cost drop per added parameter. An unstable refit explains the data with a spurious
+    /// pole (e.g. a peak at the band edge): never an acceptable step. Returns the step
+    /// taken, if any, and what became of every refit tried.
     fn structural_step<H: Hypothesis>(
         &self,
         data: &FrequencyData<f64>,
         current: &H,
         ctx: &Context,
         strict: bool,
-    ) -> Option<(Step, H)> {
+        all: Vec<Finding>,
+    ) -> (Option<(Step, H)>, Vec<Attempt>) {
         let now = current.fit();
-        let all: Vec<Finding> = self
-            .detectors
-            .iter()
-            .filter(|d| !d.measurement())
-            .filter_map(|d| d.detect(data, now, ctx))
-            .collect();
         let alpha = if strict {
             ctx.alpha / all.len().max(1) as f64
         } else {
             ctx.alpha
         };
-        let mut accepted: Option<(Finding, H, f64, f64)> = None;
+        let mut attempts = Vec::new();
+        let mut candidates: Vec<(usize, Finding, H, f64, f64)> = Vec::new();
         for finding in all.into_iter().filter(|f| f.p_value < ctx.alpha) {
-            let Some(Ok(next)) = current.augment(data, &finding) else {
-                continue;
-            };
-            let fit = next.fit();
-            if fit.n_params <= now.n_params || (now.is_stable() && !fit.is_stable()) {
-                continue;
+            let (outcome, candidate) = try_refit(current, data, &finding, alpha);
+            if let Some((next, p, gain)) = candidate {
+                candidates.push((attempts.len(), finding.clone(), next, p, gain));
             }
-            let Some((p, gain)) = lr_accept(now, fit, data.len(), alpha) else {
-                continue;
-            };
-            if better(accepted.as_ref().map(|(_, _, p, g)| (*p, *g)), p, gain) {
-                accepted = Some((finding, next, p, gain));
+            attempts.push(Attempt {
+                effect: finding.effect,
+                p_value: finding.p_value,
+                outcome,
+            });
+        }
+        let mut best: Option<usize> = None;
+        for (j, (_, _, _, p, gain)) in candidates.iter().enumerate() {
+            let so_far = best.map(|b| (candidates[b].3, candidates[b].4));
+            if better(so_far, *p, *gain) {
+                best = Some(j);
             }
         }
-        let (finding, next, lr_p, _) = accepted?;
+        let Some(best) = best else {
+            return (None, attempts);
+        };
+        for (j, (i, _, _, lr_p, _)) in candidates.iter().enumerate() {
+            if j != best {
+                attempts[*i].outcome = Outcome::Outexplained { lr_p: *lr_p };
+            }
+        }
+        let (_, finding, next, lr_p, _) = candidates.swap_remove(best);
         let cost_after = next.fit().cost;
-        Some((Step::new(finding, now.cost, cost_after, lr_p), next))
+        let finding = relabel(finding, now, next.fit());
+        (
+            Some((Step::new(finding, now.cost, cost_after, lr_p), next)),
+            attempts,
+        )
     }
+}
+
+/// Refits `current` with `finding`'s effect and judges it at `level`: the outcome, and
+/// when accepted the refit with its LR p-value and cost drop per added parameter.
+fn try_refit<H: Hypothesis>(
+    current: &H,
+    data: &FrequencyData<f64>,
+    finding: &Finding,
+    level: f64,
+) -> (Outcome, Option<(H, f64, f64)>) {
+    let now = current.fit();
+    let next = match current.augment(data, finding) {
+        None => return (Outcome::NotApplicable, None),
+        Some(Err(e)) => {
+            return (
+                Outcome::Failed {
+                    reason: e.to_string(),
+                },
+                None,
+            );
+        }
+        Some(Ok(next)) => next,
+    };
+    let fit = next.fit();
+    if fit.n_params <= now.n_params {
+        return (Outcome::NotLarger, None);
+    }
+    if !fit.is_stable() {
+        return (Outcome::Unstable, None);
+    }
+    let Some(lr_p) = lr_p_value(now, fit, data.len()) else {
+        return (
+            Outcome::Failed {
+                reason: "the likelihood-ratio test cannot be computed".into(),
+            },
+            None,
+        );
+    };
+    if !(lr_p < level) {
+        return (Outcome::Rejected { lr_p, level }, None);
+    }
+    let added = (fit.n_params - now.n_params) as f64;
+    let gain = (now.cost - fit.cost) / added;
+    (Outcome::Accepted { lr_p }, Some((next, lr_p, gain)))
+}
+
+/// A missing-resonance finding whose refit added no complex pole pair (the added poles
+/// are real) is relabelled a missing pole: the effect names what the data took.
+fn relabel(mut finding: Finding, before: &SpecFit, after: &SpecFit) -> Finding {
+    if finding.effect == Effect::MissingResonance
+        && after.custom.is_none()
+        && complex_pairs(&after.poles) <= complex_pairs(&before.poles)
+    {
+        finding.effect = Effect::MissingPole;
+    }
+    finding
+}
+
+/// The number of complex-conjugate pole pairs (|Im p| above 10⁻⁸·|p|).
+pub(crate) fn complex_pairs(poles: &[crate::scalar::Complex<f64>]) -> usize {
+    poles
+        .iter()
+        .filter(|p| p.im > 1e-8 * p.norm())
+        .count()
 }

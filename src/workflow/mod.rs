@@ -57,9 +57,11 @@
 //! # Ok(())
 //! # }
 //! ```
+mod attempt;
 mod bands;
 mod custom;
 pub mod detectors;
+mod eliminate;
 mod finding;
 mod hypothesis;
 pub mod lrt;
@@ -68,6 +70,7 @@ mod segments;
 mod spec;
 
 pub use crate::estimate::{DelayRange, Method, ModelSpec};
+pub use attempt::{Attempt, Elimination, Outcome};
 pub use bands::{Band, disagreement_bands};
 pub use custom::{Augmented, AugmentedFit, ModelReport};
 pub use detectors::TimeVarying;
@@ -212,6 +215,17 @@ pub struct Report {
     /// (what is left to explain). Not serialised.
     #[cfg_attr(feature = "serde", serde(skip))]
     pub remaining: Vec<Finding>,
+    /// When the loop ended because no structural refit was accepted: each refit tried at
+    /// that last step and why it was rejected (failed, unstable, likelihood-ratio
+    /// p-value). Empty when the loop ended otherwise (consistent, step limit, a
+    /// measurement-level effect the model cannot absorb).
+    #[cfg_attr(feature = "serde", serde(default))]
+    pub attempts: Vec<Attempt>,
+    /// The accepted steps the backward-elimination pass removed from the final model (no
+    /// longer significant given the other effects), in order of removal. `effects` leaves
+    /// them out; `steps` keeps the history.
+    #[cfg_attr(feature = "serde", serde(default))]
+    pub eliminated: Vec<Elimination>,
 }
 
 /// The workflow's settings.
@@ -357,10 +371,12 @@ impl Workflow {
             mut unmodelled,
             cost_only,
             mut time_varying,
+            attempts,
             ..
         } = self.explore(data, initial_fit.clone(), &ctx);
         let spec_before = current.spec.clone();
         self.revise(&data, &ctx, &mut steps, &mut step_fits, &mut current);
+        let eliminated = self.eliminate(&data, alpha, &steps, &mut current);
         // a revised structure: the segment models of the final spec
         if let Some((tv, segments)) = time_varying.as_mut()
             && current.spec != spec_before
@@ -381,7 +397,12 @@ impl Workflow {
         let time_varying = time_varying.map(|(tv, _)| tv);
         let remaining = self.findings(&data, &current, &ctx);
         Ok(Report {
-            effects: steps.iter().map(|s| s.effect).collect(),
+            effects: steps
+                .iter()
+                .enumerate()
+                .filter(|(i, _)| !eliminated.iter().any(|e| e.step == *i))
+                .map(|(_, s)| s.effect)
+                .collect(),
             steps,
             consistent_with_noise: match &time_varying {
                 Some(tv) => tv.consistent_with_noise(alpha),
@@ -394,6 +415,8 @@ impl Workflow {
             final_fit: current,
             time_varying,
             remaining,
+            attempts,
+            eliminated,
         })
     }
 
@@ -411,18 +434,12 @@ impl Workflow {
     }
 }
 
-/// The likelihood-ratio test of `next` (more parameters) against `current` on `n` lines
-/// at `level`: the concentrated test (W = ln(V/N), eq. 26) when the noise model changes,
-/// else [`lrt::lr_test`]. Its p-value and the cost drop per added parameter when it
-/// accepts, `None` otherwise.
-pub(crate) fn lr_accept(
-    current: &SpecFit,
-    next: &SpecFit,
-    n: usize,
-    level: f64,
-) -> Option<(f64, f64)> {
-    let added = next
-        .n_params
+/// The p-value of the likelihood-ratio test of `next` (more parameters) against
+/// `current` on `n` lines: the concentrated test (W = ln(V/N), eq. 26) when the noise
+/// model changes, else [`lrt::lr_test`]; `None` when `next` is not larger or the test
+/// cannot be computed.
+pub(crate) fn lr_p_value(current: &SpecFit, next: &SpecFit, n: usize) -> Option<f64> {
+    next.n_params
         .checked_sub(current.n_params)
         .filter(|a| *a > 0)?;
     let test = if next.spec.noise_order != current.spec.noise_order {
@@ -445,7 +462,7 @@ pub(crate) fn lr_accept(
         )
     }
     .ok()?;
-    (test.p_value < level).then_some((test.p_value, (current.cost - next.cost) / added as f64))
+    Some(test.p_value)
 }
 
 /// Whether an accepted proposal (p-value `p`, cost drop per parameter `gain`) explains

@@ -184,7 +184,7 @@ fn hidden_resonance_is_named_first() {
                 .detail
                 .missing_resonance()
                 .unwrap()
-                .peak_omega;
+                .peak_omega();
             assert!((peak - th).abs() < 0.1, "peak at {peak}");
         }
         if report.consistent_with_noise {

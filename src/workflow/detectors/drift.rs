@@ -336,6 +336,11 @@ impl Detector for TimeDrift {
         true
     }
 
+    /// The drift of the segment fits assumes the model structure is adequate.
+    fn model_based(&self, _finding: &Finding) -> bool {
+        true
+    }
+
     fn detect(&self, _data: &FrequencyData<f64>, fit: &SpecFit, ctx: &Context) -> Option<Finding> {
         let drift = parameter_drift(fit, ctx, self.segments).ok()??;
         let largest = drift

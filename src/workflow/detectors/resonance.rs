@@ -55,8 +55,8 @@ impl Detector for MissingResonance {
             statistic: best,
             p_value: (best * windows as f64).min(1.0),
             detail: Detail::MissingResonance(MissingResonanceDetail {
-                peak_omega,
-                width,
+                peak_hz: peak_omega / std::f64::consts::TAU,
+                width_hz: width / std::f64::consts::TAU,
                 damping: width / (2.0 * peak_omega),
                 lines: w,
             }),
@@ -68,21 +68,29 @@ impl Detector for MissingResonance {
 /// The detail of a [`MissingResonance`] finding.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct MissingResonanceDetail {
-    /// The frequency (rad/s) of the largest |r_k| in the best window, named `peak_omega`.
-    pub peak_omega: f64,
-    /// The window's span (rad/s), named `width`.
-    pub width: f64,
-    /// The damping ratio ≈ width/(2 peak_omega), named `damping`.
+    /// The frequency f_p = ω_p/2π (Hz) of the largest |r_k| in the best window, named
+    /// `peak_hz`.
+    pub peak_hz: f64,
+    /// The window's span (Hz), named `width_hz`.
+    pub width_hz: f64,
+    /// The damping ratio ≈ width/(2 f_p), named `damping`.
     pub damping: f64,
     /// The window's number of lines w, named `lines`.
     pub lines: usize,
 }
 
+impl MissingResonanceDetail {
+    /// The peak's angular frequency ω_p = 2π f_p (rad/s).
+    pub fn peak_omega(&self) -> f64 {
+        self.peak_hz * std::f64::consts::TAU
+    }
+}
+
 impl DetailFields for MissingResonanceDetail {
     fn entries(&self) -> Vec<(&'static str, f64)> {
         vec![
-            ("peak_omega", self.peak_omega),
-            ("width", self.width),
+            ("peak_hz", self.peak_hz),
+            ("width_hz", self.width_hz),
             ("damping", self.damping),
             ("lines", self.lines as f64),
         ]
@@ -90,8 +98,8 @@ impl DetailFields for MissingResonanceDetail {
 
     fn take_from(values: &mut NamedValues) -> Option<Self> {
         Some(Self {
-            peak_omega: values.take("peak_omega")?,
-            width: values.take("width")?,
+            peak_hz: values.take("peak_hz")?,
+            width_hz: values.take("width_hz")?,
             damping: values.take("damping")?,
             lines: values.take_count("lines")?,
         })

@@ -185,6 +185,19 @@ impl Detector for TimeVariationTests {
         self.piecewise.then_some(self.drift.segments)
     }
 
+    /// Model-based when the drift test (which assumes the structure is adequate) carries
+    /// the finding: the skirt test does not apply or is the less significant of the two.
+    fn model_based(&self, finding: &Finding) -> bool {
+        let Some(detail) = finding.detail.time_variation_tests() else {
+            return false;
+        };
+        match (detail.skirt_p, detail.drift_p) {
+            (Some(skirt), Some(drift)) => drift < skirt,
+            (None, Some(_)) => true,
+            _ => false,
+        }
+    }
+
     fn detect(&self, data: &FrequencyData<f64>, fit: &SpecFit, ctx: &Context) -> Option<Finding> {
         let skirt = TimeVariation.detect(data, fit, ctx);
         let drift = self.drift.detect(data, fit, ctx);
