@@ -71,7 +71,9 @@ fit. delay is tau in seconds, null without --delay; cost_expected and cost_p are
 when the noise level is estimated from the residuals (flat weighting, noise model);
 covariance is that of theta (rows in the order of theta_names); noise_model holds C and
 D in ascending powers of z^-1 and the zeros and poles of H, null without --noise-order.
-Further keys: na, nb, criterion, ts, lines, gain, stable, theta, theta_names, theta_std,
+pole_details and zero_details list the same roots as objects {\"re\":x, \"im\":x,
+\"f_n_hz\":x, \"damping\":x}: natural frequency in Hz and damping ratio of s (of
+s = ln(z)/Ts for z; null where undefined). Further keys: na, nb, criterion, ts, lines, gain, stable, theta, theta_names, theta_std,
 frf_std, stages, weighting, noise_known, relative_residual, notes, form (how theta
 parameterises the model), basis_poles, delay_std, delay_samples (tau/Ts, null without a
 sample time), transient (number of transient coefficients, 0 without --transient),

@@ -115,6 +115,8 @@ struct Diagnosis {
     eliminated: Vec<Elimination>,
     /// The effects in the final model, in order.
     effects: Vec<Effect>,
+    /// Effects named from the measurement alone (coloured noise in the reference).
+    named: Vec<Finding>,
     initial: Report,
     last: Report,
     /// The data the workflow ran on (for the figures).
@@ -468,6 +470,7 @@ impl Diagnosis {
             attempts: report.attempts,
             eliminated: report.eliminated,
             effects: report.effects,
+            named: report.named,
             initial,
             last,
             file,
@@ -545,6 +548,7 @@ impl Diagnosis {
             "effects": effects,
             "refits_rejected": attempts,
             "eliminated": eliminated,
+            "named": self.named.iter().map(named_json).collect::<Vec<_>>(),
             "consistent_with_noise": self.stop == Stop::Consistent,
             "unmodelled": self.unmodelled.iter().map(|e| e.as_str()).collect::<Vec<_>>(),
             "noise_reference": self.noise.name(),
@@ -631,6 +635,9 @@ impl Diagnosis {
                 "  {e}: named, but the model class cannot absorb it (the residual holds it, \
                  not a model error)"
             );
+        }
+        for f in &self.named {
+            let _ = writeln!(w, "  {}", named_text(f));
         }
         for e in &self.eliminated {
             let _ = writeln!(
@@ -844,4 +851,36 @@ fn outcome_name(outcome: &Outcome) -> &'static str {
         Outcome::Outexplained { .. } => "outexplained",
         Outcome::Accepted { .. } => "accepted",
     }
+}
+
+/// The text of an effect named from the measurement alone.
+fn named_text(f: &Finding) -> String {
+    match f.detail.colored_noise() {
+        Some(d) => format!(
+            "{}: named from the noise reference (p = {}): its per-line variances vary by a \
+             factor {} over {} frequency blocks; the reference already weights each line by \
+             them; a parametric noise model is offered (fdid fit ... --noise-order 1)",
+            f.effect,
+            short(f.p_value),
+            g(d.ratio),
+            d.blocks
+        ),
+        None => format!("{}: named from the measurement (p = {})", f.effect, short(f.p_value)),
+    }
+}
+
+/// The JSON object of an effect named from the measurement alone.
+fn named_json(f: &Finding) -> Value {
+    let detail: Map<String, Value> = f
+        .detail
+        .entries()
+        .into_iter()
+        .map(|(k, v)| (k.to_string(), num(v)))
+        .collect();
+    json!({
+        "effect": f.effect.as_str(),
+        "p_value": num(f.p_value),
+        "detail": detail,
+        "offer": {"noise_order": f.proposal.noise_order},
+    })
 }

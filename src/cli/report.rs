@@ -706,6 +706,8 @@ impl Report {
             "domain": self.domain_name(),
             "poles": pairs(&self.poles),
             "zeros": pairs(&self.zeros),
+            "pole_details": root_details(self.domain, &self.poles),
+            "zero_details": root_details(self.domain, &self.zeros),
             "cost": num(self.cost),
             "noise_variance": num(self.noise_variance),
             "frf": frf,
@@ -966,6 +968,25 @@ fn relative_residual<M: ModelStructure<f64>>(
         y += yk.norm_sqr();
     }
     (r / y).sqrt()
+}
+
+/// Each root as `{"re","im","f_n_hz","damping"}`: its natural frequency in Hz and damping
+/// ratio ([`natural`]; null where undefined).
+fn root_details(domain: Domain<f64>, roots: &[Complex<f64>]) -> Value {
+    Value::Array(
+        roots
+            .iter()
+            .map(|z| {
+                let (wn, zeta) = natural(domain, *z);
+                json!({
+                    "re": num(z.re),
+                    "im": num(z.im),
+                    "f_n_hz": num(wn / std::f64::consts::TAU),
+                    "damping": num(zeta),
+                })
+            })
+            .collect(),
+    )
 }
 
 /// Natural frequency (rad/s) and damping ratio of a root: of s itself, or of s = ln(z)/Ts.

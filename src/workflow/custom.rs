@@ -417,6 +417,10 @@ impl Workflow {
             );
         }
         let remaining = self.findings(&run.data, &current.summary, &ctx);
+        let named = super::detectors::reference_colour(data, &ctx, &initial_fit.spec)
+            .filter(|f| f.p_value < alpha)
+            .into_iter()
+            .collect();
         Ok(ModelReport {
             report: Report {
                 effects: run.steps.iter().map(|s| s.effect).collect(),
@@ -431,6 +435,7 @@ impl Workflow {
                 remaining,
                 attempts: run.attempts,
                 eliminated: Vec::new(),
+                named,
             },
             not_added,
             fit: current.fit,

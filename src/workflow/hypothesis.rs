@@ -362,14 +362,18 @@ impl Workflow {
         all: Vec<Finding>,
     ) -> (Option<(Step, H)>, Vec<Attempt>) {
         let now = current.fit();
-        let alpha = if strict {
+        // the fit fails the consistency tests but no detector fires (with the noise level
+        // estimated from the residuals the score tests lose their power): every proposal
+        // is still tried, each likelihood-ratio test at α/m
+        let silent = !all.iter().any(|f| f.p_value < ctx.alpha);
+        let alpha = if strict || silent {
             ctx.alpha / all.len().max(1) as f64
         } else {
             ctx.alpha
         };
         let mut attempts = Vec::new();
         let mut candidates: Vec<(usize, Finding, H, f64, f64)> = Vec::new();
-        for finding in all.into_iter().filter(|f| f.p_value < ctx.alpha) {
+        for finding in all.into_iter().filter(|f| silent || f.p_value < ctx.alpha) {
             let (outcome, candidate) = try_refit(current, data, &finding, alpha);
             if let Some((next, p, gain)) = candidate {
                 candidates.push((attempts.len(), finding.clone(), next, p, gain));

@@ -226,6 +226,12 @@ pub struct Report {
     /// them out; `steps` keeps the history.
     #[cfg_attr(feature = "serde", serde(default))]
     pub eliminated: Vec<Elimination>,
+    /// Effects named from the measurement alone, below α, that no step acts on: coloured
+    /// noise seen in the noise reference's per-line variances
+    /// ([`detectors::reference_colour`]; its proposal offers a noise model). Not
+    /// serialised.
+    #[cfg_attr(feature = "serde", serde(skip))]
+    pub named: Vec<Finding>,
 }
 
 /// The workflow's settings.
@@ -362,6 +368,10 @@ impl Workflow {
             });
         }
         let initial_fit = fit_spec(&start, data)?;
+        let named: Vec<Finding> = detectors::reference_colour(data, &ctx, &start)
+            .filter(|f| f.p_value < alpha)
+            .into_iter()
+            .collect();
         let original = data;
         let Exploration {
             mut steps,
@@ -417,6 +427,7 @@ impl Workflow {
             remaining,
             attempts,
             eliminated,
+            named,
         })
     }
 

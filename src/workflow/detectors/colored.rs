@@ -36,28 +36,8 @@ impl Detector for ColoredNoise {
         if n < 2 * blocks {
             return None;
         }
-        let mut s = Vec::with_capacity(blocks);
-        let mut nu = Vec::with_capacity(blocks);
-        for b in 0..blocks {
-            let (lo, hi) = (b * n / blocks, (b + 1) * n / blocks);
-            let sum: f64 = fit.residuals[lo..hi].iter().map(|r| r.norm_sqr()).sum();
-            s.push(sum / (hi - lo) as f64);
-            nu.push(2.0 * (hi - lo) as f64);
-        }
-        if s.iter().any(|v| !(*v > 0.0)) {
-            return None;
-        }
-        let nu_total: f64 = nu.iter().sum();
-        let pooled = s.iter().zip(&nu).map(|(s, v)| s * v).sum::<f64>() / nu_total;
-        let m = nu_total * pooled.ln() - s.iter().zip(&nu).map(|(s, v)| v * s.ln()).sum::<f64>();
-        let c = 1.0
-            + (nu.iter().map(|v| 1.0 / v).sum::<f64>() - 1.0 / nu_total)
-                / (3.0 * (blocks - 1) as f64);
-        let statistic = m / c;
-        let p_value = chi2_sf(statistic, (blocks - 1) as f64);
-        let (lo, hi) = s.iter().fold((f64::INFINITY, 0.0_f64), |(lo, hi), v| {
-            (lo.min(*v), hi.max(*v))
-        });
+        let power: Vec<f64> = fit.residuals.iter().map(|r| r.norm_sqr()).collect();
+        let (statistic, p_value, ratio) = bartlett(&power, 2.0, blocks)?;
         let proposal = crate::workflow::ModelSpec {
             noise_order: Some(1),
             ..fit.spec.clone()
@@ -66,13 +46,92 @@ impl Detector for ColoredNoise {
             effect: Effect::ColoredNoise,
             statistic,
             p_value,
-            detail: Detail::ColoredNoise(ColoredNoiseDetail {
-                blocks,
-                ratio: hi / lo,
-            }),
+            detail: Detail::ColoredNoise(ColoredNoiseDetail { blocks, ratio }),
             proposal,
         })
     }
+}
+
+/// Bartlett's test of equal variance over `blocks` contiguous blocks of `values`, each
+/// value a variance estimate with `nu` degrees of freedom (|r_k|² of a complex residual:
+/// ν = 2): block b pools its n_b values into s_b² with ν_b = ν·n_b degrees of freedom;
+/// M = ν_t ln s² − Σ_b ν_b ln s_b² (ν_t = Σν_b, s² = Σ ν_b s_b²/ν_t), corrected by
+/// C = 1 + (Σ 1/ν_b − 1/ν_t)/(3(B − 1)), is ~ χ²(B − 1) under equal variances. Returns
+/// (M/C, its p-value, the largest over the smallest block variance); `None` with fewer
+/// than two values a block or a block variance that is not positive.
+fn bartlett(values: &[f64], nu: f64, blocks: usize) -> Option<(f64, f64, f64)> {
+    let n = values.len();
+    if blocks < 2 || n < 2 * blocks {
+        return None;
+    }
+    let mut s = Vec::with_capacity(blocks);
+    let mut nus = Vec::with_capacity(blocks);
+    for b in 0..blocks {
+        let (lo, hi) = (b * n / blocks, (b + 1) * n / blocks);
+        let sum: f64 = values[lo..hi].iter().sum();
+        s.push(sum / (hi - lo) as f64);
+        nus.push(nu * (hi - lo) as f64);
+    }
+    if s.iter().any(|v| !(*v > 0.0 && v.is_finite())) {
+        return None;
+    }
+    let nu_total: f64 = nus.iter().sum();
+    let pooled = s.iter().zip(&nus).map(|(s, v)| s * v).sum::<f64>() / nu_total;
+    let m = nu_total * pooled.ln() - s.iter().zip(&nus).map(|(s, v)| v * s.ln()).sum::<f64>();
+    let c = 1.0
+        + (nus.iter().map(|v| 1.0 / v).sum::<f64>() - 1.0 / nu_total)
+            / (3.0 * (blocks - 1) as f64);
+    let statistic = m / c;
+    let (lo, hi) = s.iter().fold((f64::INFINITY, 0.0_f64), |(lo, hi), v| {
+        (lo.min(*v), hi.max(*v))
+    });
+    Some((statistic, chi2_sf(statistic, (blocks - 1) as f64), hi / lo))
+}
+
+/// The lines apart at which the default local polynomial method
+/// ([`crate::data::Lpm::new`]: 11-line windows) gives independent variance estimates.
+const LPM_STRIDE: usize = 11;
+
+/// Coloured noise named from the noise reference itself: the per-line output noise
+/// variances σ̂²_k of a time record (sample variances over periods, or the local
+/// polynomial method's) vary across frequency beyond chance.
+///
+/// White output noise has the same variance on every DFT line. Each σ̂²_k is a sample
+/// variance with ν = 2q real degrees of freedom (q = [`FrequencyData::variance_dof`]:
+/// P − 1 over P periods, the LPM's q), so Bartlett's statistic over B contiguous blocks
+/// (B = clamp(n/8, 2, 12) of the n lines used) is ~ χ²(B − 1) under white noise. The
+/// LPM estimates of neighbouring lines share their windows: every 11th line is used (the
+/// default window), so that the estimates are independent. A residual-based test cannot
+/// see this colour: the reference already weights each line by it, which is the right
+/// weighting, but the report should say that the noise is coloured, and a parametric
+/// noise model (McKelvey eq. 26) is then an option (the proposal: `noise_order = 1`).
+///
+/// Applies to time records whose variances are sample estimates (`None` otherwise).
+/// Detail: [`ColoredNoiseDetail`] (blocks, largest over smallest block variance).
+pub fn reference_colour(
+    data: &FrequencyData<f64>,
+    ctx: &Context,
+    spec: &crate::workflow::ModelSpec,
+) -> Option<Finding> {
+    if !ctx.time_record {
+        return None;
+    }
+    let q = data.variance_dof()?;
+    let var = &data.noise()?.var_y;
+    let stride = if ctx.periodic { 1 } else { LPM_STRIDE };
+    let values: Vec<f64> = var.iter().step_by(stride).copied().collect();
+    let blocks = (values.len() / 8).clamp(2, 12);
+    let (statistic, p_value, ratio) = bartlett(&values, 2.0 * q as f64, blocks)?;
+    Some(Finding {
+        effect: Effect::ColoredNoise,
+        statistic,
+        p_value,
+        detail: Detail::ColoredNoise(ColoredNoiseDetail { blocks, ratio }),
+        proposal: crate::workflow::ModelSpec {
+            noise_order: Some(1),
+            ..spec.clone()
+        },
+    })
 }
 
 /// The detail of a [`ColoredNoise`] finding.

@@ -18,7 +18,7 @@ mod score;
 mod time_variation;
 mod transient;
 
-pub use colored::{ColoredNoise, ColoredNoiseDetail};
+pub use colored::{ColoredNoise, ColoredNoiseDetail, reference_colour};
 pub use delay::{TimeDelay, TimeDelayDetail};
 pub use distortion::{NonlinearDistortion, NonlinearDistortionDetail};
 pub use drift::{Drift, TimeDrift, TimeDriftDetail, parameter_drift};
