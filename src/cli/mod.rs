@@ -10,7 +10,7 @@ mod svg;
 
 use args::{Cli, Command, CommonArgs, DomainArg, FitArgs, MAX_ORDER};
 use data::Prepared;
-use fdid::estimate::{DelayRange, Method, ModelSpec};
+use fdid::estimate::{DelayRange, Method, ModelSpec, Stability};
 use fdid::prelude::*;
 pub use report::Report;
 use std::result::Result;
@@ -85,6 +85,7 @@ fn fit(args: &FitArgs) -> Result<String, Failure> {
         transient: c.transient,
         noise_order: args.noise_order,
         criterion,
+        stability: Stability::Free,
     };
     check_data_kind(&spec, &file, &prepared)?;
     let fitted = spec.fit(&prepared.data)?;

@@ -34,4 +34,4 @@ pub use eiv::{fit_eiv, fit_eiv_delayed};
 pub use modal::{ModalOptions, fit_modal};
 pub use multistart::{MAX_RESTART_ORDER, fit_multistart, fit_multistart_discrete};
 pub use noise_model::{fit_noise_model, refine_noise_model};
-pub use spec::{DelayRange, Method, ModelSpec, RationalFit, causal_delay_limit};
+pub use spec::{DelayRange, Method, ModelSpec, RationalFit, Stability, causal_delay_limit};

@@ -65,6 +65,57 @@ impl DelayRange {
     }
 }
 
+/// Whether a [`ModelSpec`]'s fit must be stable.
+///
+/// With [`Stability::Enforced`] every pole of the rational part B/A ends strictly stable
+/// (Re p < 0 in s, |p| < 1 in z), by construction rather than by a check afterwards:
+///
+/// 1. **Starts and relocation.** After every linear stage (Levy, each SK iteration) the
+///    unstable poles are reflected into the stable region, p ↦ −p̄ in s and p ↦ 1/p̄ in z
+///    (B scaled by 1/|p| per reflected z pole), which keeps |G| on the frequency axis
+///    unchanged ([`crate::model::Rational::reflect_unstable`]); the partial-fraction basis is
+///    relocated to the reflected poles.
+/// 2. **Stability-constrained ML.** The Levenberg–Marquardt iterations of the ML stage
+///    start from the reflected estimate and reject every step θ + δ that leaves the stable
+///    set S = {θ : A(θ) has all roots stable}: such a step is treated as a failed one (the
+///    damping λ grows, δ shrinks) exactly like a step that raises the cost, so that
+///
+///    ```text
+///    θ_{k+1} = θ_k + δ_k  only if  V(θ_k + δ_k) < V(θ_k)  and  θ_k + δ_k ∈ S,
+///    ```
+///
+///    a descent method on V restricted to the open set S. Since θ₀ ∈ S every iterate is in S;
+///    the result is a local minimum of V over S (on its boundary only as a limit).
+///
+/// A noise model's D (and C) are kept stable by the noise-model fit itself
+/// ([`crate::model::NoiseModel::stabilised`]). [`Stability::Free`] fits the unconstrained
+/// criterion; check the result with [`RationalFit::is_stable`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(rename_all = "lowercase"))]
+pub enum Stability {
+    /// No constraint: the minimiser of the criterion, stable or not.
+    #[default]
+    Free,
+    /// Every pole of the rational part stable by construction (reflection of the linear
+    /// stages' poles, stability-constrained ML).
+    Enforced,
+}
+
+impl Stability {
+    /// The lowercase name (`free`, `enforced`).
+    pub fn name(self) -> &'static str {
+        match self {
+            Stability::Free => "free",
+            Stability::Enforced => "enforced",
+        }
+    }
+
+    fn is_free(&self) -> bool {
+        *self == Stability::Free
+    }
+}
+
 /// A rational model structure with its factors and criterion.
 ///
 /// | field | default | meaning |
@@ -76,6 +127,7 @@ impl DelayRange {
 /// | `transient` | false | add the transient term T(ω) of a non-periodic record (eqs. 4–5, 9–10) |
 /// | `noise_order` | `None` | a noise model H = C/D of orders (n, n) (eq. 26) |
 /// | `criterion` | [`Method::Ml`] | levy, sk, ml (eq. 23), tls or eiv (eq. 42) |
+/// | `stability` | [`Stability::Free`] | [`Stability::Enforced`]: a stable fit by construction |
 ///
 /// [`ModelSpec::fit`] is the one dispatch from settings to estimator.
 ///
@@ -121,6 +173,12 @@ pub struct ModelSpec {
     pub noise_order: Option<usize>,
     /// The criterion.
     pub criterion: Method,
+    /// Whether the fit must be stable.
+    #[cfg_attr(
+        feature = "serde",
+        serde(default, skip_serializing_if = "Stability::is_free")
+    )]
+    pub stability: Stability,
 }
 
 impl ModelSpec {
@@ -135,6 +193,7 @@ impl ModelSpec {
             transient: false,
             noise_order: None,
             criterion: Method::Ml,
+            stability: Stability::Free,
         }
     }
 
@@ -350,6 +409,43 @@ impl RationalFit {
             RationalFit::NoiseModel(f) => f.model().system(),
             RationalFit::DelayedNoiseModel(f) => f.model().system().inner(),
         }
+    }
+
+    /// θ of the rational part B/A (without delay and noise-model parameters).
+    pub fn rational_theta(&self) -> &[f64] {
+        match self {
+            RationalFit::Plain(f) => f.theta(),
+            RationalFit::Delayed(f) => f.model().inner_theta(f.theta()),
+            RationalFit::NoiseModel(f) => f.model().split(f.theta()).0,
+            RationalFit::DelayedNoiseModel(f) => {
+                let (system, _) = f.model().split(f.theta());
+                f.model().system().inner_theta(system)
+            }
+        }
+    }
+
+    /// Whether the fitted model is stable: every pole of the rational part B/A strictly
+    /// inside the unit circle (z) or in the open left half plane (s), and, with a noise
+    /// model H = C/D, every root of D strictly inside the unit circle. A model whose poles
+    /// cannot be computed (non-finite θ) is not stable.
+    pub fn is_stable(&self) -> bool {
+        let system = self
+            .rational()
+            .is_stable(self.rational_theta())
+            .unwrap_or(false);
+        let noise = match self {
+            RationalFit::NoiseModel(f) => Some((f.model().noise(), f.model().split(f.theta()).1)),
+            RationalFit::DelayedNoiseModel(f) => {
+                Some((f.model().noise(), f.model().split(f.theta()).1))
+            }
+            _ => None,
+        };
+        let noise_stable = noise.is_none_or(|(h, eta)| {
+            h.poles(eta)
+                .map(|p| p.iter().all(|z| z.norm() < 1.0))
+                .unwrap_or(false)
+        });
+        system && noise_stable
     }
 
     /// Whether the model has a delay factor.
