@@ -16,7 +16,7 @@ use super::data::{self, Prepared};
 use super::report::{g, num};
 use super::{Failure, Report, check_combinations, check_data_kind, check_orders};
 use fdid::data::Lpm;
-use fdid::estimate::{Method, ModelSpec};
+use fdid::estimate::{Method, ModelSpec, Stability};
 use fdid::prelude::*;
 use fdid::workflow::Report as WorkflowReport;
 use fdid::workflow::{Attempt, Elimination, Outcome, 
@@ -154,6 +154,24 @@ pub fn diagnose(args: &DiagnoseArgs) -> Result<String, Failure> {
         ..Workflow::default()
     };
     let report = workflow.run(&prepared.data, start, ctx)?;
+    if !report.final_fit.is_stable() {
+        return Err(Failure::runtime(format!(
+            "no stable model: the fit of {} stays unstable even with the stability \
+             constraint (poles {}); try other orders or a narrower --band",
+            describe(&report.final_fit.spec),
+            report
+                .final_fit
+                .poles
+                .iter()
+                .filter(|p| match report.final_fit.spec.domain {
+                    Domain::Continuous => p.re >= 0.0,
+                    Domain::Discrete { .. } => p.norm() >= 1.0,
+                })
+                .map(|p| format!("{} {:+}i", g(p.re), g(p.im)))
+                .collect::<Vec<_>>()
+                .join(", ")
+        )));
+    }
     let diagnosis = Diagnosis::new(args, file, context, noise, prepared, report)?;
     let text = diagnosis.text();
     let json = diagnosis.json();
@@ -368,6 +386,9 @@ fn describe(spec: &ModelSpec) -> String {
     }
     if spec.criterion == Method::Eiv {
         s.push_str(", errors-in-variables");
+    }
+    if spec.stability == Stability::Enforced {
+        s.push_str(", stability enforced");
     }
     s
 }

@@ -2,7 +2,7 @@
 //! need.
 use crate::data::FrequencyData;
 use crate::error::{FdidError, Result};
-use crate::estimate::{ModelSpec, RationalFit};
+use crate::estimate::{ModelSpec, RationalFit, Stability};
 use crate::fit::Fit;
 use crate::model::{Domain, ModelStructure, Output, PolesZeros};
 use crate::scalar::Complex;
@@ -149,10 +149,30 @@ impl SpecFit {
 /// Fits `spec` to `data` ([`ModelSpec::fit`], which chooses the strategy) and reduces the
 /// fit to what the detectors need, on the lines it was made on ([`RationalFit::lines`]).
 ///
+/// The workflow never works on an unstable model: when the fit of a spec with
+/// [`Stability::Free`] is unstable, the spec is refitted with [`Stability::Enforced`]
+/// (stable by construction) and that fit is returned, its spec saying so.
+///
 /// # Errors
 /// As [`ModelSpec::fit`].
 pub fn fit_spec(spec: &ModelSpec, data: &FrequencyData<f64>) -> Result<SpecFit> {
     let fit = spec.fit(data)?;
+    if spec.stability == Stability::Free && !fit.is_stable() {
+        let stable = ModelSpec {
+            stability: Stability::Enforced,
+            ..spec.clone()
+        };
+        if let Ok(refit) = stable.fit(data)
+            && let Ok(reduced) = reduce_fit(&stable, data, refit)
+        {
+            return Ok(reduced);
+        }
+    }
+    reduce_fit(spec, data, fit)
+}
+
+/// The [`SpecFit`] of the fit `fit` of `spec`.
+fn reduce_fit(spec: &ModelSpec, data: &FrequencyData<f64>, fit: RationalFit) -> Result<SpecFit> {
     let lines = fit.lines(data)?;
     let summary = match &fit {
         RationalFit::Plain(f) => summarise(spec, &lines, f),
