@@ -62,6 +62,7 @@ mod stress_numerical;
 mod workflow_combined;
 mod workflow_detect;
 mod workflow_greybox;
+mod workflow_honesty;
 mod workflow_lrt;
 mod workflow_measurement;
 mod workflow_noise;
