@@ -16,7 +16,7 @@ use super::data::{self, Prepared};
 use super::report::{g, num};
 use super::{Failure, Report, check_combinations, check_data_kind, check_orders};
 use fdid::data::Lpm;
-use fdid::estimate::{Method, ModelSpec};
+use fdid::estimate::{Method, ModelSpec, Stability};
 use fdid::prelude::*;
 use fdid::workflow::Report as WorkflowReport;
 use fdid::workflow::{
@@ -127,6 +127,11 @@ pub fn diagnose(args: &DiagnoseArgs) -> Result<String, Failure> {
         domain: prepared.domain,
         delay: c.delay,
         transient: c.transient,
+        stability: if args.stable {
+            Stability::Enforced
+        } else {
+            Stability::Free
+        },
         ..ModelSpec::continuous(c.na, c.nb)
     };
     check_data_kind(&start, &file, &prepared)?;
