@@ -296,6 +296,13 @@ pub struct FitArgs {
     /// for `fdid eval FILE`
     #[arg(long, value_name = "FILE")]
     pub save: Option<std::path::PathBuf>,
+
+    /// Return a stable model by construction: unstable poles of every linear stage are
+    /// reflected into the stable region (|G| unchanged) and maximum likelihood rejects
+    /// every step that would leave it. Without it an unstable fit is reported with a
+    /// warning line (JSON: "stable":false)
+    #[arg(long)]
+    pub stable: bool,
 }
 
 /// Options of `fdid eval`.
@@ -346,6 +353,10 @@ pub struct DiagnoseArgs {
     /// residuals.svg into this directory, created if missing
     #[arg(long, value_name = "DIR")]
     pub report: Option<PathBuf>,
+
+    /// Fit every model stable by construction (as `fdid fit --stable`)
+    #[arg(long)]
+    pub stable: bool,
 }
 
 /// Model domain.

@@ -135,6 +135,11 @@ pub fn diagnose(args: &DiagnoseArgs) -> Result<String, Failure> {
         domain: prepared.domain,
         delay: c.delay,
         transient: c.transient,
+        stability: if args.stable {
+            Stability::Enforced
+        } else {
+            Stability::Free
+        },
         ..ModelSpec::continuous(c.na, c.nb)
     };
     check_data_kind(&start, &file, &prepared)?;

@@ -85,7 +85,11 @@ fn fit(args: &FitArgs) -> Result<String, Failure> {
         transient: c.transient,
         noise_order: args.noise_order,
         criterion,
-        stability: Stability::Free,
+        stability: if args.stable {
+            Stability::Enforced
+        } else {
+            Stability::Free
+        },
     };
     check_data_kind(&spec, &file, &prepared)?;
     let fitted = spec.fit(&prepared.data)?;

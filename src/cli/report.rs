@@ -845,6 +845,12 @@ impl Report {
             }
         );
         let _ = writeln!(w, "stable       {}", if self.stable { "yes" } else { "no" });
+        if !self.stable {
+            let _ = writeln!(
+                w,
+                "warning      the model is unstable (a pole in the right half plane or outside the unit circle); --stable fits a stable one"
+            );
+        }
         self.unresolved_text(w);
         for n in &self.notes {
             let _ = writeln!(w, "note         {n}");

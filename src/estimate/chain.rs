@@ -1,15 +1,16 @@
 //! The standard estimation chain Levy → Sanathanan–Koerner → ML, and the generic
 //! [`estimate`] that composes any criterion with any solver that accepts its problem.
 
-use crate::criterion::MlProblem;
 use crate::criterion::{Criterion, Levy, MaximumLikelihood, NoiseWeighting, SanathananKoerner};
 use crate::data::FrequencyData;
 use crate::error::Result;
 use crate::fit::{Fit, Stage, StageKind};
 use crate::model::{EquationError, ModelStructure};
+use crate::problem::NonlinearProblem;
 use crate::scalar::Real;
 use crate::solver::{
-    FixedPoint, GramLevenbergMarquardt, LevenbergMarquardt, LinearLeastSquares, Solution, Solver,
+    Feasible, FixedPoint, GramLevenbergMarquardt, LevenbergMarquardt, LinearLeastSquares, Solution,
+    Solver,
 };
 
 /// Minimises `criterion` for `model` on `data` with `solver`, from `start` where the solver
@@ -44,14 +45,88 @@ where
 }
 
 /// ML from `start`: the guarded normal-equation LM first, the crate's LM when it fails.
-fn ml_solve<T: Real, M: ModelStructure<T> + ?Sized>(
+fn ml_solve<T: Real, P: NonlinearProblem<T> + ?Sized>(
     fast: &GramLevenbergMarquardt,
     lm: &LevenbergMarquardt,
-    problem: &MlProblem<'_, T, M>,
+    problem: &P,
     start: &[T],
 ) -> Result<Solution<T>> {
     fast.solve(problem, Some(start))
         .or_else(|_| lm.solve(problem, Some(start)))
+}
+
+/// [`ml_solve`], restricted with `stable` to the θ where `model` is stable
+/// ([`Feasible`], [`ModelStructure::stable_at`]) from a stable `start`; a solution that
+/// is not stable (a solver that ended on a rejected trial point) is an error.
+pub(crate) fn ml_solve_in<
+    T: Real,
+    M: ModelStructure<T> + ?Sized,
+    P: NonlinearProblem<T> + ?Sized,
+>(
+    fast: &GramLevenbergMarquardt,
+    lm: &LevenbergMarquardt,
+    model: &M,
+    problem: &P,
+    start: &[T],
+    stable: bool,
+) -> Result<Solution<T>> {
+    if !stable || model.stable_at(start).is_none() {
+        return ml_solve(fast, lm, problem, start);
+    }
+    let constrained = Feasible::new(problem, |theta: &[T]| model.stable_at(theta) == Some(true));
+    let sol = ml_solve(fast, lm, &constrained, start)?;
+    if model.stable_at(&sol.theta) == Some(true) {
+        Ok(sol)
+    } else {
+        Err(crate::error::FdidError::NotConverged {
+            method: "stability-constrained Levenberg–Marquardt",
+            reason: "the solution left the stable region".into(),
+        })
+    }
+}
+
+/// `lm` on `problem` from `start`, restricted with `stable` to the θ where `model` is stable
+/// (as [`ml_solve_in`], with the crate's Levenberg–Marquardt alone).
+pub(crate) fn lm_solve_in<
+    T: Real,
+    M: ModelStructure<T> + ?Sized,
+    P: NonlinearProblem<T> + ?Sized,
+>(
+    lm: &LevenbergMarquardt,
+    model: &M,
+    problem: &P,
+    start: &[T],
+    stable: bool,
+) -> Result<Solution<T>> {
+    if !stable || model.stable_at(start).is_none() {
+        return lm.solve(problem, Some(start));
+    }
+    let constrained = Feasible::new(problem, |theta: &[T]| model.stable_at(theta) == Some(true));
+    let sol = lm.solve(&constrained, Some(start))?;
+    if model.stable_at(&sol.theta) == Some(true) {
+        Ok(sol)
+    } else {
+        Err(crate::error::FdidError::NotConverged {
+            method: "stability-constrained Levenberg–Marquardt",
+            reason: "the solution left the stable region".into(),
+        })
+    }
+}
+
+/// `theta` with its unstable poles reflected ([`ModelStructure::stabilised`]) when
+/// `stable`, else unchanged.
+pub(crate) fn stable_start<T: Real, M: ModelStructure<T> + ?Sized>(
+    model: &M,
+    theta: Vec<T>,
+    stable: bool,
+) -> Result<Vec<T>> {
+    if !stable {
+        return Ok(theta);
+    }
+    match model.stabilised(&theta) {
+        Some(r) => r,
+        None => Ok(theta),
+    }
 }
 
 /// The level of the cost and whiteness tests below which [`Pipeline::fit`] takes a fit
@@ -91,6 +166,7 @@ impl<T: Real> Default for LevyWork<T> {
 /// | `ml` | `Some(LevenbergMarquardt::default())` | ML refinement; `None` stops after SK |
 /// | `linear` | [`LinearLeastSquares::default`] | the Levy solve |
 /// | `restarts` | `true` | further starts on evidence of a local minimum |
+/// | `stable` | `false` | a stable fit by construction (see below) |
 ///
 /// If ML fails from the SK estimate it is retried from the Levy estimate (in the model's
 /// original basis). When SK or ML stops at its iteration cap, two more ML starts are
@@ -115,6 +191,15 @@ impl<T: Real> Default for LevyWork<T> {
 /// lowest cost is returned; a fit without such evidence costs what the chain costs, plus
 /// the roots of its numerator and denominator.
 ///
+/// **Stability** (`stable`, [`crate::estimate::Stability::Enforced`]). The estimate of
+/// every linear stage (Levy, each relocation or SK iteration, the second starts' Levy
+/// solves) has its unstable poles reflected into the stable region
+/// ([`ModelStructure::stabilised`]: p ↦ −p̄ in s, p ↦ 1/p̄ in z, |G| on the frequency axis
+/// unchanged), and ML is solved on the stable set only ([`Feasible`]: a step whose poles
+/// are not all stable is rejected like one that raises the cost), so every iterate and the
+/// result are stable; further starts are kept only when stable. For a structure without
+/// poles ([`ModelStructure::stable_at`] `None`) the setting changes nothing.
+///
 /// **Speed.** When ML follows, it is solved first by [`GramLevenbergMarquardt`] (the step
 /// from the guarded normal equations, with the tolerances of `ml`), falling back to the
 /// crate's [`LevenbergMarquardt`] when that fails (ill-conditioned normal equations); and
@@ -136,6 +221,8 @@ pub struct Pipeline {
     /// After ML, the model's further starts ([`FurtherStarts::further_starts`]) when the fit
     /// shows evidence of a local minimum (see [`Pipeline::fit`]).
     pub restarts: bool,
+    /// Keep every stage's estimate stable (see [`Pipeline`]).
+    pub stable: bool,
 }
 
 impl Default for Pipeline {
@@ -146,6 +233,7 @@ impl Default for Pipeline {
             sk: Some(FixedPoint::default()),
             ml: Some(LevenbergMarquardt::default()),
             restarts: true,
+            stable: false,
         }
     }
 }
@@ -182,7 +270,13 @@ impl Pipeline {
         Ok(match suspicious {
             Some(suspicious) if self.restarts => {
                 match fit.model().further_starts(self, data, &fit, suspicious) {
-                    Some(better) if better.cost() < fit.cost() => better,
+                    Some(better)
+                        if better.cost() < fit.cost()
+                            && (!self.stable
+                                || better.model().stable_at(better.theta()) != Some(false)) =>
+                    {
+                        better
+                    }
                     _ => fit,
                 }
             }
@@ -209,7 +303,9 @@ impl Pipeline {
     ) -> Result<(Fit<T, M>, Option<bool>)> {
         let w = self.weighting;
         let mut work = LevyWork::default();
-        let levy = self.levy_solve(model, data, &self.linear, &mut work)?;
+        let mut levy = self.levy_solve(model, data, &self.linear, &mut work)?;
+        let stable = self.stable;
+        levy.theta = stable_start(model, levy.theta, stable)?;
         let mut stages = vec![Stage {
             kind: StageKind::Levy,
             solution: levy.clone(),
@@ -229,7 +325,8 @@ impl Pipeline {
         } else if let Some(fp) = &self.sk {
             let criterion = SanathananKoerner { weighting: w };
             let problem = criterion.problem(&model, data)?;
-            let sk = fp.solve_with(&problem, Some(&levy.theta), self.ml.is_some())?;
+            let mut sk = fp.solve_with(&problem, Some(&levy.theta), self.ml.is_some())?;
+            sk.theta = stable_start(&model, sk.theta, stable)?;
             current = sk.theta.clone();
             stages.push(Stage {
                 kind: StageKind::Sk,
@@ -242,11 +339,11 @@ impl Pipeline {
             // ML in another basis than `model`'s (the second starts)
             let solve_in = |m: &M, start: &[T]| -> Result<Solution<T>> {
                 let problem = ml.problem(m, data)?;
-                ml_solve(&fast, lm, &problem, start)
+                ml_solve_in(&fast, lm, m, &problem, start, stable)
             };
             let problem = ml.problem(&model, data)?;
             let sk_capped = stages.last().is_some_and(|s| !s.solution.converged());
-            let first = ml_solve(&fast, lm, &problem, &current);
+            let first = ml_solve_in(&fast, lm, &model, &problem, &current, stable);
             // the Levy estimate belongs to the original basis
             let from_levy = || solve_in(original, &levy.theta);
             let suspicious = |a: &Solution<T>| sk_capped || !a.converged();
@@ -269,7 +366,8 @@ impl Pipeline {
                     if let Some(Ok(m2)) = best.0.as_ref().unwrap_or(&model).relocated(&best.1.theta)
                         && let Ok(l2) =
                             estimate(&m2, data, &Levy { weighting: w }, &self.linear, None)
-                        && let Ok(b) = solve_in(&m2, &l2.theta)
+                        && let Ok(l2) = stable_start(&m2, l2.theta, stable)
+                        && let Ok(b) = solve_in(&m2, &l2)
                         && b.cost < best.1.cost
                     {
                         best = (Some(m2), b);
@@ -445,6 +543,7 @@ impl Pipeline {
             } else {
                 self.levy_solve(&next, data, &linear, work)?.theta
             };
+            let next_theta = stable_start(&next, next_theta, self.stable)?;
             let new_cost = oe_cost(&next, &next_theta, &mut g_new);
             let change = crate::criterion::relative_change(&g_old, &g_new);
             let stalled = num_traits::Float::abs(new_cost - cost)

@@ -3,7 +3,7 @@
 //! G_M(θ) e^{−iωτ} ([`Delayed::fit`], [`fit_delayed`]).
 
 use super::{FurtherStarts, Pipeline, estimate};
-use crate::criterion::MaximumLikelihood;
+use crate::criterion::{Criterion, MaximumLikelihood};
 use crate::data::FrequencyData;
 use crate::error::{FdidError, Result};
 use crate::fit::{Fit, Stage, StageKind};
@@ -617,11 +617,13 @@ impl<M: Clone> Delayed<M> {
             bounds: self.bounds,
         };
         let theta0 = Delayed::<M>::theta(inner.theta(), tau0);
+        let theta0 = super::chain::stable_start(&model, theta0, pipeline.stable)?;
         let lm = pipeline.ml.unwrap_or_default();
         let ml = MaximumLikelihood {
             weighting: pipeline.weighting,
         };
-        let solution = estimate(&model, data, &ml, &lm, Some(&theta0))?;
+        let problem = ml.problem(&model, data)?;
+        let solution = super::chain::lm_solve_in(&lm, &model, &problem, &theta0, pipeline.stable)?;
         let theta = solution.theta.clone();
         stages.push(Stage {
             kind: StageKind::MlDelayed,

@@ -8,7 +8,6 @@ use crate::error::Result;
 use crate::fit::{Fit, NoiseLevel, Stage, StageKind};
 use crate::model::{Delayed, ModelStructure};
 use crate::scalar::Real;
-use crate::solver::Solver;
 
 /// Fits `model` to errors-in-variables data: `pipeline` (Levy → SK → output-error ML
 /// weighted by var_y, eq. 23) gives the start, then Levenberg–Marquardt (the pipeline's
@@ -66,7 +65,8 @@ fn refine_eiv<T: Real, M: ModelStructure<T> + Clone>(
     let base = start.model().clone();
     let mut stages = start.stages().to_vec();
     let problem = eiv.problem(&base, data)?;
-    let sol = lm.solve(&problem, Some(start.theta()))?;
+    let theta0 = super::chain::stable_start(&base, start.theta().to_vec(), pipeline.stable)?;
+    let sol = super::chain::lm_solve_in(&lm, &base, &problem, &theta0, pipeline.stable)?;
     let theta = sol.theta.clone();
     stages.push(Stage {
         kind: StageKind::Eiv,

@@ -1,9 +1,9 @@
 //! Fits with an estimated noise model H = C/D (McKelvey eqs. 23–26): the output-error chain
 //! gives G's start, then the joint ML of G and H.
 
-use super::{FurtherStarts, Pipeline, estimate};
+use super::{FurtherStarts, Pipeline};
 use crate::criterion::{
-    NoiseModelMl, NoiseModelProblem, NoiseModelResiduals, NoiseWeighting, interior_lines,
+    Criterion, NoiseModelMl, NoiseModelProblem, NoiseModelResiduals, NoiseWeighting, interior_lines,
 };
 use crate::data::FrequencyData;
 use crate::error::{FdidError, Result};
@@ -98,7 +98,13 @@ pub fn fit_noise_model<T: Real, M: FurtherStarts<T>>(
         let start_data = data.select_lines(&excited)?.without_noise();
         flat.fit(model, &start_data)?
     };
-    refine_noise_model(&start_fit, &data, noise, &pipeline.ml.unwrap_or_default())
+    refine_noise_model_in(
+        &start_fit,
+        &data,
+        noise,
+        &pipeline.ml.unwrap_or_default(),
+        pipeline.stable,
+    )
 }
 
 /// The noise-model stage of [`fit_noise_model`] for any model structure: from a fitted
@@ -117,12 +123,26 @@ pub fn refine_noise_model<T: Real, M: ModelStructure<T> + Clone>(
     noise: NoiseModel<T>,
     lm: &LevenbergMarquardt,
 ) -> Result<Fit<T, WithNoiseModel<M>>> {
+    refine_noise_model_in(start, data, noise, lm, false)
+}
+
+/// [`refine_noise_model`], with `stable` restricted to a stable system part (the start's
+/// unstable poles reflected, then the constrained Levenberg–Marquardt of
+/// [`crate::solver::Feasible`]).
+pub(crate) fn refine_noise_model_in<T: Real, M: ModelStructure<T> + Clone>(
+    start: &Fit<T, M>,
+    data: &FrequencyData<T>,
+    noise: NoiseModel<T>,
+    lm: &LevenbergMarquardt,
+    stable: bool,
+) -> Result<Fit<T, WithNoiseModel<M>>> {
     let mut stages = start.stages().to_vec();
     let full = WithNoiseModel::new(start.model().clone(), noise);
     let p = start.model().n_params();
-    let mut theta = start.theta().to_vec();
+    let mut theta = super::chain::stable_start(start.model(), start.theta().to_vec(), stable)?;
     theta.extend(std::iter::repeat_n(T::zero(), noise.n_params()));
-    let sol = estimate(&full, data, &NoiseModelMl, lm, Some(&theta))?;
+    let problem = NoiseModelMl.problem(&full, data)?;
+    let sol = super::chain::lm_solve_in(lm, &full, &problem, &theta, stable)?;
     theta = sol.theta.clone();
     stages.push(Stage {
         kind: StageKind::NoiseModelMl,
@@ -136,7 +156,7 @@ pub fn refine_noise_model<T: Real, M: ModelStructure<T> + Clone>(
         Ok(changed)
     };
     if stabilise(&mut theta)? {
-        let sol = estimate(&full, data, &NoiseModelMl, lm, Some(&theta))?;
+        let sol = super::chain::lm_solve_in(lm, &full, &problem, &theta, stable)?;
         theta = sol.theta.clone();
         stages.push(Stage {
             kind: StageKind::NoiseModelStabilised,

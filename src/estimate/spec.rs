@@ -3,8 +3,8 @@
 //! into a [`ModelSpec`]; the discrepancy workflow augments one step by step. Nobody else
 //! dispatches on the settings.
 
+use super::fit_noise_model;
 use super::{Pipeline, estimate, fit_delayed, fit_eiv, fit_eiv_delayed};
-use super::{fit_noise_model, refine_noise_model};
 use crate::criterion::{TotalLeastSquares, interior_lines};
 use crate::data::{FrequencyData, NoiseWeighting};
 use crate::error::{FdidError, Result};
@@ -241,7 +241,7 @@ impl ModelSpec {
     /// | yes | no | ml | [`Delayed::fit`] (delay search, then joint ML) |
     /// | yes | no | eiv | [`fit_eiv_delayed`] |
     /// | no | yes | ml | [`fit_noise_model`] (on the [`interior_lines`]) |
-    /// | yes | yes | ml | the delayed fit with flat weighting on the excited lines, then [`refine_noise_model`] |
+    /// | yes | yes | ml | the delayed fit with flat weighting on the excited lines, then [`refine_noise_model`](super::refine_noise_model) |
     ///
     /// # Errors
     /// [`FdidError::TooFewFrequencies`] when 2·lines < na + nb + 1;
@@ -258,7 +258,30 @@ impl ModelSpec {
             });
         }
         let model = self.model(data)?;
-        let pipeline = Pipeline::default();
+        let stable = self.stability == Stability::Enforced;
+        let pipeline = Pipeline {
+            stable,
+            ..Pipeline::default()
+        };
+        let fit = self.fit_with(&pipeline, &model, data)?;
+        if stable && !fit.is_stable() {
+            return Err(FdidError::NotConverged {
+                method: "stability-constrained fit",
+                reason: "no stable model was found (a pole on the stability boundary)".into(),
+            });
+        }
+        Ok(fit)
+    }
+
+    /// The dispatch of [`ModelSpec::fit`] with `pipeline`.
+    fn fit_with(
+        &self,
+        pipeline: &Pipeline,
+        model: &Rational<f64>,
+        data: &FrequencyData<f64>,
+    ) -> Result<RationalFit> {
+        let pipeline = *pipeline;
+        let model = model.clone();
         match (self.delay, self.noise_order, self.criterion) {
             (_, Some(n), c) if c != Method::Ml => Err(FdidError::InvalidArgument {
                 name: "noise_order",
@@ -269,11 +292,23 @@ impl ModelSpec {
                 ),
             }),
             (false, None, Method::Ml) => Ok(RationalFit::Plain(pipeline.fit(&model, data)?)),
-            (false, None, Method::Levy) => {
-                Ok(RationalFit::Plain(Pipeline::levy().fit(&model, data)?))
+            (false, None, Method::Levy) => Ok(RationalFit::Plain(
+                Pipeline {
+                    stable: pipeline.stable,
+                    ..Pipeline::levy()
+                }
+                .fit(&model, data)?,
+            )),
+            (false, None, Method::Sk) => Ok(RationalFit::Plain(
+                Pipeline {
+                    stable: pipeline.stable,
+                    ..Pipeline::sk()
+                }
+                .fit(&model, data)?,
+            )),
+            (false, None, Method::Tls) => {
+                Ok(RationalFit::Plain(fit_tls(&model, data, pipeline.stable)?))
             }
-            (false, None, Method::Sk) => Ok(RationalFit::Plain(Pipeline::sk().fit(&model, data)?)),
-            (false, None, Method::Tls) => Ok(RationalFit::Plain(fit_tls(&model, data)?)),
             (false, None, Method::Eiv) => Ok(RationalFit::Plain(fit_eiv(&pipeline, &model, data)?)),
             (true, None, Method::Ml) => Ok(RationalFit::Delayed(
                 self.delayed(&model, data)?.fit(&pipeline, data)?,
@@ -283,7 +318,9 @@ impl ModelSpec {
                 &self.delayed(&model, data)?,
                 data,
             )?)),
-            (true, Some(n), Method::Ml) => self.fit_delayed_noise_model(&model, data, n),
+            (true, Some(n), Method::Ml) => {
+                self.fit_delayed_noise_model(&model, data, n, pipeline.stable)
+            }
             (true, _, c) => Err(FdidError::InvalidArgument {
                 name: "delay",
                 value: c.name().into(),
@@ -312,16 +349,18 @@ impl ModelSpec {
     /// The delayed model with a noise model H = C/D of orders (n, n), as
     /// [`fit_noise_model`] does for an undelayed one: the delayed fit with flat weighting
     /// on the excited lines as the start (η = 0, H = 1), then the concentrated ML criterion
-    /// of McKelvey eq. 26 ([`refine_noise_model`]).
+    /// of McKelvey eq. 26 ([`refine_noise_model`](super::refine_noise_model)).
     fn fit_delayed_noise_model(
         &self,
         model: &Rational<f64>,
         data: &FrequencyData<f64>,
         n: usize,
+        stable: bool,
     ) -> Result<RationalFit> {
         let excited: Vec<bool> = data.u().iter().map(|u| u.norm_sqr() > 0.0).collect();
         let flat = Pipeline {
             weighting: NoiseWeighting::Flat,
+            stable,
             ..Pipeline::default()
         };
         let excited = data.select_lines(&excited)?.without_noise();
@@ -335,7 +374,13 @@ impl ModelSpec {
             reason: "a noise model H(z) is discrete time: the data need a sample time".into(),
         })?;
         let noise = NoiseModel::new(n, n, ts)?;
-        let fit = refine_noise_model(&start, data, noise, &LevenbergMarquardt::default())?;
+        let fit = super::noise_model::refine_noise_model_in(
+            &start,
+            data,
+            noise,
+            &LevenbergMarquardt::default(),
+            stable,
+        )?;
         let delayed = fit.model().system();
         if let Some(tau) = delayed.delay(fit.model().split(fit.theta()).0) {
             delayed.check_delay(tau)?;
@@ -345,11 +390,20 @@ impl ModelSpec {
 }
 
 /// Total least squares of the equation error ([`TotalLeastSquares`], SVD null vector),
-/// with the statistics of [`Fit::new`].
-fn fit_tls(model: &Rational<f64>, data: &FrequencyData<f64>) -> Result<Fit<f64, Rational<f64>>> {
+/// with the statistics of [`Fit::new`]; with `stable` the unstable poles of the solution
+/// reflected ([`Rational::stabilised`]).
+fn fit_tls(
+    model: &Rational<f64>,
+    data: &FrequencyData<f64>,
+    stable: bool,
+) -> Result<Fit<f64, Rational<f64>>> {
     let tls = TotalLeastSquares::default();
     let solution = estimate(model, data, &tls, &SvdNullVector, None)?;
-    let theta = solution.theta.clone();
+    let theta = if stable {
+        model.stabilised(&solution.theta)?
+    } else {
+        solution.theta.clone()
+    };
     let stages = vec![Stage {
         kind: StageKind::Tls,
         solution,

@@ -221,6 +221,21 @@ fn with_leading_columns<T: Real, R>(
 }
 
 impl<T: Real, M: ModelStructure<T>> ModelStructure<T> for Delayed<M> {
+    /// The inner model's stability ([`ModelStructure::stable_at`]; a delay has no pole).
+    fn stable_at(&self, theta: &[T]) -> Option<bool> {
+        self.inner.stable_at(self.inner_theta(theta))
+    }
+
+    /// The inner model's θ stabilised, τ kept.
+    fn stabilised(&self, theta: &[T]) -> Option<Result<Vec<T>>> {
+        let inner = self.inner.stabilised(self.inner_theta(theta))?;
+        let tau = theta.last().copied();
+        Some(inner.map(|mut t| {
+            t.extend(tau);
+            t
+        }))
+    }
+
     fn n_params(&self) -> usize {
         self.inner.n_params() + 1
     }

@@ -82,6 +82,27 @@ pub trait ModelStructure<T: Real> {
         self.response_into(theta, omega, &mut out);
         out
     }
+
+    /// Whether θ lies in the stable set S of the structure — every pole strictly stable
+    /// (Re p < 0 in s, |p| < 1 in z) — for the stability-constrained fits
+    /// ([`crate::solver::Feasible`]); `None` (the default) for a structure without that
+    /// notion, which the constrained fits then leave unconstrained. A θ whose poles cannot
+    /// be computed is not in S.
+    fn stable_at(&self, theta: &[T]) -> Option<bool> {
+        let _ = theta;
+        None
+    }
+
+    /// θ with every unstable pole reflected into the stable region, keeping |G| on the
+    /// frequency axis (p ↦ −p̄ in s, p ↦ 1/p̄ in z with the gain scaled by 1/|p|), the start
+    /// of a stability-constrained fit; `None` (the default) for a structure without poles.
+    ///
+    /// # Errors
+    /// When the poles cannot be computed or the reflected model cannot be formed.
+    fn stabilised(&self, theta: &[T]) -> Option<Result<Vec<T>>> {
+        let _ = theta;
+        None
+    }
 }
 
 /// Largest polynomial degree a model accepts, `usize::MAX / 8`: far beyond any order that

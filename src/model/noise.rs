@@ -328,6 +328,23 @@ impl<M> WithNoiseModel<M> {
 }
 
 impl<T: Real, M: ModelStructure<T>> ModelStructure<T> for WithNoiseModel<M> {
+    /// The system model's stability ([`ModelStructure::stable_at`]); H = C/D is kept
+    /// stable by reflection ([`NoiseModel::stabilised`]), which leaves the criterion
+    /// unchanged.
+    fn stable_at(&self, theta: &[T]) -> Option<bool> {
+        self.system.stable_at(&theta[..self.system.n_params()])
+    }
+
+    /// The system part stabilised, the noise parameters kept.
+    fn stabilised(&self, theta: &[T]) -> Option<Result<Vec<T>>> {
+        let p = self.system.n_params();
+        let system = self.system.stabilised(&theta[..p])?;
+        Some(system.map(|mut t| {
+            t.extend_from_slice(&theta[p..]);
+            t
+        }))
+    }
+
     fn n_params(&self) -> usize {
         self.system.n_params() + self.n_noise_params()
     }

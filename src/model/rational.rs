@@ -543,6 +543,53 @@ impl<T: Real> Rational<T> {
         Ok(out)
     }
 
+    /// θ with every pole strictly stable: θ itself when it is, else
+    /// [`Rational::reflect_unstable`] with the poles on the boundary (Re p = 0, |p| = 1),
+    /// which reflection leaves in place, moved inside by a relative margin √ε:
+    /// p ↦ p − √ε·max(|p|, 1) in s, p ↦ p(1 − √ε) in z.
+    ///
+    /// # Errors
+    /// As [`PolesZeros::poles`] and [`Rational::theta_from_polys`].
+    pub fn stabilised(&self, theta: &[T]) -> Result<Vec<T>> {
+        if self.is_stable(theta)? {
+            return Ok(theta.to_vec());
+        }
+        let poles = self.poles(theta)?;
+        let (_, mut b) = self.coefficients(theta);
+        let margin = Float::sqrt(T::default_epsilon());
+        let mut gain_fix = T::one();
+        let moved: Vec<Complex<T>> = poles
+            .iter()
+            .map(|p| match self.basis {
+                PolyBasis::DelayPowers { .. } => {
+                    let r = p.norm();
+                    if r > T::one() {
+                        gain_fix /= r;
+                        p.conj().inv()
+                    } else if r == T::one() {
+                        *p * (T::one() - margin)
+                    } else {
+                        *p
+                    }
+                }
+                _ if p.re > T::zero() => Complex::new(-p.re, p.im),
+                _ if p.re == T::zero() => {
+                    Complex::new(-margin * Float::max(p.norm(), T::one()), p.im)
+                }
+                _ => *p,
+            })
+            .collect();
+        let a = self.basis.from_roots(&moved, self.na);
+        for v in b.iter_mut() {
+            *v *= gain_fix;
+        }
+        let mut out = self.theta_from_polys(&a, &b)?;
+        let nt = self.n_transient();
+        let (lo, hi) = (out.len() - nt, theta.len().saturating_sub(nt));
+        out[lo..].copy_from_slice(&theta[hi..hi + nt]);
+        Ok(out)
+    }
+
     /// The numerator's coefficients over the whole basis, c = [0…, θ_b] or [0, Zθ_b]
     /// ([`Rational::b_in_basis`]), for [`Rational::eval_ab`].
     fn numerator_coefficients(&self, theta: &[T]) -> Vec<T> {
@@ -587,6 +634,16 @@ impl<T: Real> Rational<T> {
 }
 
 impl<T: Real> ModelStructure<T> for Rational<T> {
+    /// [`Rational::is_stable`]; false when the poles cannot be computed.
+    fn stable_at(&self, theta: &[T]) -> Option<bool> {
+        Some(self.is_stable(theta).unwrap_or(false))
+    }
+
+    /// [`Rational::stabilised`].
+    fn stabilised(&self, theta: &[T]) -> Option<Result<Vec<T>>> {
+        Some(Rational::stabilised(self, theta))
+    }
+
     fn n_params(&self) -> usize {
         self.na + self.nb + 1 + self.n_transient()
     }

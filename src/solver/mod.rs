@@ -6,14 +6,17 @@
 //! | [`SvdNullVector`] | [`HomogeneousProblem`](crate::problem::HomogeneousProblem) | QR, then the right singular vector of R's smallest singular value |
 //! | [`FixedPoint`] | [`ReweightedProblem`](crate::problem::ReweightedProblem) | repeated weighted linear solves until the model stops changing |
 //! | [`LevenbergMarquardt`] | [`NonlinearProblem`](crate::problem::NonlinearProblem) | the `levenberg-marquardt` crate (MINPACK's trust region) |
+//! | [`Feasible`] | a [`NonlinearProblem`](crate::problem::NonlinearProblem) restricted to a feasible set | steps leaving the set are rejected like steps that raise the cost |
 //! | [`GramLevenbergMarquardt`] | [`NonlinearProblem`](crate::problem::NonlinearProblem) | damped Gauss–Newton with the step from the guarded, equilibrated normal equations (fails rather than lose accuracy when they are ill-conditioned) |
 
+mod feasible;
 mod fixed_point;
 mod gram_lm;
 mod linear;
 mod lm;
 
 pub use crate::linalg::least_squares;
+pub use feasible::Feasible;
 pub use fixed_point::FixedPoint;
 pub use gram_lm::GramLevenbergMarquardt;
 pub use linear::{LinearLeastSquares, SvdNullVector};
