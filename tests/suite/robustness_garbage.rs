@@ -404,6 +404,7 @@ fn workflow_entries(x: FreqInput) -> TestResult {
         nb,
         delay: x.nb.is_multiple_of(3),
         delay_range: Default::default(),
+        stability: Default::default(),
         transient: x.na % 3 == 1,
         noise_order: (x.nb % 4 == 1).then_some(1),
         criterion: if x.var.is_some() && x.na % 2 == 1 {
