@@ -192,10 +192,13 @@ impl Workflow {
         };
         let mut acted: Vec<Effect> = Vec::new();
         while run.steps.len() < self.max_steps {
-            // the structural detectors first: while they fire, the model may be missing a
-            // term, and a measurement test that assumes an adequate model is deferred
+            // the structural detectors first: while those of the system's structure fire,
+            // the model may be missing a term, and a measurement test that assumes an
+            // adequate model is deferred
             let structural = self.structural_findings(&run.data, &run.current, ctx);
-            let firing = structural.iter().any(|f| f.p_value < alpha);
+            let firing = structural
+                .iter()
+                .any(|f| f.p_value < alpha && f.effect != Effect::ColoredNoise);
             if let Some(measured) =
                 self.measurement_step(&run.data, &run.current, ctx, &acted, firing)
             {
@@ -204,6 +207,12 @@ impl Workflow {
                 }
                 continue;
             }
+            // what the deferred model-based findings would do now
+            let deferred = if firing {
+                self.measurement_step(&run.data, &run.current, ctx, &acted, false)
+            } else {
+                None
+            };
             // without a cost test (the noise level estimated, or sample variances of too
             // few periods) a passing whiteness test is weak evidence (a missing delay
             // leaves white residuals): the structural proposals are still tried, each
@@ -211,6 +220,11 @@ impl Workflow {
             let fit = run.current.fit();
             let strict = if consistent(fit, alpha, run.cost_only) {
                 if fit.validation.cost_p.is_some() || run.cost_only {
+                    if let Some(measured) = deferred
+                        && !run.take(measured, &mut acted)
+                    {
+                        continue;
+                    }
                     break;
                 }
                 true
@@ -219,24 +233,31 @@ impl Workflow {
             };
             let (chosen, attempts) =
                 self.structural_step(&run.data, &run.current, ctx, strict, structural);
-            let Some((step, next)) = chosen else {
-                run.attempts = attempts;
-                // no structural refit is accepted: the deferred model-based measurement
-                // findings may now be acted on
-                if firing
-                    && let Some(measured) =
-                        self.measurement_step(&run.data, &run.current, ctx, &acted, false)
+            match (chosen, deferred) {
+                (Some((step, next)), Some(measured))
+                    if explains_more(&measured, &step, run.current.fit(), next.fit()) =>
                 {
-                    run.attempts.clear();
-                    if !run.take(measured, &mut acted) {
-                        continue;
+                    // the piecewise model explains more than the best structural refit
+                    if run.take(measured, &mut acted) {
+                        break;
                     }
                 }
-                break;
-            };
-            run.steps.push(step);
-            run.current = next;
-            run.step_fits.push(run.current.fit().clone());
+                (Some((step, next)), _) => {
+                    run.steps.push(step);
+                    run.current = next;
+                    run.step_fits.push(run.current.fit().clone());
+                }
+                (None, Some(measured)) => {
+                    // no structural refit is accepted: the deferred findings act
+                    if run.take(measured, &mut acted) {
+                        break;
+                    }
+                }
+                (None, None) => {
+                    run.attempts = attempts;
+                    break;
+                }
+            }
         }
         run
     }
@@ -365,7 +386,7 @@ impl Workflow {
         // the fit fails the consistency tests but no detector fires (with the noise level
         // estimated from the residuals the score tests lose their power): every proposal
         // is still tried, each likelihood-ratio test at α/m
-        let silent = !all.iter().any(|f| f.p_value < ctx.alpha);
+        let silent = !strict && !all.iter().any(|f| f.p_value < ctx.alpha);
         let alpha = if strict || silent {
             ctx.alpha / all.len().max(1) as f64
         } else {
@@ -407,6 +428,24 @@ impl Workflow {
             attempts,
         )
     }
+}
+
+/// Whether the deferred measurement step `measured`, a switch to the piecewise
+/// time-invariant model, explains more than the structural `step` from `now` to `next`:
+/// the smaller p-value of its F test, then (p-values underflow) the larger cost drop per
+/// added parameter ((S − 1)q for S segments of a q-parameter model).
+fn explains_more<H>(measured: &Measured<H>, step: &Step, now: &SpecFit, next: &SpecFit) -> bool {
+    let Measured::Step(m) = measured else {
+        return false;
+    };
+    let Some(tv) = &m.piecewise else {
+        return false;
+    };
+    let added = next.n_params.saturating_sub(now.n_params).max(1) as f64;
+    let gain = (step.cost_before - step.cost_after) / added;
+    let extra = ((tv.segments.len().max(2) - 1) * now.n_params).max(1) as f64;
+    let tv_gain = (m.step.cost_before - m.step.cost_after) / extra;
+    better(Some((step.lr_p, gain)), m.step.lr_p, tv_gain)
 }
 
 /// Refits `current` with `finding`'s effect and judges it at `level`: the outcome, and

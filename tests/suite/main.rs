@@ -54,6 +54,7 @@ mod model_transient;
 mod model_wideband;
 mod optimisation_robustness;
 mod robustness_garbage;
+mod real_data;
 mod robustness_input;
 mod saved_model;
 mod silverbox;
