@@ -114,6 +114,9 @@ fn json_contract_keys() {
         "noise_reference",
         "initial",
         "final",
+        "refits_rejected",
+        "eliminated",
+        "named",
     ]
     .iter()
     .map(|s| s.to_string())
