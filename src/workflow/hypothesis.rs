@@ -235,9 +235,11 @@ impl Workflow {
                 self.structural_step(&run.data, &run.current, ctx, strict, structural);
             match (chosen, deferred) {
                 (Some((step, next)), Some(measured))
-                    if explains_more(&measured, &step, run.current.fit(), next.fit()) =>
+                    if step.effect == Effect::ColoredNoise
+                        || explains_more(&measured, &step, run.current.fit(), next.fit()) =>
                 {
-                    // the piecewise model explains more than the best structural refit
+                    // a noise model does not explain a drift of the system, and the
+                    // piecewise model explains more than the best structural refit
                     if run.take(measured, &mut acted) {
                         break;
                     }
