@@ -107,7 +107,7 @@ fn reduced_poles<T: Real>(poles: &[Complex<T>]) -> Vec<Vec<Complex<T>>> {
 ///   between the other poles — each followed by the chain and by Levy → ML (twice at most,
 ///   while the cost falls);
 /// - resonances: a partial-fraction basis at the peaks of the nonparametric FRF |Y/U|
-///   ([`resonance_poles`]: the most prominent local maxima, damping from their half-power
+///   (the most prominent local maxima, damping from their half-power
 ///   bands), followed by the chain and by Levy → ML;
 /// - when the best fit's ML stopped at its cap, ML again from it.
 ///
@@ -758,7 +758,7 @@ fn restart<T: Real>(
 /// Highest denominator order for which `Pipeline::fit` runs its further starts: their number grows
 /// with the order (every pole-pair reduction of the order-(na + 2) search is an ML start),
 /// and above this order one search costs minutes. Higher orders get the start at the
-/// resonances of the data ([`resonance_poles`]) only; call
+/// resonances of the data only; call
 /// [`fit_multistart`] or [`fit_multistart_discrete`] for the search.
 pub const MAX_RESTART_ORDER: usize = 12;
 
