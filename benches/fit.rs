@@ -3,6 +3,7 @@
 //! * `ml_ct10_20000`: Levy → SK → ML of the order-10 CT case `b_ct10` (five resonances)
 //!   on 20 000 log-spaced lines over 0.1–10 rad/s at 40 dB SNR;
 //! * `ml_ct4_2000`: the same for the order-4 case `a_ct4` on 2 000 lines;
+//!   `ml_ct4_2000_stable` with `Pipeline { stable: true, .. }` (stability-constrained);
 //! * `stages_ct10_20000/{levy,levy_sk,ml_from_sk}`: the order-10 case stage by stage
 //!   (`levy` and `levy_sk` are `Pipeline::fit`, so they include building the `Fit`:
 //!   covariance and response standard deviations); `levy_estimate` (the bare Levy solve)
@@ -113,6 +114,19 @@ fn full_pipeline(c: &mut Criterion) {
     group.bench_function("ml_ct4_2000", |b| {
         b.iter(|| {
             Pipeline::default()
+                .fit(black_box(&model4), black_box(&data4))
+                .expect("fit")
+        })
+    });
+    // the same with the stability constraint (reflection after the linear stages,
+    // constrained ML): its overhead is the pole computation of every trial step
+    let stable = Pipeline {
+        stable: true,
+        ..Pipeline::default()
+    };
+    group.bench_function("ml_ct4_2000_stable", |b| {
+        b.iter(|| {
+            stable
                 .fit(black_box(&model4), black_box(&data4))
                 .expect("fit")
         })

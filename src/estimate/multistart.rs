@@ -10,9 +10,9 @@
 //! evidence of a local minimum (see [`crate::Pipeline`]).
 //! [`Fit::unresolved_poles`] names poles whose damping the frequency grid cannot determine.
 
-use super::{FurtherStarts, Pipeline, estimate};
+use super::{FurtherStarts, Pipeline};
 use crate::basis::PolyBasis;
-use crate::criterion::{MaximumLikelihood, NoiseWeighting};
+use crate::criterion::{Criterion, MaximumLikelihood, NoiseWeighting};
 use crate::data::FrequencyData;
 use crate::error::{FdidError, Result};
 use crate::fit::{Fit, Stage, StageKind};
@@ -106,8 +106,12 @@ fn reduced_poles<T: Real>(poles: &[Complex<T>]) -> Vec<Vec<Complex<T>>> {
 ///   frequencies, by two real poles, or by damped pairs moved into the largest gaps
 ///   between the other poles — each followed by the chain and by Levy → ML (twice at most,
 ///   while the cost falls);
+/// - resonances: a partial-fraction basis at the peaks of the nonparametric FRF |Y/U|
+///   (the most prominent local maxima, damping from their half-power
+///   bands), followed by the chain and by Levy → ML;
 /// - when the best fit's ML stopped at its cap, ML again from it.
 ///
+/// With [`Pipeline::stable`] every start is stable and only stable fits are kept.
 /// About ten times the work of one chain. [`Pipeline::fit`] runs these starts itself (all
 /// but its own automatic one) when its fit shows evidence of a local minimum (see
 /// [`Pipeline`]); here they always run, and the starts use the chain without them. On
@@ -131,7 +135,7 @@ pub fn fit_multistart<T: Real>(
         });
     }
     let model = Rational::continuous(na, nb, data.omega())?;
-    let mut search = Search::new(model.n_params());
+    let mut search = Search::new(model.n_params(), pipeline.stable);
     search.keep(pipeline.chain(&model, data));
     search.continuous(pipeline, na, nb, data);
     search.replace_spurious(pipeline, data);
@@ -146,22 +150,27 @@ struct Search<T: Real> {
     n_params: usize,
     best: Option<Fit<T, Rational<T>>>,
     first_error: Option<FdidError>,
+    /// Keep stable fits only, and constrain the ML of the discrete and polishing starts
+    /// ([`Pipeline::stable`]).
+    stable: bool,
 }
 
 impl<T: Real> Search<T> {
-    fn new(n_params: usize) -> Self {
+    fn new(n_params: usize, stable: bool) -> Self {
         Self {
             n_params,
             best: None,
             first_error: None,
+            stable,
         }
     }
 
-    /// A fit of the size asked for with a finite θ and cost.
+    /// A fit of the size asked for with a finite θ and cost (and stable when asked for).
     fn valid(&self, f: &Fit<T, Rational<T>>) -> bool {
         f.theta().len() == self.n_params
             && f.theta().iter().all(|v| Float::is_finite(*v))
             && Float::is_finite(f.cost())
+            && (!self.stable || f.model().is_stable(f.theta()).unwrap_or(false))
     }
 
     /// Replaces the best fit by `f` when `f` is valid and of lower cost.
@@ -196,7 +205,10 @@ impl<T: Real> Search<T> {
             if b.stages().last().is_none_or(|s| s.solution.converged()) {
                 return;
             }
-            let Ok(sol) = estimate(b.model(), data, &ml, &lm, Some(b.theta())) else {
+            let sol = ml.problem(b.model(), data).and_then(|problem| {
+                super::chain::lm_solve_in(&lm, b.model(), &problem, b.theta(), self.stable)
+            });
+            let Ok(sol) = sol else {
                 return;
             };
             if !(sol.cost < b.cost()) {
@@ -292,10 +304,17 @@ impl<T: Real> Search<T> {
         let Some(theta) = discrete_start(model, poles, ml.data, ml.weights.as_deref()) else {
             return;
         };
+        let Ok(theta) = super::chain::stable_start(model, theta, self.stable) else {
+            return;
+        };
         let criterion = MaximumLikelihood {
             weighting: ml.weighting,
         };
-        let Ok(sol) = estimate(model, ml.data, &criterion, &ml.lm, Some(&theta)) else {
+        let Ok(problem) = criterion.problem(model, ml.data) else {
+            return;
+        };
+        let Ok(sol) = super::chain::lm_solve_in(&ml.lm, model, &problem, &theta, self.stable)
+        else {
             return;
         };
         if self.best.as_ref().is_none_or(|b| sol.cost < b.cost()) {
@@ -324,6 +343,7 @@ impl<T: Real> Search<T> {
         for p in starting_poles(na, data.omega()) {
             self.keep(Rational::partial_fractions(p, nb).and_then(|m| pipeline.chain(&m, data)));
         }
+        self.resonances(pipeline, na, nb, None, data);
         // order reduction: the fit of order na + 2 rarely misses a true pole; each way of
         // dropping two of its poles is a start (Levy in that basis, then ML)
         let linear_ml = Pipeline {
@@ -382,6 +402,54 @@ impl<T: Real> Search<T> {
         }
         for (start, kind) in starts {
             self.offer_discrete(&discrete_ml, model, &start, kind);
+        }
+        self.resonances(pipeline, na, nb, Some(ts), data);
+    }
+
+    /// The start at the resonances of the data ([`resonance_poles`]): in s, the chain and
+    /// Levy → ML in a partial-fraction basis at those poles; in z (sample time `ts`), ML
+    /// from the start of [`discrete_start`] at z = exp(s Ts).
+    fn resonances(
+        &mut self,
+        pipeline: &Pipeline,
+        na: usize,
+        nb: usize,
+        ts: Option<T>,
+        data: &FrequencyData<T>,
+    ) {
+        let Some(poles) = resonance_poles(na, data) else {
+            return;
+        };
+        match ts {
+            None => {
+                let linear_ml = Pipeline {
+                    sk: None,
+                    ..*pipeline
+                };
+                if let Ok(m) = Rational::partial_fractions(poles, nb) {
+                    self.keep(pipeline.chain(&m, data));
+                    self.keep(linear_ml.chain(&m, data));
+                }
+            }
+            Some(ts) => {
+                let (Some(ml), Ok(model)) = (
+                    DiscreteMl::new(pipeline, data),
+                    Rational::discrete(na, nb, ts),
+                ) else {
+                    return;
+                };
+                let mut z = vec![];
+                for s in poles {
+                    let q = (s * ts).exp();
+                    if s.im > T::zero() {
+                        z.push(q);
+                        z.push(q.conj());
+                    } else {
+                        z.push(Complex::new(q.re, T::zero()));
+                    }
+                }
+                self.offer_discrete(&ml, &model, &z, StageKind::MlSpread);
+            }
         }
     }
 }
@@ -622,7 +690,7 @@ pub fn fit_multistart_discrete<T: Real>(
         });
     }
     let model = Rational::discrete(na, nb, ts)?;
-    let mut search = Search::new(model.n_params());
+    let mut search = Search::new(model.n_params(), pipeline.stable);
     search.keep(pipeline.chain(&model, data));
     search.discrete(pipeline, &model, ts, data);
     search.replace_spurious(pipeline, data);
@@ -633,9 +701,10 @@ pub fn fit_multistart_discrete<T: Real>(
 /// [`FurtherStarts::further_starts`] for [`Rational`]: when `suspicious`, or when `fit` has
 /// poles the data cannot resolve ([`Fit::unresolved_poles`]), the starts of
 /// [`fit_multistart`] (a partial-fraction model) or of [`fit_multistart_discrete`] (a
-/// discrete-time polynomial model) but the automatic one, which gave `fit`; `None`
-/// otherwise (no evidence, a transient term, the orthonormal polynomial basis, an order
-/// above [`MAX_RESTART_ORDER`]) or when
+/// discrete-time polynomial model) but the automatic one, which gave `fit`; above
+/// [`MAX_RESTART_ORDER`] only the start at the resonances of the data
+/// ([`resonance_poles`], two chains); `None`
+/// otherwise (no evidence, a transient term, the orthonormal polynomial basis) or when
 /// every start fails. The caller keeps `fit` unless the returned fit has a lower cost.
 fn restart<T: Real>(
     model: &Rational<T>,
@@ -644,7 +713,7 @@ fn restart<T: Real>(
     fit: &Fit<T, Rational<T>>,
     suspicious: bool,
 ) -> Option<Fit<T, Rational<T>>> {
-    if model.n_transient() > 0 || model.na() == 0 || model.na() > MAX_RESTART_ORDER {
+    if model.n_transient() > 0 || model.na() == 0 {
         return None;
     }
     let unstable = !model.is_stable(fit.theta()).unwrap_or(true);
@@ -655,7 +724,17 @@ fn restart<T: Real>(
     {
         return None;
     }
-    let mut search = Search::new(model.n_params());
+    let mut search = Search::new(model.n_params(), pipeline.stable);
+    if model.na() > MAX_RESTART_ORDER {
+        // high orders: only the start at the resonances of the data (two chains)
+        let ts = match model.basis() {
+            PolyBasis::PartialFractions { .. } => None,
+            PolyBasis::DelayPowers { ts } => Some(*ts),
+            PolyBasis::Orthonormal { .. } => return None,
+        };
+        search.resonances(pipeline, model.na(), model.nb(), ts, data);
+        return search.best.filter(|b| b.cost() < fit.cost());
+    }
     match model.basis() {
         PolyBasis::PartialFractions { .. } => {
             search.continuous(pipeline, model.na(), model.nb(), data);
@@ -678,7 +757,8 @@ fn restart<T: Real>(
 
 /// Highest denominator order for which `Pipeline::fit` runs its further starts: their number grows
 /// with the order (every pole-pair reduction of the order-(na + 2) search is an ML start),
-/// and above this order one search costs minutes. Higher orders get the chain's fit; call
+/// and above this order one search costs minutes. Higher orders get the start at the
+/// resonances of the data only; call
 /// [`fit_multistart`] or [`fit_multistart_discrete`] for the search.
 pub const MAX_RESTART_ORDER: usize = 12;
 
@@ -703,6 +783,81 @@ fn near_cancellation<T: Real>(fit: &Fit<T, Rational<T>>) -> bool {
         let radius = Float::min(limit * s.norm(), Float::abs(s.re));
         zeros.iter().any(|z| (s - to_s(*z)).norm() < radius)
     })
+}
+
+/// Lowest height ratio h_peak / max(valleys) of a local maximum of |Y/U| that
+/// [`resonance_poles`] takes for a resonance (3 dB).
+const PEAK_PROMINENCE: f64 = std::f64::consts::SQRT_2;
+
+/// Starting s-plane poles of order `na` at the resonances of the nonparametric FRF
+/// h_k = |Y_k/U_k| (lines with U_k ≠ 0 and ω_k > 0): its local maxima, ranked by their
+/// prominence h_peak / max(h_valley left, h_valley right) (the valleys being the minima
+/// of h between the peak and the neighbouring maxima) and kept when it exceeds 3 dB, give
+/// up to ⌊na/2⌋ pairs −ζω_p ± iω_p√(1 − ζ²) (upper halves returned), with ζ from the
+/// half-power band, ζ = (ω₊ − ω₋)/(2ω_p) where h first falls below h_peak/√2 on each side
+/// (clamped to [10⁻³, 0.3]; 0.01 when the band is narrower than the grid resolves). The
+/// other pairs are spread log-uniformly over the band with ζ = 0.1, plus the real pole
+/// −ω_max for odd `na`. `None` when the FRF has no such peak.
+pub(crate) fn resonance_poles<T: Real>(
+    na: usize,
+    data: &FrequencyData<T>,
+) -> Option<Vec<Complex<T>>> {
+    let pts: Vec<(T, T)> = data
+        .omega()
+        .iter()
+        .zip(data.y().iter().zip(data.u()))
+        .filter(|(w, (_, u))| **w > T::zero() && u.norm_sqr() > T::zero())
+        .map(|(w, (y, u))| (*w, (*y / *u).norm()))
+        .filter(|(_, h)| Float::is_finite(*h))
+        .collect();
+    let n = pts.len();
+    if n < 3 || na < 2 {
+        return None;
+    }
+    let h = |k: usize| pts[k].1;
+    let maxima: Vec<usize> = (1..n - 1)
+        .filter(|k| h(*k) > h(k - 1) && h(*k) >= h(k + 1))
+        .collect();
+    let mut peaks: Vec<(T, usize)> = vec![];
+    for (i, &k) in maxima.iter().enumerate() {
+        let lo = if i == 0 { 0 } else { maxima[i - 1] };
+        let hi = maxima.get(i + 1).copied().unwrap_or(n - 1);
+        let left = (lo..=k).map(h).fold(T::infinity(), Float::min);
+        let right = (k..=hi).map(h).fold(T::infinity(), Float::min);
+        let valley = Float::max(left, right);
+        if valley > T::zero() && h(k) / valley > T::lit(PEAK_PROMINENCE) {
+            peaks.push((h(k) / valley, k));
+        }
+    }
+    if peaks.is_empty() {
+        return None;
+    }
+    peaks.sort_by(|a, b| b.0.partial_cmp(&a.0).unwrap_or(std::cmp::Ordering::Equal));
+    peaks.truncate(na / 2);
+    let half = T::lit(std::f64::consts::FRAC_1_SQRT_2);
+    let mut poles: Vec<Complex<T>> = peaks
+        .iter()
+        .map(|&(_, k)| {
+            let (wp, level) = (pts[k].0, h(k) * half);
+            let l = (0..k).rev().find(|j| h(*j) < level);
+            let r = (k + 1..n).find(|j| h(*j) < level);
+            let zeta = match (l, r) {
+                (Some(l), Some(r)) if r - l > 2 => Float::min(
+                    Float::max((pts[r].0 - pts[l].0) / (wp + wp), T::lit(1e-3)),
+                    T::lit(0.3),
+                ),
+                _ => T::lit(0.01),
+            };
+            Complex::new(-zeta * wp, wp * Float::sqrt(T::one() - zeta * zeta))
+        })
+        .collect();
+    let (lo, hi) = (pts[0].0, pts[n - 1].0);
+    let rest = na / 2 - poles.len();
+    poles.extend(log_spread_poles(2 * rest, lo, hi, T::lit(0.1)));
+    if na % 2 == 1 {
+        poles.push(Complex::new(-hi, T::zero()));
+    }
+    Some(poles)
 }
 
 /// Every way of dropping one conjugate pair or two real poles of a z-plane pole set
@@ -795,7 +950,7 @@ fn discrete_start<T: Real>(
 
 /// On evidence of a local minimum, the starts of [`fit_multistart`] (continuous time) or
 /// [`fit_multistart_discrete`] (discrete time), for denominator orders up to
-/// [`MAX_RESTART_ORDER`]; the fit's own evidence is added to the chain's: unstable poles,
+/// [`MAX_RESTART_ORDER`], above it the start at the resonances; the fit's own evidence is added to the chain's: unstable poles,
 /// poles the data cannot resolve ([`Fit::unresolved_poles`]), a zero within 10 % of a pole
 /// and inside its half-power band.
 impl<T: Real> FurtherStarts<T> for Rational<T> {

@@ -23,21 +23,22 @@ use nalgebra::{DMatrix, DVector};
 /// ```
 /// use fdid::problem::NonlinearProblem;
 /// use fdid::solver::{Feasible, GramLevenbergMarquardt, Solver};
-/// // r(x) = x − 2, constrained to x < 1: the solution is on the boundary, approached from inside
-/// struct Shift;
-/// impl NonlinearProblem<f64> for Shift {
+/// // r(x) = x² − 1/4, minimum at x = 1/2; from x = 0.1 the Gauss–Newton step goes to 1.3,
+/// // outside S = {x < 0.8}: it is rejected, and shorter steps reach 1/2 inside S
+/// struct Square;
+/// impl NonlinearProblem<f64> for Square {
 ///     fn n_params(&self) -> usize { 1 }
 ///     fn n_residuals(&self) -> usize { 1 }
-///     fn residuals_into(&self, x: &[f64], r: &mut [f64]) -> bool { r[0] = x[0] - 2.0; true }
+///     fn residuals_into(&self, x: &[f64], r: &mut [f64]) -> bool { r[0] = x[0] * x[0] - 0.25; true }
 ///     fn jacobian_into(&self, x: &[f64], r: &mut [f64], j: &mut nalgebra::DMatrix<f64>) -> bool {
-///         r[0] = x[0] - 2.0;
-///         j[(0, 0)] = 1.0;
+///         r[0] = x[0] * x[0] - 0.25;
+///         j[(0, 0)] = 2.0 * x[0];
 ///         true
 ///     }
 /// }
-/// let constrained = Feasible::new(&Shift, |x: &[f64]| x[0] < 1.0);
-/// let sol = GramLevenbergMarquardt::default().solve(&constrained, Some(&[0.0])).unwrap();
-/// assert!(sol.theta[0] < 1.0 && sol.theta[0] > 0.99);
+/// let constrained = Feasible::new(&Square, |x: &[f64]| x[0] < 0.8);
+/// let sol = GramLevenbergMarquardt::default().solve(&constrained, Some(&[0.1])).unwrap();
+/// assert!((sol.theta[0] - 0.5).abs() < 1e-6);
 /// ```
 #[derive(Debug, Clone, Copy)]
 pub struct Feasible<'p, P: ?Sized, F> {
