@@ -165,47 +165,6 @@ pub fn erfc(x: f64) -> f64 {
     }
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn chi2_tail_matches_tables() {
-        // (x, k, P(X > x)) from standard χ² tables
-        for (x, k, p) in [
-            (3.841_458_820_694_124, 1.0, 0.05),
-            (18.307_038_053_275_146, 10.0, 0.05),
-            (6.634_896_601_021_214, 1.0, 0.01),
-            (124.342_113_404_207_7, 100.0, 0.05),
-            (2.0, 2.0, (-1.0f64).exp()),
-        ] {
-            let got = chi2_sf(x, k);
-            assert!(
-                (got - p).abs() < 1e-10 * p.max(1e-3),
-                "χ²({k}) tail at {x}: {got}"
-            );
-        }
-        assert_eq!(chi2_sf(0.0, 3.0), 1.0);
-        assert!(chi2_sf(1e4, 3.0) < 1e-300);
-        assert!(gamma_q(-1.0, 1.0).is_nan());
-    }
-
-    #[test]
-    fn normal_quantiles_match_tables() {
-        for (p, z) in [
-            (0.975, 1.959_963_984_540_054),
-            (0.5, 0.0),
-            (0.001, -3.090_232_306_167_813_5),
-            (0.999_999, 4.753_424_308_822_899),
-        ] {
-            assert!((normal_quantile(p) - z).abs() < 1e-9, "Φ⁻¹({p})");
-        }
-        assert!(normal_quantile(1.0).is_nan());
-        assert!((erfc(1.0) - 0.157_299_207_050_285_13).abs() < 1e-14);
-        assert!((ln_gamma(0.5) - std::f64::consts::PI.sqrt().ln()).abs() < 1e-14);
-    }
-}
-
 /// The regularised incomplete beta function `I_x(a, b)`, `a, b > 0`, `0 ≤ x ≤ 1`, by the
 /// continued fraction of Numerical Recipes (§6.4, modified Lentz), using the symmetry
 /// `I_x(a, b) = 1 − I_{1−x}(b, a)` where it converges faster. NaN outside the domain.
@@ -275,4 +234,45 @@ pub fn f_sf(x: f64, d1: f64, d2: f64) -> f64 {
         return 0.0;
     }
     beta_reg(d2 / 2.0, d1 / 2.0, d2 / (d2 + d1 * x))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn chi2_tail_matches_tables() {
+        // (x, k, P(X > x)) from standard χ² tables
+        for (x, k, p) in [
+            (3.841_458_820_694_124, 1.0, 0.05),
+            (18.307_038_053_275_146, 10.0, 0.05),
+            (6.634_896_601_021_214, 1.0, 0.01),
+            (124.342_113_404_207_7, 100.0, 0.05),
+            (2.0, 2.0, (-1.0f64).exp()),
+        ] {
+            let got = chi2_sf(x, k);
+            assert!(
+                (got - p).abs() < 1e-10 * p.max(1e-3),
+                "χ²({k}) tail at {x}: {got}"
+            );
+        }
+        assert_eq!(chi2_sf(0.0, 3.0), 1.0);
+        assert!(chi2_sf(1e4, 3.0) < 1e-300);
+        assert!(gamma_q(-1.0, 1.0).is_nan());
+    }
+
+    #[test]
+    fn normal_quantiles_match_tables() {
+        for (p, z) in [
+            (0.975, 1.959_963_984_540_054),
+            (0.5, 0.0),
+            (0.001, -3.090_232_306_167_813_5),
+            (0.999_999, 4.753_424_308_822_899),
+        ] {
+            assert!((normal_quantile(p) - z).abs() < 1e-9, "Φ⁻¹({p})");
+        }
+        assert!(normal_quantile(1.0).is_nan());
+        assert!((erfc(1.0) - 0.157_299_207_050_285_13).abs() < 1e-14);
+        assert!((ln_gamma(0.5) - std::f64::consts::PI.sqrt().ln()).abs() < 1e-14);
+    }
 }

@@ -189,7 +189,21 @@ fn daisy_dat_files_by_index_match_the_bundled_conversions() {
     for (dat, dat_args, csv, csv_args) in cases {
         let a = fit(&shared(dat), dat_args, &z4);
         let b = fit(std::path::Path::new(&bundled(csv)), csv_args, &z4);
-        assert_eq!(a["poles"], b["poles"], "{dat} vs {csv}");
+        // the same numbers; Ts of a t column may differ from the given one in the last bit
+        let (pa, pb) = (
+            a["poles"].as_array().unwrap(),
+            b["poles"].as_array().unwrap(),
+        );
+        assert_eq!(pa.len(), pb.len(), "{dat} vs {csv}");
+        for (x, y) in pa.iter().zip(pb) {
+            for j in 0..2 {
+                let (x, y) = (x[j].as_f64().unwrap(), y[j].as_f64().unwrap());
+                assert!(
+                    (x - y).abs() <= 1e-9 * (1.0 + x.abs()),
+                    "{dat} vs {csv}: {x} vs {y}"
+                );
+            }
+        }
         assert_eq!(a["lines"], b["lines"], "{dat} vs {csv}");
     }
     // an index beyond the columns, and a name on a file without header
