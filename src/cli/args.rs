@@ -41,9 +41,24 @@ by R. Version 2.0: [Version] 2.0, the option line, [Number of Ports] 1|2, then
 [Mixed-Mode Order] and more than 2 ports are rejected.
 
 Time records are transformed by the DFT (or averaged over --periods P periods, which
-also estimates per-line noise variances when P >= 2). The DC line (f = 0) and every
-line where the input spectrum |U| is exactly zero are dropped: the input carries no
-information about G there. --domain s on a time record fits a continuous-time model to
+also estimates per-line noise variances when P >= 2; --skip-periods K drops the first K
+as transients). --periods checks that the input repeats: the part that differs between
+periods may carry at most -10 dB of the power of the part that repeats, else the command
+fails and suggests --realisations. The DC line (f = 0) and, with --lines excited (the
+default), every line the input does not excite are dropped: a line is excited when
+|U_k| > 1e-6 max_j |U_j| (the lines a multisine leaves out sit at the rounding level,
+not at zero); --lines all keeps every line above DC. The text (`lines ... (N excited)`)
+and the JSON (lines_excited) give the number of excited lines fitted.
+--realisations M: the record is M realisations of a periodic experiment (new random
+phases), each of --periods P periods (default 1); the fit is made on the best linear
+approximation at the lines excited in every realisation, weighted by its total variance
+(between realisations: noise + nonlinear distortion); P >= 2 also estimates the noise
+variance (between periods) and a note compares the two; with P = 1 they cannot be
+separated.
+Raw tables of several channels: --input NAME|INDEX --output NAME|INDEX pick the columns
+(header names, quotes and a trailing empty field accepted; 1-based indices, also for
+whitespace-separated files without a header such as DaISy .dat); without a t column
+--ts S gives the sample time. --domain s on a time record fits a continuous-time model to
 the DFT lines; this is an approximation, valid for band-limited data well below Nyquist.
 With --noise-order the lines without input are kept (they inform the noise model) and
 the Nyquist line is dropped as well (the DFT of a real record is real there).
@@ -73,7 +88,9 @@ covariance is that of theta (rows in the order of theta_names); noise_model hold
 D in ascending powers of z^-1 and the zeros and poles of H, null without --noise-order.
 pole_details and zero_details list the same roots as objects {\"re\":x, \"im\":x,
 \"f_n_hz\":x, \"damping\":x}: natural frequency in Hz and damping ratio of s (of
-s = ln(z)/Ts for z; null where undefined). Further keys: na, nb, criterion, ts, lines, gain, stable, theta, theta_names, theta_std,
+s = ln(z)/Ts for z; null where undefined). Further keys: na, nb, criterion, ts, lines,
+lines_excited (time records: the excited lines among those fitted, null for frequency
+data), gain, stable, theta, theta_names, theta_std,
 frf_std, stages, weighting, noise_known, relative_residual, notes, form (how theta
 parameterises the model), basis_poles, delay_std, delay_samples (tau/Ts, null without a
 sample time), transient (number of transient coefficients, 0 without --transient),
@@ -98,7 +115,9 @@ Examples:
   fdid fit record.csv --domain z --na 2 --nb 1 --periods 4 --criterion eiv --delay
   fdid fit step.csv --domain z --na 2 --nb 1 --transient --noise-order 1
   fdid fit data/rlc_bandpass.s2p --domain s --na 2 --nb 1 --port 21 --save rlc.json
-  fdid eval rlc.json --freq 1e6:1e7:20";
+  fdid eval rlc.json --freq 1e6:1e7:20
+  fdid fit data/silverbox.csv --realisations 10 --band :200 --domain s --na 2 --nb 0
+  fdid fit data/cd_player_arm.csv --input u1 --output y1 --domain z --na 4 --nb 4";
 
 const DIAGNOSE_HELP: &str = "\
 The discrepancy workflow. The data file, --port, --ts, --band, --periods and the
@@ -117,6 +136,11 @@ frequency files as frequency data (no transient, no noise model).
 Noise reference (how r_k is normalised):
   periods    sample variances over P >= 2 periods
   given      var / var_y columns of the data file
+  realisations  --realisations M: the BLA over M realisations; with P >= 2 periods
+             weighted by its noise variance between periods, and nonlinear_distortion
+             is named when the total variance between realisations significantly
+             exceeds it; with P = 1 weighted by the total variance (noise and
+             distortion cannot be separated)
   lpm        one non-periodic record: per-line output noise variances from the local
              polynomial method (R = 2 over 11 lines, 5 degrees of freedom)
   estimated  nothing known: lambda is estimated from the residuals, the cost test is
@@ -129,7 +153,7 @@ residuals are consistent with the noise), or with
 --json one JSON object:
   {\"steps\":[{\"effect\":NAME,\"p_value\":x,\"cost_before\":x,\"cost_after\":x,
    \"lr_p\":x,\"detail\":{..}},..], \"effects\":[NAME,..], \"consistent_with_noise\":bool,
-   \"noise_reference\":\"periods\"|\"given\"|\"lpm\"|\"estimated\",
+   \"noise_reference\":\"periods\"|\"given\"|\"lpm\"|\"realisations\"|\"estimated\",
    \"initial\":{..}, \"final\":{..}}
 where initial and final hold the keys of `fdid fit --json` for the starting and the final
 model. --report DIR writes report.txt, report.json and, when built with the `plot` feature
@@ -245,6 +269,43 @@ pub struct CommonArgs {
     /// transmission) for 2 ports
     #[arg(long, value_name = "IJ")]
     pub port: Option<String>,
+
+    /// Time records: the lines fitted. excited = the lines where the input spectrum |U_k|
+    /// exceeds 1e-6 of its largest line (the others, e.g. the detection lines of a
+    /// multisine, serve as noise and distortion lines); all = every line above DC
+    #[arg(long, value_enum, default_value_t = LinesArg::Excited)]
+    pub lines: LinesArg,
+
+    /// Time records with --periods or --realisations: drop the first K periods of the
+    /// record (of each realisation) as transients before averaging
+    #[arg(long, value_name = "K", default_value_t = 0)]
+    pub skip_periods: usize,
+
+    /// Time records: the record holds M realisations of a periodic experiment one after
+    /// the other (each of --periods P periods, default 1). The fit is made on their best
+    /// linear approximation weighted by its total variance (noise + nonlinear distortion,
+    /// from the spread between realisations); P >= 2 also gives the noise variance (from
+    /// the spread between periods)
+    #[arg(long, value_name = "M")]
+    pub realisations: Option<usize>,
+
+    /// Raw tables of several channels (a benchmark CSV with a header, a whitespace-separated
+    /// file without one): the input column, by header name or 1-based index
+    #[arg(long, value_name = "NAME|INDEX")]
+    pub input: Option<String>,
+
+    /// Raw tables of several channels: the output column, by header name or 1-based index
+    #[arg(long, value_name = "NAME|INDEX")]
+    pub output: Option<String>,
+}
+
+/// Which lines of a time record are fitted.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum LinesArg {
+    /// The lines the input excites (|U_k| above 1e-6 of the largest line)
+    Excited,
+    /// Every line above DC
+    All,
 }
 
 /// Parses `--port IJ` (`11`, `21`, ...) into (i, j), 1-based.

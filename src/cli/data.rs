@@ -1,9 +1,13 @@
 //! Reading the data file and turning it into the frequency lines that are fitted.
 
 use super::Failure;
-use super::args::{CommonArgs, DomainArg, parse_band, parse_port};
+use super::args::{CommonArgs, DomainArg, LinesArg, parse_band, parse_port};
 use fdid::criterion::interior_lines;
-use fdid::io::{Measurement, TouchstoneVersion, is_touchstone, read_csv, read_touchstone};
+use fdid::data::{EXCITATION_FRACTION, PERIODICITY_TOLERANCE, RealisationBla};
+use fdid::io::{
+    ChannelSelection, Column, Measurement, TouchstoneVersion, is_touchstone, read_channels,
+    read_csv, read_touchstone,
+};
 use fdid::prelude::*;
 use std::result::Result;
 
@@ -23,27 +27,87 @@ pub struct Prepared {
     pub weighting: String,
     /// Remarks for the text output.
     pub notes: Vec<String>,
-    /// The time record, for time-record files.
+    /// The time record, for time-record files (without the periods --skip-periods drops).
     pub record: Option<TimeData<f64>>,
+    /// Time records: how many of the lines fitted the input excites (|U_k| above
+    /// [`EXCITATION_FRACTION`] of its largest line).
+    pub lines_excited: Option<usize>,
+    /// Time records with --periods: the number of periods averaged (after
+    /// --skip-periods).
+    pub periods: Option<usize>,
+    /// Time records with --realisations: the best linear approximation over them.
+    pub realisations: Option<Realisations>,
+}
+
+/// The realisations of a periodic experiment (--realisations) behind the fitted BLA.
+pub struct Realisations {
+    /// The BLA with its noise and total variances.
+    pub bla: RealisationBla<f64>,
+    /// Each realisation's steady-state record (--skip-periods dropped).
+    pub records: Vec<TimeData<f64>>,
+    /// The BLA lines kept by --band, weighted by the noise variance (between periods);
+    /// `None` with one period per realisation.
+    pub noise_data: Option<FrequencyData<f64>>,
+}
+
+/// The lines of a time record and what the preparation learned about it.
+struct TimeLines {
+    data: FrequencyData<f64>,
+    ts: Option<f64>,
+    source: String,
+    /// The excitation floor |U| of the lines (none for the BLA of realisations: every
+    /// line is excited).
+    floor: Option<f64>,
+    record: TimeData<f64>,
+    periods: Option<usize>,
+    realisations: Option<Realisations>,
 }
 
 /// Reads `args.data` and applies --periods, --ts and --band. `noise_model`: a noise model
 /// will be fitted, so the lines without input are kept and the Nyquist line dropped.
 pub fn prepare(args: &CommonArgs, noise_model: bool) -> Result<Prepared, Failure> {
-    let (measurement, entry) = read(args)?;
+    let (measurement, entry, channels) = read(args)?;
     let mut notes = Vec::new();
     let time_record = matches!(measurement, Measurement::Time(_));
-    let record = match &measurement {
-        Measurement::Time(r) => Some(r.clone()),
-        Measurement::Frequency(_) => None,
-    };
+    let mut record = None;
+    let mut periods = None;
+    let mut realisations = None;
+    let mut floor = None;
     let (data, ts, source) = match measurement {
         Measurement::Frequency(data) => frequency_lines(args, data, entry.as_deref())?,
-        Measurement::Time(record) => time_lines(args, &record, noise_model, &mut notes)?,
+        Measurement::Time(rec) => {
+            let lines = time_lines(args, &rec, noise_model, channels, &mut notes)?;
+            record = Some(lines.record);
+            periods = lines.periods;
+            realisations = lines.realisations;
+            floor = lines.floor;
+            (lines.data, lines.ts, lines.source)
+        }
     };
     let (data, source) = band(args, data, source)?;
+    if let Some(r) = realisations.as_mut()
+        && let Some(noise_data) = r.noise_data.take()
+    {
+        r.noise_data = Some(band(args, noise_data, String::new())?.0);
+    }
+    let lines_excited = time_record.then(|| match floor {
+        Some(floor) => data.u().iter().filter(|u| u.norm() > floor).count(),
+        None => data.len(),
+    });
     let record_ts = data.ts();
-    let (data, weighting) = weighting(data, &mut notes)?;
+    let (data, mut weighting) = weighting(data, &mut notes)?;
+    if let Some(r) = &realisations
+        && data.noise().is_some()
+    {
+        weighting = match r.bla.total_variance() {
+            Some(_) => format!(
+                "1/sigma_k from the total variance of the BLA over {} realisations (noise + \
+                 nonlinear distortion)",
+                r.bla.realisations()
+            ),
+            None => "1/sigma_k from the noise variance of the BLA between periods".into(),
+        };
+    }
     Ok(Prepared {
         data,
         domain: super::domain(args.domain, ts)?,
@@ -53,15 +117,26 @@ pub fn prepare(args: &CommonArgs, noise_model: bool) -> Result<Prepared, Failure
         weighting,
         notes,
         record,
+        lines_excited,
+        periods,
+        realisations,
     })
 }
 
 /// Reads the data file: a Touchstone file (by extension) as the entry `--port` picks,
-/// described, or a CSV file.
-fn read(args: &CommonArgs) -> Result<(Measurement<f64>, Option<String>), Failure> {
+/// described, a table of several channels as the columns --input and --output pick, or a
+/// CSV file. The flag is true for a table of channels (its sample time is checked).
+fn read(args: &CommonArgs) -> Result<(Measurement<f64>, Option<String>, bool), Failure> {
     if is_touchstone(&args.data) {
+        if args.input.is_some() || args.output.is_some() {
+            return Err(Failure::usage(format!(
+                "--input and --output select columns of a table, but {} is a Touchstone file \
+                 (use --port)",
+                args.data.display()
+            )));
+        }
         let (data, entry) = read_entry(args)?;
-        return Ok((Measurement::Frequency(data), Some(entry)));
+        return Ok((Measurement::Frequency(data), Some(entry), false));
     }
     if let Some(p) = &args.port {
         return Err(Failure::usage(format!(
@@ -69,15 +144,42 @@ fn read(args: &CommonArgs) -> Result<(Measurement<f64>, Option<String>), Failure
             args.data.display()
         )));
     }
-    Ok((
-        read_csv::<f64>(&args.data).map_err(|e| name_file(args, e))?,
-        None,
-    ))
+    match (&args.input, &args.output) {
+        (Some(input), Some(output)) => {
+            let selection = ChannelSelection {
+                input: Column::parse(input),
+                output: Column::parse(output),
+                ts: args.ts,
+            };
+            let record = read_channels::<f64>(&args.data, &selection).map_err(|e| match e {
+                FdidError::Parse { .. } | FdidError::Io(_) => Failure::from(e),
+                e => Failure::runtime(format!("{}: {e}", args.data.display())),
+            })?;
+            Ok((Measurement::Time(record), None, true))
+        }
+        (Some(_), None) | (None, Some(_)) => Err(Failure::usage(
+            "--input and --output go together: name the input and the output column (by \
+             header name or 1-based index)"
+                .into(),
+        )),
+        (None, None) => Ok((
+            read_csv::<f64>(&args.data).map_err(|e| name_file(args, e))?,
+            None,
+            false,
+        )),
+    }
 }
 
 /// A read error that names the file.
 fn name_file(args: &CommonArgs, e: FdidError) -> Failure {
     match e {
+        FdidError::Parse { ref message, .. }
+            if message.contains("unknown column") || message.contains("unrecognized header") =>
+        {
+            Failure::runtime(format!(
+                "{e} (a table of several channels: select them with --input NAME --output NAME)"
+            ))
+        }
         // these already name the file
         FdidError::Parse { .. } | FdidError::Io(_) => Failure::from(e),
         e => Failure::runtime(format!("{}: {e}", args.data.display())),
@@ -165,17 +267,21 @@ fn frequency_lines(
     Ok((data, ts, source))
 }
 
-/// The DFT lines of a time record (averaged over `--periods`), without DC and the lines
-/// without input (`noise_model`: with them, without Nyquist), with the model's sample
-/// time (z only) and the description of the source.
+/// The DFT lines of a time record (averaged over `--periods` after `--skip-periods`, or the
+/// BLA over `--realisations`): without DC and, unless `--lines all`, the lines the input
+/// does not excite (`noise_model`: every line but DC and Nyquist), with the model's sample
+/// time (z only) and the description of the source. `channels`: the record comes from a
+/// table of channels whose sample time was already checked against --ts.
 fn time_lines(
     args: &CommonArgs,
     record: &TimeData<f64>,
     noise_model: bool,
+    channels: bool,
     notes: &mut Vec<String>,
-) -> Result<(FrequencyData<f64>, Option<f64>, String), Failure> {
+) -> Result<TimeLines, Failure> {
     let ts = record.ts();
-    if let Some(given) = args.ts
+    if !channels
+        && let Some(given) = args.ts
         && (given.is_nan() || (given - ts).abs() > 1e-6 * ts)
     {
         return Err(Failure::usage(format!(
@@ -183,27 +289,6 @@ fn time_lines(
              (--ts is for frequency data; rescale t to change Ts)"
         )));
     }
-    let n = record.len();
-    let (data, how) = match args.periods {
-        Some(p) => (
-            record.average_periods(p)?,
-            format!(
-                "averaged over {p} period{} of {} samples",
-                if p == 1 { "" } else { "s" },
-                n / p.max(1)
-            ),
-        ),
-        None => (record.dft(), "DFT of the whole record".to_string()),
-    };
-    let total = data.len();
-    // a noise model is also identified from the lines without input
-    let data = drop_uninformative(data, noise_model)?;
-    let (data, what) = if noise_model {
-        (interior_lines(&data)?, "DC or Nyquist")
-    } else {
-        (data, "DC or zero input")
-    };
-    let dropped = total - data.len();
     if args.domain == DomainArg::S {
         notes.push(
             "continuous-time model fitted to the DFT lines of a sampled record: an \
@@ -211,17 +296,270 @@ fn time_lines(
                 .into(),
         );
     }
-    Ok((
-        data,
-        match args.domain {
-            DomainArg::Z => Some(ts),
-            DomainArg::S => None,
-        },
-        format!(
-            "time record, {n} samples, Ts = {ts} s, {how}; {total} lines, {dropped} \
-             dropped ({what})"
+    let model_ts = match args.domain {
+        DomainArg::Z => Some(ts),
+        DomainArg::S => None,
+    };
+    if let Some(m) = args.realisations {
+        return realisation_lines(args, record, m, noise_model, notes, model_ts);
+    }
+    if args.skip_periods > 0 && args.periods.is_none() {
+        return Err(Failure::usage(format!(
+            "--skip-periods {} needs --periods P (or --realisations M): it drops whole periods",
+            args.skip_periods
+        )));
+    }
+    let n = record.len();
+    let (data, how, steady, periods) = match args.periods {
+        Some(p) => {
+            let (steady, kept) = steady_periods(args, record, p)?;
+            let ratio = check_repeats(args, &steady, kept, None)?;
+            let skipped = if args.skip_periods > 0 {
+                format!(" ({} skipped)", args.skip_periods)
+            } else {
+                String::new()
+            };
+            let how = format!(
+                "averaged over {kept} period{} of {} samples{skipped}{}",
+                if kept == 1 { "" } else { "s" },
+                steady.len() / kept,
+                repeats_text(ratio)
+            );
+            (steady.average_periods(kept)?, how, steady, Some(kept))
+        }
+        None => (
+            record.dft(),
+            "DFT of the whole record".to_string(),
+            record.clone(),
+            None,
         ),
-    ))
+    };
+    let total = data.len();
+    let floor = data.excitation_floor(EXCITATION_FRACTION);
+    let excited = data.excited_lines(EXCITATION_FRACTION);
+    let n_excited = excited.iter().filter(|e| **e).count();
+    if n_excited == 0 {
+        return Err(Failure::runtime(
+            "the input spectrum is zero on every line above DC: the record carries no \
+             information about the system"
+                .into(),
+        ));
+    }
+    // a noise model is also identified from the lines without input
+    let keep: Vec<bool> = if noise_model || args.lines == LinesArg::All {
+        data.omega().iter().map(|w| *w > 0.0).collect()
+    } else {
+        excited
+    };
+    let data = select(&data, &keep)?;
+    let (data, what) = if noise_model {
+        (interior_lines(&data)?, "DC or Nyquist")
+    } else if args.lines == LinesArg::All {
+        (data, "DC")
+    } else {
+        (data, "DC or not excited")
+    };
+    let dropped = total - data.len();
+    Ok(TimeLines {
+        data,
+        ts: model_ts,
+        source: format!(
+            "time record, {n} samples, Ts = {ts} s, {how}; {total} lines, {n_excited} \
+             excited (|U| above {EXCITATION_FRACTION:e} of the largest), {dropped} dropped \
+             ({what})"
+        ),
+        floor: Some(floor),
+        record: steady,
+        periods,
+        realisations: None,
+    })
+}
+
+/// The record of `p` periods without the first `--skip-periods`, and the number of
+/// periods left.
+fn steady_periods(
+    args: &CommonArgs,
+    record: &TimeData<f64>,
+    p: usize,
+) -> Result<(TimeData<f64>, usize), Failure> {
+    let n = record.len();
+    if p == 0 {
+        return Err(Failure::usage(
+            "invalid --periods 0: at least one period is needed".into(),
+        ));
+    }
+    if !n.is_multiple_of(p) {
+        return Err(Failure::runtime(format!(
+            "--periods {p}: the record of {n} samples is not a whole number of {p} periods"
+        )));
+    }
+    let k = args.skip_periods;
+    if k >= p {
+        return Err(Failure::usage(format!(
+            "--skip-periods {k} leaves no period of the {p} (--periods {p})"
+        )));
+    }
+    let m = n / p;
+    Ok((record.skip_samples(k * m)?, p - k))
+}
+
+/// Checks that the input of `record` repeats over its `periods` periods (to
+/// [`PERIODICITY_TOLERANCE`], see [`TimeData::period_mismatch`]) and returns the ratio
+/// (`None` for one period); `realisation`: which realisation the record is.
+fn check_repeats(
+    args: &CommonArgs,
+    record: &TimeData<f64>,
+    periods: usize,
+    realisation: Option<usize>,
+) -> Result<Option<f64>, Failure> {
+    if periods < 2 {
+        return Ok(None);
+    }
+    let ratio = record.period_mismatch(periods)?;
+    if ratio <= PERIODICITY_TOLERANCE {
+        return Ok(Some(ratio));
+    }
+    let p = args.periods.unwrap_or(periods);
+    let level = if ratio.is_finite() {
+        format!("{:.1} dB of", 10.0 * ratio.log10())
+    } else {
+        "more power than".to_string()
+    };
+    let whose = match realisation {
+        Some(r) => format!("realisation {} of the record", r + 1),
+        None => "the record".to_string(),
+    };
+    let hint = match realisation {
+        Some(_) => "check --realisations and --periods".to_string(),
+        None => format!(
+            "if the {p} blocks are different realisations (new random phases, not periods), \
+             use --realisations {p}"
+        ),
+    };
+    Err(Failure::runtime(format!(
+        "--periods {p}: the input of {whose} does not repeat from period to period: the \
+         part that differs between periods has {level} the power of the part that repeats \
+         (tolerance {:.0} dB); {hint}",
+        10.0 * PERIODICITY_TOLERANCE.log10()
+    )))
+}
+
+/// `, input repeats to X dB` for the ratio of [`check_repeats`], empty without one.
+fn repeats_text(ratio: Option<f64>) -> String {
+    match ratio {
+        Some(r) if r > 0.0 => format!(", input repeats to {:.1} dB", 10.0 * r.log10()),
+        Some(_) => ", input repeats exactly".into(),
+        None => String::new(),
+    }
+}
+
+/// The BLA over `m` realisations (`--realisations`), each of `--periods` periods (default
+/// 1) without the first `--skip-periods`, weighted by the total variance.
+fn realisation_lines(
+    args: &CommonArgs,
+    record: &TimeData<f64>,
+    m: usize,
+    noise_model: bool,
+    notes: &mut Vec<String>,
+    model_ts: Option<f64>,
+) -> Result<TimeLines, Failure> {
+    if m == 0 {
+        return Err(Failure::usage(
+            "invalid --realisations 0: at least one realisation is needed".into(),
+        ));
+    }
+    if noise_model || args.transient || args.lines == LinesArg::All {
+        let flag = if noise_model {
+            "--noise-order"
+        } else if args.transient {
+            "--transient"
+        } else {
+            "--lines all"
+        };
+        return Err(Failure::usage(format!(
+            "--realisations {m} cannot be combined with {flag}: the best linear \
+             approximation of periodic realisations exists at the excited lines only, \
+             without transient or noise model"
+        )));
+    }
+    let n = record.len();
+    if !n.is_multiple_of(m) {
+        return Err(Failure::runtime(format!(
+            "--realisations {m}: the record of {n} samples does not split into {m} equal \
+             realisations"
+        )));
+    }
+    let p = args.periods.unwrap_or(1);
+    let mut records = Vec::with_capacity(m);
+    let mut kept = p;
+    let mut worst: Option<f64> = None;
+    for (r, block) in record.split_blocks(m)?.iter().enumerate() {
+        let (steady, k) = steady_periods(args, block, p)?;
+        if let Some(ratio) = check_repeats(args, &steady, k, Some(r))? {
+            worst = Some(worst.map_or(ratio, |w| w.max(ratio)));
+        }
+        records.push(steady);
+        kept = k;
+    }
+    let bla = RealisationBla::new(&records, kept, EXCITATION_FRACTION)?;
+    let data = bla.total_data()?;
+    let noise_data = bla.noise_data().transpose()?;
+    match (bla.total_variance().is_some(), kept >= 2) {
+        (true, false) => notes.push(
+            "one period per realisation: the noise and the nonlinear distortion cannot be \
+             separated; the total variance (between realisations) holds both"
+                .into(),
+        ),
+        (false, _) => notes.push(
+            "one realisation: no total variance; the stochastic nonlinear distortion (if \
+             any) is not in the weighting"
+                .into(),
+        ),
+        (true, true) => {}
+    }
+    if let Some(test) = bla.spread_test() {
+        notes.push(format!(
+            "total variance (between realisations) {:+.1} dB relative to the noise variance \
+             (between periods), p = {:.3e}{}",
+            test.total_to_noise_db,
+            test.p_value,
+            if test.p_value < 0.01 {
+                ": nonlinear distortion; the fit is the best linear approximation"
+            } else {
+                ": consistent with noise only"
+            }
+        ));
+    }
+    let len = records[0].len();
+    let skipped = if args.skip_periods > 0 {
+        format!(" ({} skipped)", args.skip_periods)
+    } else {
+        String::new()
+    };
+    let source = format!(
+        "time record, {n} samples, Ts = {} s, {m} realisation{} x {kept} period{} of {} \
+         samples{skipped}{}; best linear approximation on {} lines excited in every \
+         realisation",
+        record.ts(),
+        if m == 1 { "" } else { "s" },
+        if kept == 1 { "" } else { "s" },
+        len / kept,
+        repeats_text(worst),
+        bla.lines().len(),
+    );
+    Ok(TimeLines {
+        data,
+        ts: model_ts,
+        source,
+        floor: None,
+        record: record.clone(),
+        periods: None,
+        realisations: Some(Realisations {
+            bla,
+            records,
+            noise_data,
+        }),
+    })
 }
 
 /// The lines `--band` keeps, with the description of the source extended by it.
@@ -251,34 +589,6 @@ fn band(
         banded.len()
     ));
     Ok((banded, source))
-}
-
-/// Drops the DC line and, unless `keep_unexcited`, every line with an exactly zero input
-/// spectrum; fails when the input is zero on every line above DC.
-fn drop_uninformative(
-    data: FrequencyData<f64>,
-    keep_unexcited: bool,
-) -> Result<FrequencyData<f64>, Failure> {
-    let excited = |w: f64, u: &Complex<f64>| w > 0.0 && u.norm_sqr() > 0.0;
-    if !data
-        .omega()
-        .iter()
-        .zip(data.u())
-        .any(|(w, u)| excited(*w, u))
-    {
-        return Err(Failure::runtime(
-            "the input spectrum is zero on every line above DC: the record carries no \
-             information about the system"
-                .into(),
-        ));
-    }
-    let keep: Vec<bool> = data
-        .omega()
-        .iter()
-        .zip(data.u())
-        .map(|(w, u)| excited(*w, u) || (keep_unexcited && *w > 0.0))
-        .collect();
-    select(&data, &keep)
 }
 
 /// The lines where `keep` is true, with their noise variances and sample time.

@@ -15,7 +15,7 @@ use super::args::DiagnoseArgs;
 use super::data::{self, Prepared};
 use super::report::{g, num};
 use super::{Failure, Report, check_combinations, check_data_kind, check_orders};
-use fdid::data::Lpm;
+use fdid::data::{DistortionAnalysis, Lpm};
 use fdid::estimate::{Method, ModelSpec, Stability};
 use fdid::prelude::*;
 use fdid::workflow::Report as WorkflowReport;
@@ -40,6 +40,16 @@ pub enum NoiseReference {
         /// Residual degrees of freedom q of each line's variance.
         dof: usize,
     },
+    /// The best linear approximation over `realisations` realisations of `periods`
+    /// periods: with `periods ≥ 2` the noise variance between periods (the
+    /// nonlinear-distortion detector compares it with the total variance between
+    /// realisations); with one period the total variance, noise and distortion together.
+    Realisations {
+        /// Number of realisations R.
+        realisations: usize,
+        /// Number of periods P averaged per realisation.
+        periods: usize,
+    },
     /// Nothing known: λ is estimated from the residuals; `why` says why no better
     /// reference exists.
     Estimated {
@@ -49,12 +59,13 @@ pub enum NoiseReference {
 }
 
 impl NoiseReference {
-    /// The JSON name: `periods`, `given`, `lpm` or `estimated`.
+    /// The JSON name: `periods`, `given`, `lpm`, `realisations` or `estimated`.
     pub fn name(&self) -> &'static str {
         match self {
             Self::Periods(_) => "periods",
             Self::Given => "given",
             Self::Lpm { .. } => "lpm",
+            Self::Realisations { .. } => "realisations",
             Self::Estimated { .. } => "estimated",
         }
     }
@@ -70,6 +81,27 @@ impl NoiseReference {
             Self::Lpm { dof } => format!(
                 "local polynomial method (dof {dof}): per-line output noise variances from \
                  local polynomial fits of G and the transient over neighbouring lines"
+            ),
+            Self::Realisations {
+                realisations,
+                periods,
+            } if *periods >= 2 && *realisations >= 2 => format!(
+                "realisations: the BLA over {realisations} realisations, weighted by its noise \
+                 variance between {periods} periods; the total variance between realisations \
+                 (noise + nonlinear distortion) is the nonlinear_distortion detector's reference"
+            ),
+            Self::Realisations {
+                realisations,
+                periods,
+            } if *realisations >= 2 => format!(
+                "realisations: the BLA over {realisations} realisations of {periods} period, \
+                 weighted by its total variance between realisations; with one period the \
+                 noise and the nonlinear distortion cannot be separated"
+            ),
+            Self::Realisations { periods, .. } => format!(
+                "realisations: one realisation, the noise variance between {periods} periods; \
+                 without a second realisation the nonlinear distortion at the excited lines \
+                 is not seen"
             ),
             Self::Estimated { why } => format!(
                 "estimated: lambda from the residuals ({why}); the cost test is skipped and \
@@ -152,7 +184,7 @@ pub fn diagnose(args: &DiagnoseArgs) -> Result<String, Failure> {
             ))
         })?;
     }
-    let noise = noise_reference(c.periods, &mut prepared);
+    let noise = noise_reference(prepared.periods, &mut prepared);
     let (ctx, context) = context(args, &prepared);
     let workflow = Workflow {
         max_steps: args.max_steps,
@@ -211,7 +243,13 @@ fn check_usage(args: &DiagnoseArgs) -> Result<(), Failure> {
 /// What the data are (periodic record, one non-periodic record, frequency data): the
 /// workflow's context at `--alpha`, and its description.
 fn context(args: &DiagnoseArgs, prepared: &Prepared) -> (Context, &'static str) {
-    match (prepared.time_record, args.common.periods) {
+    if let Some(r) = &prepared.realisations {
+        return (
+            realisations_context(args.alpha, r, &prepared.data),
+            "periodic realisations (the best linear approximation at the excited lines)",
+        );
+    }
+    match (prepared.time_record, prepared.periods) {
         (true, Some(p)) => {
             // with two or more periods the measurement-level detectors (input noise,
             // time variation) see the record; a record they cannot use leaves them out
@@ -240,10 +278,60 @@ fn context(args: &DiagnoseArgs, prepared: &Prepared) -> (Context, &'static str) 
     }
 }
 
+/// The workflow's context for the BLA of several realisations: periodic, with the
+/// distortion analysis of the realisations (their spread against the noise between
+/// periods, and the detection lines when the band holds some) at the fitted lines `data`,
+/// when there are two or more realisations of two or more periods.
+fn realisations_context(alpha: f64, r: &data::Realisations, data: &FrequencyData<f64>) -> Context {
+    let plain = Context::periodic(alpha);
+    if r.bla.realisations() < 2 || r.bla.periods() < 2 {
+        return plain;
+    }
+    let fitted = data.omega();
+    let (Some(lo), Some(hi)) = (fitted.first(), fitted.last()) else {
+        return plain;
+    };
+    let lines: Vec<usize> = r
+        .bla
+        .lines()
+        .iter()
+        .zip(r.bla.omega())
+        .filter(|(_, w)| *w >= lo && *w <= hi)
+        .map(|(k, _)| *k)
+        .collect();
+    let (Some(first), Some(last)) = (lines.first(), lines.last()) else {
+        return plain;
+    };
+    match DistortionAnalysis::from_realisations(
+        &r.records,
+        r.bla.periods(),
+        &lines,
+        [*first, *last],
+    ) {
+        Ok(analysis) => plain.with_distortion(analysis),
+        Err(_) => plain,
+    }
+}
+
 /// Attaches the best available noise reference to the data and says which it is: the
 /// data's own variances (periods or file), else for a time record the local polynomial
 /// method, else none (λ estimated).
 fn noise_reference(periods: Option<usize>, prepared: &mut Prepared) -> NoiseReference {
+    if let Some(r) = &prepared.realisations {
+        let (realisations, periods) = (r.bla.realisations(), r.bla.periods());
+        if realisations >= 2
+            && let Some(noise_data) = &r.noise_data
+        {
+            prepared.data = noise_data.clone();
+            prepared.weighting = "1/sigma_k from the noise variance of the BLA between periods \
+                                  (the total variance is the distortion detector's reference)"
+                .into();
+        }
+        return NoiseReference::Realisations {
+            realisations,
+            periods,
+        };
+    }
     if prepared.data.noise().is_some() {
         return match periods {
             Some(p) if prepared.time_record && p >= 2 => NoiseReference::Periods(p),
@@ -479,7 +567,7 @@ impl Diagnosis {
         if let Some(last) = fits.last_mut() {
             *last = report.final_fit;
         }
-        let non_periodic = args.common.periods.is_none();
+        let non_periodic = prepared.periods.is_none() && prepared.realisations.is_none();
         Ok(Self {
             alpha: args.alpha,
             max_steps: args.max_steps,

@@ -293,6 +293,8 @@ pub struct Report {
     criterion_description: String,
     file: String,
     source: String,
+    /// Time records: how many of the fitted lines the input excites.
+    lines_excited: Option<usize>,
     weighting: String,
     notes: Vec<String>,
     f_hz: Vec<f64>,
@@ -408,6 +410,7 @@ impl Report {
             criterion_description: parts.description,
             file: file.to_string(),
             source: prepared.source.clone(),
+            lines_excited: prepared.lines_excited,
             weighting: parts
                 .weighting
                 .unwrap_or_else(|| prepared.weighting.clone()),
@@ -716,6 +719,7 @@ impl Report {
             "ts": self.ts().map_or(Value::Null, num),
             "criterion": self.criterion,
             "lines": self.f_hz.len(),
+            "lines_excited": self.lines_excited,
             "gain": num(self.gain),
             "stable": self.stable,
             "theta": nums(&self.theta),
@@ -789,8 +793,10 @@ impl Report {
         );
         let _ = writeln!(
             w,
-            "lines        {} used, {} .. {} Hz",
+            "lines        {} used{}, {} .. {} Hz",
             self.f_hz.len(),
+            self.lines_excited
+                .map_or(String::new(), |e| format!(" ({e} excited)")),
             g(fmin),
             g(fmax)
         );

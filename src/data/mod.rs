@@ -2,6 +2,7 @@
 //! frequency-domain data with band selection and merging of experiments.
 
 mod distortion;
+mod excitation;
 mod frequency;
 mod grid;
 mod lpm;
@@ -11,7 +12,10 @@ mod time;
 mod weighting;
 
 pub(crate) use distortion::check_band_order;
-pub use distortion::{DetectionLine, DetectionTest, DistortionAnalysis};
+pub use distortion::{
+    DetectionLine, DetectionTest, DistortionAnalysis, RealisationBla, SpreadTest,
+};
+pub use excitation::{EXCITATION_FRACTION, PERIODICITY_TOLERANCE};
 pub use frequency::{FrequencyData, NoiseVariances};
 pub use grid::{SAMPLE_TIME_TOLERANCE, nyquist_slack};
 pub use lpm::{Lpm, LpmEstimate, lpm};

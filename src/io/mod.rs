@@ -1,7 +1,9 @@
 //! Readers for the data files of the `fdid` command (feature `csv`).
 //!
 //! A CSV file holds one [`Measurement`]: frequency-domain data (an FRF or input/output
-//! spectra) or a uniformly sampled time record. See [`parse_csv`] for the format. A
+//! spectra) or a uniformly sampled time record. See [`parse_csv`] for the format. A raw
+//! table of several channels (a benchmark file, a DaISy `.dat` file) gives a time record
+//! of one input and one output column: [`read_channels`]. A
 //! Touchstone `.s1p`/`.s2p` (version 1 or 2.0) or `.ts` (version 2.0) file holds the
 //! network parameters of a 1- or 2-port; see
 //! [`parse_touchstone`], and [`Touchstone::frequency_data`] for one entry as an FRF.
@@ -9,7 +11,7 @@
 mod csv;
 mod touchstone;
 
-pub use self::csv::{parse_csv, read_csv};
+pub use self::csv::{ChannelSelection, Column, parse_channels, parse_csv, read_channels, read_csv};
 pub use self::touchstone::{
     NetworkParameter, NumberFormat, Touchstone, TouchstoneVersion, is_touchstone, parse_touchstone,
     parse_touchstone_v2, read_touchstone, touchstone_ports,

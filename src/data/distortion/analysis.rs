@@ -4,6 +4,7 @@
 use super::bla::{Bla, interpolate_levels};
 use super::line_plan::LinePlan;
 use super::noise_of;
+use super::realisations::SpreadTest;
 use super::statistics::{DetectionLine, DetectionTest, detect};
 use crate::data::{FrequencyData, NoiseVariances, PeriodicAverage, TimeData};
 use crate::error::{FdidError, Result};
@@ -102,6 +103,7 @@ pub struct DistortionAnalysis<T: Real> {
     even: Option<DetectionTest>,
     output_power: f64,
     noise_power: f64,
+    spread: Option<SpreadTest>,
 }
 
 impl<T: Real> DistortionAnalysis<T> {
@@ -144,6 +146,10 @@ impl<T: Real> DistortionAnalysis<T> {
     /// - [`FdidError::TooShort`] when `records` is empty;
     /// - [`FdidError::LengthMismatch`] when the records differ in length;
     /// - [`FdidError::InvalidArgument`] named `"ts"` when they differ in sample time.
+    ///
+    /// With `R ≥ 2` a band without detection lines is accepted (a full multisine): the
+    /// [`DistortionAnalysis::spread_test`] of the total against the noise variance then
+    /// still detects the stochastic nonlinear distortion.
     pub fn from_realisations(
         records: &[TimeData<T>],
         periods: usize,
@@ -186,7 +192,7 @@ impl<T: Real> DistortionAnalysis<T> {
             .map(|r| PeriodicAverage::new(r, periods))
             .collect::<Result<Vec<_>>>()?;
         let m = averages[0].period_len();
-        let plan = LinePlan::new(m, excited, band)?;
+        let plan = LinePlan::new(m, excited, band, records.len() >= 2)?;
         assemble(&averages, &plan, periods, band, first.ts())
     }
 
@@ -296,6 +302,14 @@ impl<T: Real> DistortionAnalysis<T> {
     /// band has no even detection line.
     pub fn even(&self) -> Option<&DetectionTest> {
         self.even.as_ref()
+    }
+
+    /// With `R ≥ 2` realisations, the test of the total variance of the BLA (between
+    /// realisations) against its noise variance (between periods): the stochastic
+    /// nonlinear distortion at the excited lines themselves ([`SpreadTest`]); `None` for
+    /// one realisation. [`DistortionAnalysis::is_nonlinear`] does not include it.
+    pub fn spread_test(&self) -> Option<&SpreadTest> {
+        self.spread.as_ref()
     }
 
     /// Output power at the excited lines, `P_Y = mean_k |Ȳ_k|²` (the reference of the dB
@@ -422,6 +436,11 @@ fn assemble<T: Real>(
         even: even.test,
         output_power: bla.output_power,
         noise_power,
+        spread: if averages.len() >= 2 {
+            SpreadTest::new(&total_var, &bla.noise_variance, averages.len(), periods)
+        } else {
+            None
+        },
     })
 }
 

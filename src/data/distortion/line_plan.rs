@@ -13,8 +13,15 @@ pub(super) struct LinePlan {
 }
 
 impl LinePlan {
-    /// The plan of the band `band` of a period of `m` samples excited at `excited`.
-    pub(super) fn new(m: usize, excited: &[usize], band: [usize; 2]) -> Result<Self> {
+    /// The plan of the band `band` of a period of `m` samples excited at `excited`;
+    /// `detection_optional`: a band without detection lines is accepted (several
+    /// realisations give a test of their own).
+    pub(super) fn new(
+        m: usize,
+        excited: &[usize],
+        band: [usize; 2],
+        detection_optional: bool,
+    ) -> Result<Self> {
         if excited.is_empty() {
             return Err(FdidError::TooShort {
                 what: "excited lines",
@@ -63,7 +70,7 @@ impl LinePlan {
             .filter(|&k| !is_excited[k] && k % 2 == 1)
             .collect();
         let even: Vec<usize> = in_band.filter(|&k| !is_excited[k] && k % 2 == 0).collect();
-        if odd.is_empty() && even.is_empty() {
+        if odd.is_empty() && even.is_empty() && !detection_optional {
             return Err(FdidError::TooShort {
                 what: "detection (non-excited) lines in the band",
                 needed: 1,

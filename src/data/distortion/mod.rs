@@ -27,10 +27,12 @@
 mod analysis;
 mod bla;
 mod line_plan;
+mod realisations;
 mod statistics;
 
 pub use analysis::DistortionAnalysis;
 pub(crate) use line_plan::check_band_order;
+pub use realisations::{RealisationBla, SpreadTest};
 pub use statistics::{DetectionLine, DetectionTest};
 
 use crate::data::{NoiseVariances, PeriodicAverage};

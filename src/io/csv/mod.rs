@@ -1,8 +1,11 @@
 //! The CSV file contract of the `fdid` command.
 
+mod channels;
 mod checks;
 mod header;
 mod records;
+
+pub use self::channels::{ChannelSelection, Column, parse_channels, read_channels};
 
 use self::checks::{check_frequencies, check_time_grid};
 use self::header::{Kind, Layout};

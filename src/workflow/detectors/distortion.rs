@@ -12,8 +12,12 @@ use std::sync::Arc;
 /// The test is that of [`DistortionAnalysis`]: at the odd and, separately, the even
 /// detection lines each |Ȳ_k|²/σ̂²_k ~ F(2, 2(P − 1)) under "noise only" (the linear data
 /// model of McKelvey eq. 19), combined by Fisher's method into an exact p-value per kind;
-/// the finding's p-value is the smaller one times the number m ≤ 2 of kinds tested
-/// (Bonferroni), its statistic the Fisher statistic of that kind. The analysis is the
+/// with several phase realisations also the spread of the BLA between realisations
+/// against its noise variance between periods
+/// ([`DistortionAnalysis::spread_test`](crate::data::DistortionAnalysis::spread_test): the
+/// stochastic nonlinear contribution changes between realisations, not between periods);
+/// the finding's p-value is the smallest one times the number m ≤ 3 of tests
+/// (Bonferroni), its statistic the Fisher statistic of that test. The analysis is the
 /// [`Context`]'s ([`Context::with_distortion`], e.g. over several phase realisations) or
 /// else built from its periodic record ([`Context::with_record`]) with the fitted lines as
 /// the excited lines and the band they span.
@@ -28,8 +32,12 @@ use std::sync::Arc;
 /// judged against "noise + nonlinear distortion": the residual that remains is
 /// distortion, not a model error, and the workflow reports the effect as unmodelled. The
 /// step is accepted on this test alone (the nested likelihood-ratio test does not apply:
-/// the model does not change). The fitted data must be the averaged spectra of one
-/// realisation (the record's).
+/// the model does not change). With one realisation the fitted data must be the averaged
+/// spectra of that realisation (the record's). With several realisations the fitted data
+/// are the BLA (`Y = Ĝ`, `U = 1`) weighted by its noise variance between periods, and the
+/// remedy puts the total variance between realisations, `|U_k|² σ̂²_Ĝ,k`, in its place
+/// (noise + nonlinear distortion); `distortion_to_noise_db` is then that of the nonlinear
+/// variance (total − noise).
 ///
 /// Applies to output-error or EIV fits with given noise variances; `None` without an
 /// analysis or record, when a fitted line is not an excited line of the analysis, or when
@@ -82,19 +90,39 @@ impl Detector for NonlinearDistortion {
     fn detect(&self, data: &FrequencyData<f64>, fit: &SpecFit, ctx: &Context) -> Option<Finding> {
         let noise = data.noise()?;
         let (analysis, index) = Self::analysis(fit, ctx)?;
-        let tests: Vec<_> = [analysis.odd(), analysis.even()]
+        // (p-value, statistic) of each test: odd and even detection lines, and with several
+        // realisations their spread against the noise
+        let tests: Vec<(f64, f64)> = [analysis.odd(), analysis.even()]
             .into_iter()
             .flatten()
+            .map(|t| (t.p_value(), t.fisher_statistic))
+            .chain(
+                analysis
+                    .spread_test()
+                    .map(|t| (t.p_value, t.fisher_statistic)),
+            )
             .collect();
-        let best = tests
-            .iter()
-            .min_by(|a, b| a.p_value().total_cmp(&b.p_value()))?;
-        let p_value = (best.p_value() * tests.len() as f64).min(1.0);
-        let distortion_to_noise_db = analysis.excited_distortion_power().and_then(|ds| {
-            let d = index.iter().map(|i| ds[*i]).sum::<f64>() / index.len() as f64;
-            let v = noise.var_y.iter().sum::<f64>() / noise.var_y.len() as f64;
-            (d > 0.0 && v > 0.0).then(|| 10.0 * (d / v).log10())
-        });
+        let best = tests.iter().min_by(|a, b| a.0.total_cmp(&b.0))?;
+        let p_value = (best.0 * tests.len() as f64).min(1.0);
+        let v = noise.var_y.iter().sum::<f64>() / noise.var_y.len() as f64;
+        let distortion_to_noise_db = if analysis.realisations() >= 2 {
+            // the nonlinear variance of the BLA (total − noise) at the fitted lines, as output
+            // power |U_k|² σ²_Ĝ,S,k
+            analysis.bla_nonlinear_variance().and_then(|nl| {
+                let d = index
+                    .iter()
+                    .zip(data.u())
+                    .map(|(i, u)| nl[*i] * u.norm_sqr())
+                    .sum::<f64>()
+                    / index.len() as f64;
+                (d > 0.0 && v > 0.0).then(|| 10.0 * (d / v).log10())
+            })
+        } else {
+            analysis.excited_distortion_power().and_then(|ds| {
+                let d = index.iter().map(|i| ds[*i]).sum::<f64>() / index.len() as f64;
+                (d > 0.0 && v > 0.0).then(|| 10.0 * (d / v).log10())
+            })
+        };
         let detail = NonlinearDistortionDetail {
             odd_p: analysis.odd().map(|t| t.p_value()),
             odd_db: analysis.odd().and_then(|t| t.distortion_db),
@@ -106,7 +134,7 @@ impl Detector for NonlinearDistortion {
         };
         Some(Finding {
             effect: Effect::NonlinearDistortion,
-            statistic: best.fisher_statistic,
+            statistic: best.1,
             p_value,
             detail: Detail::NonlinearDistortion(detail),
             proposal: fit.spec.clone(),
@@ -123,7 +151,13 @@ impl Detector for NonlinearDistortion {
         let noise = data.noise()?;
         let (analysis, index) = Self::analysis(fit, ctx)?;
         let mut var_y = noise.var_y.clone();
-        if let Some(ds) = analysis.excited_distortion_power() {
+        if analysis.realisations() >= 2 {
+            // the total variance of the BLA (between realisations), as output variance
+            let total = analysis.bla_total_variance();
+            for ((v, i), u) in var_y.iter_mut().zip(&index).zip(data.u()) {
+                *v = v.max(total[*i] * u.norm_sqr());
+            }
+        } else if let Some(ds) = analysis.excited_distortion_power() {
             for (v, i) in var_y.iter_mut().zip(&index) {
                 *v += ds[*i].max(0.0);
             }
