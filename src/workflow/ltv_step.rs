@@ -61,7 +61,7 @@ pub struct LtvStep {
     pub cost_after: f64,
     /// The fit of the chosen N_p (orders, θ̂, singular values, lines).
     pub fit: LtvFit<f64>,
-    /// The instants t* (s from the first sample): [`INSTANTS`] evenly spaced from the
+    /// The instants t* (s from the first sample): 11 evenly spaced from the
     /// first sample to the last, (N − 1)T_s.
     pub instants: Vec<f64>,
     /// The frozen poles (rad/s) at each instant (eq. 4), sorted by imaginary then real
@@ -76,7 +76,7 @@ pub struct LtvStep {
 /// alias polynomial of order N_tr = 2 max(N_α, N_β) + 1.
 ///
 /// The order N_p of the coefficients in t: N_p = 0, 1, … up to
-/// min([`MAX_TIME_ORDER`], ⌊√N⌋) are fitted ([`LtvOde::fit`]); their TLS costs
+/// min(3, ⌊√N⌋) are fitted ([`LtvOde::fit`]); their TLS costs
 /// V(N_p) = σ²_min are nested (the columns of N_p − 1 are those of N_p with the same unit
 /// scaling, so V cannot grow with N_p). N_p grows while the F test
 ///
