@@ -17,10 +17,11 @@ Examples:
   fdid diagnose data/dryer.csv --domain z --na 2 --nb 2 --report report
   fdid fit data/rlc_bandpass.s2p --domain s --na 2 --nb 1 --port 21 --save rlc.json
   fdid eval rlc.json --freq 1e6:1e7:20
+  fdid ltv record.csv --na 2 --nb 0 --np 1 --band :1
 
 Run `fdid fit --help` for the data file formats (CSV, Touchstone .s1p/.s2p/.ts) and every
 option, `fdid diagnose --help` for the discrepancy workflow, `fdid eval --help` for saved
-models.";
+models, `fdid ltv --help` for time-varying systems.";
 
 const FIT_HELP: &str = "\
 Data files (CSV, header names the columns, any order, case-insensitive; `#` lines are comments):
@@ -156,7 +157,14 @@ residuals are consistent with the noise), or with
    \"noise_reference\":\"periods\"|\"given\"|\"lpm\"|\"realisations\"|\"estimated\",
    \"initial\":{..}, \"final\":{..}}
 where initial and final hold the keys of `fdid fit --json` for the starting and the final
-model. --report DIR writes report.txt, report.json and, when built with the `plot` feature
+model. When time_variation is named on a continuous-time spec (--domain s) of a time
+record, the time-varying ODE of `fdid ltv` is fitted with the spec's orders (N_p = 0..3
+raised while the F test on the TLS costs is below --alpha and the two smallest singular
+values stay a factor 3 apart; Legendre bases, N_tr = 2 max(na, nb) + 1, every DFT
+line of the record in the fitted band): a report section shows the gap V(0) -> V(N_p) and
+the instantaneous poles at 11 instants, and the JSON key \"time_varying_ode\" holds
+{\"n_p\", \"candidates\", \"cost_before\", \"cost_after\", \"instantaneous\":[{\"t\",
+\"poles\"},..], ..} (null otherwise). --report DIR writes report.txt, report.json and, when built with the `plot` feature
 (on by default), bode.svg (data Y/U, initial and final model, noise level) and
 residuals.svg (|r_k| of the initial and final fits with the 1 and alpha levels).
 
@@ -185,6 +193,48 @@ Examples:
   fdid eval eis.json --freq 0.01:1000:50
   fdid eval eis.json --freq 1,10,100 --json";
 
+const LTV_HELP: &str = "\
+The Lataire-Pintelon estimator of a continuous-time, time-varying system from one t,u,y
+record (J. Lataire and R. Pintelon, Frequency domain total least squares estimator of
+time-varying systems). The model is the ODE with coefficients polynomial in time,
+  sum_{n=0}^{na} alpha_n(t) d^n y/dt^n = sum_{n=0}^{nb} beta_n(t) d^n u/dt^n,
+  alpha_n(t) = sum_{p=0}^{np} alpha~_{n,p} b_p(t),  beta_n(t) likewise,
+written in the frequency domain on the DFT lines k of --band (eqs. 11, 15: products with
+b_p(t) by iDFT/DFT) with a transient + alias polynomial I(w_k) = sum_m gamma_m Phi_m(w_k)
+of order --ntr (eq. 18). theta is the right singular vector of the smallest singular value
+of the real-stacked regressor with unit-norm columns (total least squares, eq. 19),
+normalised so that a_na(T/2) = 1 (T = N Ts). --basis legendre (default) uses
+b_p(t) = P_p(2t/T - 1) and Psi_n(jw) = j^(n mod 2) P_n(w/w_max), w_max the band's top
+line (eq. 20); --basis monomial uses t^p (t from the first sample) and s^n.
+
+The instantaneous (frozen) system at t* is G_t*(s) = B(s)/A(s), A(s) = sum alpha_n(t*)
+Psi_n(s), B likewise (eq. 4); its poles are the roots of A. It is reported at 11 evenly
+spaced instants from the first to the last sample.
+
+Identifiability: orders above the system's (e.g. --np above its time variation) leave a
+null space of more than one dimension (the ODE times any polynomial c(t) fits as well);
+then the two smallest singular values are close, and the text report warns when their
+ratio is below 3.
+
+Output: the record, orders and bases, the lines used, the TLS cost V = sigma_min^2, the
+smallest singular values and the gap sigma_(p-1)/sigma_p, the instantaneous poles (rad/s,
+natural frequency f_n in Hz, damping ratio) at the 11 instants, and theta. With --json
+one JSON object:
+  {\"theta\":[..], \"singular_values\":[..] (largest first),
+   \"instantaneous\":[{\"t\":x, \"poles\":[[re,im],..], \"frf\":[[f_hz,re,im],..]},..]}
+with t in the time of the file's t column (s), poles in rad/s, frf the frozen FRF on the
+band's DFT lines.
+
+Errors are reported on one line starting with `error:`; the exit status is 1 for bad
+data or a failed fit and 2 for bad usage (a frequency file, an empty band, --np above
+floor(sqrt(N)), fewer real equations 2L than parameters
+(na + 1 + nb + 1)(np + 1) + ntr + 1).
+
+Examples:
+  fdid ltv record.csv --na 2 --nb 0 --np 1 --band :1
+  fdid ltv record.csv --na 2 --nb 1 --np 2 --ntr 5 --band 0.01:1 --json
+  fdid ltv record.csv --na 1 --nb 0 --np 1 --basis monomial";
+
 /// Frequency-domain system identification: fit rational transfer functions in s or z to
 /// measured frequency responses (CSV or Touchstone), spectra or time records.
 #[derive(Debug, Parser)]
@@ -211,6 +261,11 @@ pub enum Command {
     /// its standard deviation from the covariance of theta, as CSV f,re,im,std.
     #[command(after_help = EVAL_HELP)]
     Eval(EvalArgs),
+    /// Fit a continuous-time, time-varying ODE (Lataire-Pintelon: coefficients polynomial
+    /// in time, frequency-domain total least squares) to a t,u,y record and print the
+    /// instantaneous poles and FRF at 11 instants over the record.
+    #[command(after_help = LTV_HELP)]
+    Ltv(LtvArgs),
 }
 
 /// The data file, how it is prepared, and the model structure: the options `fdid fit` and
@@ -420,6 +475,54 @@ pub struct DiagnoseArgs {
     pub stable: bool,
 }
 
+/// Options of `fdid ltv`.
+#[derive(Debug, Args)]
+pub struct LtvArgs {
+    /// Time record: CSV with columns t,u,y (uniform t in s)
+    #[arg(value_name = "DATA")]
+    pub data: PathBuf,
+
+    /// N_alpha: highest derivative of y in the ODE (instantaneous poles), 1 to 100
+    #[arg(long, value_name = "N")]
+    pub na: usize,
+
+    /// N_beta: highest derivative of u in the ODE, at most 100
+    #[arg(long, value_name = "M")]
+    pub nb: usize,
+
+    /// N_p: order in t of every coefficient alpha_n(t), beta_n(t) (0: time-invariant), at
+    /// most floor(sqrt(N)) for N samples
+    #[arg(long, value_name = "P")]
+    pub np: usize,
+
+    /// N_tr: order of the transient + alias polynomial (default max(na, nb) - 1)
+    #[arg(long, value_name = "K")]
+    pub ntr: Option<usize>,
+
+    /// Time and frequency bases: legendre (shifted Legendre polynomials in t on the record,
+    /// Legendre in w/w_max with w_max the band edge) or monomial (t^p and s^n)
+    #[arg(long, value_enum, default_value_t = LtvBasisArg::Legendre)]
+    pub basis: LtvBasisArg,
+
+    /// DFT lines with FMIN <= f <= FMAX (Hz) the ODE is evaluated on; either side may be
+    /// empty (`:2`, `0.1:`). Default: every line from DC to Nyquist
+    #[arg(long, value_name = "FMIN:FMAX", allow_hyphen_values = true)]
+    pub band: Option<String>,
+
+    /// Print one JSON object instead of text
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// Bases of `fdid ltv`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum LtvBasisArg {
+    /// Shifted Legendre polynomials in t, Legendre in w/w_max in frequency (eq. 20)
+    Legendre,
+    /// Monomials t^p and s^n (eqs. 1-2)
+    Monomial,
+}
+
 /// Model domain.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
 pub enum DomainArg {
@@ -544,10 +647,10 @@ pub fn clap_failure(e: clap::Error) -> ExitCode {
     }
     let msg = parts.join(" ");
     let msg = msg.strip_prefix("error:").unwrap_or(&msg).trim();
-    let command = if std::env::args().nth(1).as_deref() == Some("diagnose") {
-        "diagnose"
-    } else {
-        "fit"
+    let command = match std::env::args().nth(1).as_deref() {
+        Some("diagnose") => "diagnose",
+        Some("ltv") => "ltv",
+        _ => "fit",
     };
     eprintln!("error: {msg} (see `fdid {command} --help`)");
     ExitCode::from(2)

@@ -151,6 +151,9 @@ struct Diagnosis {
     named: Vec<Finding>,
     initial: Report,
     last: Report,
+    /// The time-varying ODE fitted after naming time variation on a continuous-time spec,
+    /// with the time of the record's first sample (s).
+    ltv: Option<(fdid::workflow::LtvStep, f64)>,
     /// The data the workflow ran on (for the figures).
     #[cfg_attr(not(feature = "plot"), allow(dead_code))]
     prepared: Prepared,
@@ -568,7 +571,9 @@ impl Diagnosis {
             *last = report.final_fit;
         }
         let non_periodic = prepared.periods.is_none() && prepared.realisations.is_none();
+        let t0 = super::ltv::first_time(&args.common.data).unwrap_or(0.0);
         Ok(Self {
+            ltv: report.ltv.map(|step| (step, t0)),
             alpha: args.alpha,
             max_steps: args.max_steps,
             context,
@@ -672,6 +677,10 @@ impl Diagnosis {
             },
             "initial": self.initial.json_value(),
             "final": self.last.json_value(),
+            "time_varying_ode": self
+                .ltv
+                .as_ref()
+                .map_or(Value::Null, |(step, t0)| super::ltv::diagnose_json(step, *t0)),
         });
         let mut s = obj.to_string();
         s.push('\n');
@@ -684,6 +693,7 @@ impl Diagnosis {
         let w = &mut o;
         self.header_text(w);
         self.steps_text(w);
+        self.ltv_text(w);
         self.final_text(w);
         self.conclusion_text(w);
         o
@@ -774,6 +784,14 @@ impl Diagnosis {
                     .collect();
                 let _ = writeln!(w, "  {}: {}", s.effect, parts.join(", "));
             }
+        }
+    }
+
+    /// The time-varying ODE fitted after naming time variation, after an empty line.
+    fn ltv_text(&self, w: &mut String) {
+        if let Some((step, t0)) = &self.ltv {
+            let _ = writeln!(w);
+            w.push_str(&super::ltv::diagnose_text(step, *t0));
         }
     }
 

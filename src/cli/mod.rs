@@ -3,6 +3,7 @@
 pub mod args;
 mod data;
 mod diagnose;
+mod ltv;
 mod report;
 mod saved;
 #[cfg(feature = "plot")]
@@ -48,6 +49,7 @@ pub fn run(cli: &Cli) -> Result<String, Failure> {
         Command::Fit(args) => fit(args),
         Command::Diagnose(args) => diagnose::diagnose(args),
         Command::Eval(args) => saved::eval(args),
+        Command::Ltv(args) => ltv::ltv(args),
     }
 }
 

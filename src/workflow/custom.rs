@@ -432,6 +432,7 @@ impl Workflow {
                 final_data: (run.data.noise() != data.noise()).then_some(run.data),
                 final_fit: current.summary,
                 time_varying: None,
+                ltv: None,
                 remaining,
                 attempts: run.attempts,
                 eliminated: Vec::new(),

@@ -30,7 +30,11 @@
 //! (the spec refitted on the drift test's time segments, [`detectors::piecewise_model`]):
 //! the step shows the gap shrink from the common model's cost on the segments to the
 //! segment models' cost, kept by the F test of (S − 1)q added parameters, and the report's
-//! verdict on the noise is the segment models' ([`Report::time_varying`]). The
+//! verdict on the noise is the segment models' ([`Report::time_varying`]). For a
+//! continuous-time spec on a time record the workflow fits the Lataire–Pintelon
+//! time-varying ODE with the spec's orders instead ([`time_varying_ode`], [`Report::ltv`]):
+//! the gap from its time-invariant to its time-varying form, and the frozen poles over
+//! the record. The
 //! distortion and time-variation detectors need the periodic time record
 //! ([`Context::with_record`]) or a distortion analysis ([`Context::with_distortion`]);
 //! the parameter-drift test of time variation also works on one non-periodic record
@@ -65,6 +69,7 @@ mod eliminate;
 mod finding;
 mod hypothesis;
 pub mod lrt;
+mod ltv_step;
 mod revise;
 mod segments;
 mod spec;
@@ -77,6 +82,7 @@ pub use detectors::TimeVarying;
 pub use finding::{Context, Detail, Detector, Effect, Finding, PeriodicRecord, Remedy};
 use hypothesis::Exploration;
 pub use hypothesis::Hypothesis;
+pub use ltv_step::{LtvCandidate, LtvStep, MIN_GAP, time_varying_ode};
 pub use segments::{SegmentResult, segment_disagreement};
 pub use spec::{SpecFit, fit_spec};
 
@@ -211,6 +217,12 @@ pub struct Report {
     /// `unmodelled` when that verdict is positive (the piecewise model absorbs it).
     #[cfg_attr(feature = "serde", serde(default))]
     pub time_varying: Option<TimeVarying>,
+    /// The time-varying ODE (Lataire–Pintelon, [`time_varying_ode`]) fitted on the time
+    /// record when a step named time variation on a continuous-time spec: the gap
+    /// V(N_p = 0) → V(N_p) and the frozen poles over the record. The final LTI model and
+    /// the verdict are unchanged.
+    #[cfg_attr(feature = "serde", serde(default))]
+    pub ltv: Option<LtvStep>,
     /// Every detector's finding on the final fit and the final data, significant or not
     /// (what is left to explain). Not serialised.
     #[cfg_attr(feature = "serde", serde(skip))]
@@ -275,7 +287,9 @@ impl Workflow {
     /// step reports the common model's cost on the segments and the segment models' cost,
     /// the F test between them, and [`Report::time_varying`] holds the segment models
     /// ([`detectors::piecewise_model`]). Discrete-time specs only; for a continuous-time
-    /// spec the effect stays unmodelled. [`Workflow::naming_time_variation`] names the
+    /// spec the effect stays unmodelled by the LTI model and [`Report::ltv`] holds the
+    /// time-varying ODE fitted on the time record ([`time_varying_ode`]).
+    /// [`Workflow::naming_time_variation`] names the
     /// effect without switching.
     ///
     /// ```
@@ -405,6 +419,7 @@ impl Workflow {
             }
         }
         let time_varying = time_varying.map(|(tv, _)| tv);
+        let ltv = ltv_step::after_time_variation(&steps, &current, &ctx, time_varying.as_ref());
         let remaining = self.findings(&data, &current, &ctx);
         Ok(Report {
             effects: steps
@@ -424,6 +439,7 @@ impl Workflow {
             final_data: (data.noise() != original.noise()).then_some(data),
             final_fit: current,
             time_varying,
+            ltv,
             remaining,
             attempts,
             eliminated,
