@@ -114,6 +114,7 @@ fn json_contract_keys() {
         "noise_reference",
         "initial",
         "final",
+        "time_varying_ode",
     ]
     .iter()
     .map(|s| s.to_string())
