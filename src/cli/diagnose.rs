@@ -19,8 +19,9 @@ use fdid::data::{DistortionAnalysis, Lpm};
 use fdid::estimate::{Method, ModelSpec, Stability};
 use fdid::prelude::*;
 use fdid::workflow::Report as WorkflowReport;
-use fdid::workflow::{Attempt, Elimination, Outcome, 
-    Context, Effect, Finding, SpecFit, Step, Workflow, disagreement_bands, segment_disagreement,
+use fdid::workflow::{
+    Attempt, Context, Effect, Elimination, Finding, Outcome, SpecFit, Step, Workflow,
+    disagreement_bands, segment_disagreement,
 };
 use serde_json::{Map, Value, json};
 use std::fmt::Write as _;
@@ -997,7 +998,11 @@ fn named_text(f: &Finding) -> String {
             g(d.ratio),
             d.blocks
         ),
-        None => format!("{}: named from the measurement (p = {})", f.effect, short(f.p_value)),
+        None => format!(
+            "{}: named from the measurement (p = {})",
+            f.effect,
+            short(f.p_value)
+        ),
     }
 }
 

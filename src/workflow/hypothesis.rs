@@ -508,8 +508,5 @@ fn relabel(mut finding: Finding, before: &SpecFit, after: &SpecFit) -> Finding {
 
 /// The number of complex-conjugate pole pairs (|Im p| above 10⁻⁸·|p|).
 pub(crate) fn complex_pairs(poles: &[crate::scalar::Complex<f64>]) -> usize {
-    poles
-        .iter()
-        .filter(|p| p.im > 1e-8 * p.norm())
-        .count()
+    poles.iter().filter(|p| p.im > 1e-8 * p.norm()).count()
 }

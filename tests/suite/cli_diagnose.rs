@@ -117,6 +117,7 @@ fn json_contract_keys() {
         "refits_rejected",
         "eliminated",
         "named",
+        "time_varying_ode",
     ]
     .iter()
     .map(|s| s.to_string())

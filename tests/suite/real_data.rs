@@ -71,12 +71,24 @@ fn robot_arm_order_four_has_the_two_resonances() {
         "fit",
         Path::new(&path),
         &[
-            "--domain", "z", "--na", "4", "--nb", "4", "--periods", "1", "--stable",
+            "--domain",
+            "z",
+            "--na",
+            "4",
+            "--nb",
+            "4",
+            "--periods",
+            "1",
+            "--stable",
         ],
     );
     assert_eq!(fit["stable"], Value::Bool(true));
     for f in [59.0 / 1024.0, 129.0 / 1024.0] {
-        assert!(has_mode(&fit, f, 0.03), "no mode near {f}: {:?}", modes(&fit));
+        assert!(
+            has_mode(&fit, f, 0.03),
+            "no mode near {f}: {:?}",
+            modes(&fit)
+        );
     }
 }
 

@@ -100,7 +100,11 @@ fn backward_elimination_removes_a_delay_a_later_pole_explains() {
             vec![Effect::TimeDelay, Effect::MissingPole],
             "seed {seed}"
         );
-        if report.eliminated.iter().any(|e| e.effect == Effect::TimeDelay) {
+        if report
+            .eliminated
+            .iter()
+            .any(|e| e.effect == Effect::TimeDelay)
+        {
             removed += 1;
             let e = &report.eliminated[0];
             assert_eq!(e.step, 0);
@@ -281,7 +285,12 @@ fn a_model_based_measurement_test_waits_while_structural_detectors_fire() {
     // a model-based one waits: the missing pole is added first; once the structural
     // detectors are quiet (or nothing more is accepted) the test is acted on
     let based = run(true);
-    assert_eq!(based.steps[0].effect, Effect::MissingPole, "{:?}", based.steps);
+    assert_eq!(
+        based.steps[0].effect,
+        Effect::MissingPole,
+        "{:?}",
+        based.steps
+    );
     assert_eq!(based.final_fit.spec.na, 2);
     assert_eq!(
         based.steps.last().map(|s| s.effect),
@@ -326,7 +335,10 @@ fn white_noise_is_rarely_called_coloured() {
         })
         .count();
     // binomial(100, 0.01): P(X ≥ 5) ≈ 0.003
-    assert!(fired < 5, "white noise named coloured in {fired} of {runs} runs");
+    assert!(
+        fired < 5,
+        "white noise named coloured in {fired} of {runs} runs"
+    );
 }
 
 #[test]

@@ -79,8 +79,7 @@ fn bartlett(values: &[f64], nu: f64, blocks: usize) -> Option<(f64, f64, f64)> {
     let pooled = s.iter().zip(&nus).map(|(s, v)| s * v).sum::<f64>() / nu_total;
     let m = nu_total * pooled.ln() - s.iter().zip(&nus).map(|(s, v)| v * s.ln()).sum::<f64>();
     let c = 1.0
-        + (nus.iter().map(|v| 1.0 / v).sum::<f64>() - 1.0 / nu_total)
-            / (3.0 * (blocks - 1) as f64);
+        + (nus.iter().map(|v| 1.0 / v).sum::<f64>() - 1.0 / nu_total) / (3.0 * (blocks - 1) as f64);
     let statistic = m / c;
     let (lo, hi) = s.iter().fold((f64::INFINITY, 0.0_f64), |(lo, hi), v| {
         (lo.min(*v), hi.max(*v))
