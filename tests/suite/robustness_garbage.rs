@@ -412,7 +412,6 @@ fn workflow_entries(x: FreqInput) -> TestResult {
         } else {
             Method::Ml
         },
-        stability: Default::default(),
     };
     let alpha = x.band.0;
     let d = data;
