@@ -194,7 +194,7 @@ fn beta_fraction(a: f64, b: f64, x: f64) -> f64 {
     }
     d = 1.0 / d;
     let mut h = d;
-    for m in 1..=300 {
+    for m in 1..=10_000 {
         let m = m as f64;
         let m2 = 2.0 * m;
         for aa in [
@@ -219,7 +219,8 @@ fn beta_fraction(a: f64, b: f64, x: f64) -> f64 {
     h
 }
 
-/// P(X > x) for X ~ F(d₁, d₂): `I_{d₂/(d₂ + d₁ x)}(d₂/2, d₁/2)`; 1 for `x ≤ 0`.
+/// P(X > x) for X ~ F(d₁, d₂): `I_{d₂/(d₂ + d₁ x)}(d₂/2, d₁/2)`; 1 for `x ≤ 0`; NaN for
+/// non-positive degrees of freedom.
 ///
 /// ```
 /// // F(2, d) has the closed form (1 + 2x/d)^(−d/2)
@@ -227,6 +228,9 @@ fn beta_fraction(a: f64, b: f64, x: f64) -> f64 {
 /// assert!((p - (1.0f64 + 2.0 * 1.7 / 6.0).powf(-3.0)).abs() < 1e-12);
 /// ```
 pub fn f_sf(x: f64, d1: f64, d2: f64) -> f64 {
+    if !(d1 > 0.0 && d2 > 0.0) || x.is_nan() {
+        return f64::NAN;
+    }
     if x <= 0.0 {
         return 1.0;
     }
