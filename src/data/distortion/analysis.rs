@@ -4,7 +4,7 @@
 use super::bla::{Bla, interpolate_levels};
 use super::line_plan::LinePlan;
 use super::noise_of;
-use super::realisations::SpreadTest;
+use super::realisations::{SpreadTest, same_grid};
 use super::statistics::{DetectionLine, DetectionTest, detect};
 use crate::data::{FrequencyData, NoiseVariances, PeriodicAverage, TimeData};
 use crate::error::{FdidError, Result};
@@ -156,30 +156,7 @@ impl<T: Real> DistortionAnalysis<T> {
         excited: &[usize],
         band: [usize; 2],
     ) -> Result<Self> {
-        let first = records.first().ok_or(FdidError::TooShort {
-            what: "realisations",
-            needed: 1,
-            got: 0,
-        })?;
-        for r in &records[1..] {
-            if r.len() != first.len() {
-                return Err(FdidError::LengthMismatch {
-                    what: "realisation record",
-                    expected: first.len(),
-                    got: r.len(),
-                });
-            }
-            if r.ts() != first.ts() {
-                return Err(FdidError::InvalidArgument {
-                    name: "ts",
-                    value: format!("{}", r.ts()),
-                    reason: format!(
-                        "every realisation must share the sample time {}",
-                        first.ts()
-                    ),
-                });
-            }
-        }
+        let first = same_grid(records)?;
         if periods < 2 {
             return Err(FdidError::InvalidArgument {
                 name: "periods",

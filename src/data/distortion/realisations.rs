@@ -112,30 +112,7 @@ impl<T: Real> RealisationBla<T> {
     ///   the records differ in length or sample time;
     /// - as [`PeriodicAverage::new`] (`periods` must divide the length).
     pub fn new(records: &[TimeData<T>], periods: usize, fraction: f64) -> Result<Self> {
-        let first = records.first().ok_or(FdidError::TooShort {
-            what: "realisations",
-            needed: 1,
-            got: 0,
-        })?;
-        for r in &records[1..] {
-            if r.len() != first.len() {
-                return Err(FdidError::LengthMismatch {
-                    what: "realisation record",
-                    expected: first.len(),
-                    got: r.len(),
-                });
-            }
-            if r.ts() != first.ts() {
-                return Err(FdidError::InvalidArgument {
-                    name: "ts",
-                    value: format!("{}", r.ts()),
-                    reason: format!(
-                        "every realisation must share the sample time {}",
-                        first.ts()
-                    ),
-                });
-            }
-        }
+        let first = same_grid(records)?;
         let averages = records
             .iter()
             .map(|r| PeriodicAverage::new(r, periods))
@@ -287,6 +264,41 @@ impl<T: Real> RealisationBla<T> {
 
 /// `Ĝ_r,k = Ȳ_r,k/Ū_r,k` of one realisation and, with noise variances, its noise variance
 /// `(σ̂²_Y + |Ĝ|² σ̂²_U − 2 Re(Ĝ* σ̂_YU)) / |Ū|²`.
+/// The first of `records` after checking that every record has its length and sample
+/// time (realisations of one experiment).
+///
+/// # Errors
+/// [`FdidError::TooShort`] without records; [`FdidError::LengthMismatch`] /
+/// [`FdidError::InvalidArgument`] named `"ts"` when the records differ in length or
+/// sample time.
+pub(super) fn same_grid<T: Real>(records: &[TimeData<T>]) -> Result<&TimeData<T>> {
+    let first = records.first().ok_or(FdidError::TooShort {
+        what: "realisations",
+        needed: 1,
+        got: 0,
+    })?;
+    for r in &records[1..] {
+        if r.len() != first.len() {
+            return Err(FdidError::LengthMismatch {
+                what: "realisation record",
+                expected: first.len(),
+                got: r.len(),
+            });
+        }
+        if r.ts() != first.ts() {
+            return Err(FdidError::InvalidArgument {
+                name: "ts",
+                value: format!("{}", r.ts()),
+                reason: format!(
+                    "every realisation must share the sample time {}",
+                    first.ts()
+                ),
+            });
+        }
+    }
+    Ok(first)
+}
+
 fn realisation_line<T: Real>(avg: &PeriodicAverage<T>, k: usize) -> (Complex<f64>, Option<f64>) {
     let d = avg.data();
     let (y, u) = (f64c(d.y()[k]), f64c(d.u()[k]));
