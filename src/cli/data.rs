@@ -3,7 +3,10 @@
 use super::Failure;
 use super::args::{CommonArgs, DomainArg, LinesArg, parse_band, parse_port};
 use fdid::criterion::interior_lines;
-use fdid::data::{EXCITATION_FRACTION, PERIODICITY_TOLERANCE, RealisationBla};
+use fdid::data::{
+    EXCITATION_FRACTION, ExcitationRule, PERIODICITY_TOLERANCE, RealisationBla,
+    UNEXCITED_NEIGHBOURS,
+};
 use fdid::io::{
     ChannelSelection, Column, Measurement, TouchstoneVersion, is_touchstone, read_channels,
     read_csv, read_touchstone,
@@ -29,14 +32,18 @@ pub struct Prepared {
     pub notes: Vec<String>,
     /// The time record, for time-record files (without the periods --skip-periods drops).
     pub record: Option<TimeData<f64>>,
-    /// Time records: how many of the lines fitted the input excites (|U_k| above
-    /// [`EXCITATION_FRACTION`] of its largest line).
+    /// Time records: how many of the lines fitted the input excites
+    /// ([`FrequencyData::excitation`]).
     pub lines_excited: Option<usize>,
     /// Time records with --periods: the number of periods averaged (after
     /// --skip-periods).
     pub periods: Option<usize>,
     /// Time records with --realisations: the best linear approximation over them.
     pub realisations: Option<Realisations>,
+    /// Time records whose input leaves lines unexcited (the gap or grid rule of
+    /// [`FrequencyData::excitation`]): the excited lines in --band with output-error
+    /// variances from the unexcited lines nearby ([`FrequencyData::unexcited_noise`]).
+    pub unexcited_noise: Option<FrequencyData<f64>>,
 }
 
 /// The realisations of a periodic experiment (--realisations) behind the fitted BLA.
@@ -55,9 +62,11 @@ struct TimeLines {
     data: FrequencyData<f64>,
     ts: Option<f64>,
     source: String,
-    /// The excitation floor |U| of the lines (none for the BLA of realisations: every
+    /// The frequencies of the excited lines (none for the BLA of realisations: every
     /// line is excited).
-    floor: Option<f64>,
+    excited: Option<Vec<f64>>,
+    /// The excited lines with noise variances from the unexcited ones (gap or grid rule).
+    unexcited_noise: Option<FrequencyData<f64>>,
     record: TimeData<f64>,
     periods: Option<usize>,
     realisations: Option<Realisations>,
@@ -72,7 +81,8 @@ pub fn prepare(args: &CommonArgs, noise_model: bool) -> Result<Prepared, Failure
     let mut record = None;
     let mut periods = None;
     let mut realisations = None;
-    let mut floor = None;
+    let mut excited = None;
+    let mut unexcited_noise = None;
     let (data, ts, source) = match measurement {
         Measurement::Frequency(data) => frequency_lines(args, data, entry.as_deref())?,
         Measurement::Time(rec) => {
@@ -80,7 +90,8 @@ pub fn prepare(args: &CommonArgs, noise_model: bool) -> Result<Prepared, Failure
             record = Some(lines.record);
             periods = lines.periods;
             realisations = lines.realisations;
-            floor = lines.floor;
+            excited = lines.excited;
+            unexcited_noise = lines.unexcited_noise;
             (lines.data, lines.ts, lines.source)
         }
     };
@@ -90,8 +101,14 @@ pub fn prepare(args: &CommonArgs, noise_model: bool) -> Result<Prepared, Failure
     {
         r.noise_data = Some(band(args, noise_data, String::new())?.0);
     }
-    let lines_excited = time_record.then(|| match floor {
-        Some(floor) => data.u().iter().filter(|u| u.norm() > floor).count(),
+    let unexcited_noise =
+        unexcited_noise.and_then(|noisy| band(args, noisy, String::new()).ok().map(|b| b.0));
+    let lines_excited = time_record.then(|| match &excited {
+        Some(excited) => data
+            .omega()
+            .iter()
+            .filter(|w| excited.binary_search_by(|e| e.total_cmp(w)).is_ok())
+            .count(),
         None => data.len(),
     });
     let record_ts = data.ts();
@@ -120,6 +137,7 @@ pub fn prepare(args: &CommonArgs, noise_model: bool) -> Result<Prepared, Failure
         lines_excited,
         periods,
         realisations,
+        unexcited_noise,
     })
 }
 
@@ -335,9 +353,8 @@ fn time_lines(
         ),
     };
     let total = data.len();
-    let floor = data.excitation_floor(EXCITATION_FRACTION);
-    let excited = data.excited_lines(EXCITATION_FRACTION);
-    let n_excited = excited.iter().filter(|e| **e).count();
+    let excitation = data.excitation(EXCITATION_FRACTION);
+    let n_excited = excitation.count();
     if n_excited == 0 {
         return Err(Failure::runtime(
             "the input spectrum is zero on every line above DC: the record carries no \
@@ -346,10 +363,21 @@ fn time_lines(
         ));
     }
     // a noise model is also identified from the lines without input
+    let unexcited_noise = match excitation.rule() {
+        ExcitationRule::Level => None,
+        _ => data.unexcited_noise(&excitation, UNEXCITED_NEIGHBOURS).ok(),
+    };
+    let excited_omega: Vec<f64> = data
+        .omega()
+        .iter()
+        .zip(excitation.lines())
+        .filter(|(_, e)| **e)
+        .map(|(w, _)| *w)
+        .collect();
     let keep: Vec<bool> = if noise_model || args.lines == LinesArg::All {
         data.omega().iter().map(|w| *w > 0.0).collect()
     } else {
-        excited
+        excitation.lines().to_vec()
     };
     let data = select(&data, &keep)?;
     let (data, what) = if noise_model {
@@ -365,10 +393,11 @@ fn time_lines(
         ts: model_ts,
         source: format!(
             "time record, {n} samples, Ts = {ts} s, {how}; {total} lines, {n_excited} \
-             excited (|U| above {EXCITATION_FRACTION:e} of the largest), {dropped} dropped \
-             ({what})"
+             excited ({}), {dropped} dropped ({what})",
+            excitation.describe()
         ),
-        floor: Some(floor),
+        excited: Some(excited_omega),
+        unexcited_noise,
         record: steady,
         periods,
         realisations: None,
@@ -551,7 +580,8 @@ fn realisation_lines(
         data,
         ts: model_ts,
         source,
-        floor: None,
+        excited: None,
+        unexcited_noise: None,
         record: record.clone(),
         periods: None,
         realisations: Some(Realisations {

@@ -41,6 +41,12 @@ pub enum NoiseReference {
         /// Residual degrees of freedom q of each line's variance.
         dof: usize,
     },
+    /// The unexcited lines of a multisine or sweep next to each excited line
+    /// ([`FrequencyData::unexcited_noise`]), `lines` of them per variance.
+    Unexcited {
+        /// Unexcited lines averaged per variance (its complex degrees of freedom).
+        lines: usize,
+    },
     /// The best linear approximation over `realisations` realisations of `periods`
     /// periods: with `periods ≥ 2` the noise variance between periods (the
     /// nonlinear-distortion detector compares it with the total variance between
@@ -66,6 +72,7 @@ impl NoiseReference {
             Self::Periods(_) => "periods",
             Self::Given => "given",
             Self::Lpm { .. } => "lpm",
+            Self::Unexcited { .. } => "unexcited",
             Self::Realisations { .. } => "realisations",
             Self::Estimated { .. } => "estimated",
         }
@@ -82,6 +89,11 @@ impl NoiseReference {
             Self::Lpm { dof } => format!(
                 "local polynomial method (dof {dof}): per-line output noise variances from \
                  local polynomial fits of G and the transient over neighbouring lines"
+            ),
+            Self::Unexcited { lines } => format!(
+                "unexcited lines: per excited line, the output error Y - G U on the {lines} \
+                 nearest lines the input does not excite (G interpolated from the excited \
+                 lines): noise and nonlinear distortion together"
             ),
             Self::Realisations {
                 realisations,
@@ -352,6 +364,16 @@ fn noise_reference(periods: Option<usize>, prepared: &mut Prepared) -> NoiseRefe
         return NoiseReference::Estimated {
             why: "the sample variances are zero on some lines".into(),
         };
+    }
+    if let Some(noisy) = prepared.unexcited_noise.take()
+        && noisy.omega() == prepared.data.omega()
+        && let Some(lines) = noisy.variance_dof()
+    {
+        prepared.data = noisy;
+        prepared.weighting = format!(
+            "1/sigma_k from the output error on the {lines} nearest unexcited lines"
+        );
+        return NoiseReference::Unexcited { lines };
     }
     let lpm = Lpm::new();
     match lpm

@@ -3,6 +3,7 @@
 
 mod distortion;
 mod excitation;
+mod excited;
 mod frequency;
 mod grid;
 mod lpm;
@@ -16,6 +17,10 @@ pub use distortion::{
     DetectionLine, DetectionTest, DistortionAnalysis, RealisationBla, SpreadTest,
 };
 pub use excitation::{EXCITATION_FRACTION, PERIODICITY_TOLERANCE};
+pub use excited::{
+    EXCITATION_DIP_DB, EXCITATION_GAP_DB, EXCITATION_GAP_MIN_LINES, EXCITATION_GRID_ALPHA,
+    Excitation, ExcitationRule, GridPattern, UNEXCITED_NEIGHBOURS,
+};
 pub use frequency::{FrequencyData, NoiseVariances};
 pub use grid::{SAMPLE_TIME_TOLERANCE, nyquist_slack};
 pub use lpm::{Lpm, LpmEstimate, lpm};

@@ -29,7 +29,10 @@ pub enum Outcome {
     NotApplicable,
     /// The refit has no more parameters than the current model.
     NotLarger,
-    /// The refit is unstable: a spurious pole explains the data (never accepted).
+    /// The refit is unstable, or it has more poles on the stability boundary than the
+    /// current model
+    /// ([`crate::workflow::SpecFit::marginal_poles`]): a spurious pole explains the data
+    /// (never accepted).
     Unstable,
     /// The likelihood-ratio test did not accept the refit: its p-value `lr_p` is not
     /// below the `level`.
@@ -58,7 +61,7 @@ impl Outcome {
             Outcome::Failed { reason } => format!("failed: {reason}"),
             Outcome::NotApplicable => "not applicable to this structure".into(),
             Outcome::NotLarger => "no more parameters than the current model".into(),
-            Outcome::Unstable => "the refit is unstable".into(),
+            Outcome::Unstable => "the refit is unstable or has a pole on the stability boundary".into(),
             Outcome::Rejected { lr_p, level } => {
                 format!("LR p = {} >= {}", short(*lr_p), short(*level))
             }

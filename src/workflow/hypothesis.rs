@@ -475,7 +475,7 @@ fn try_refit<H: Hypothesis>(
     if fit.n_params <= now.n_params {
         return (Outcome::NotLarger, None);
     }
-    if !fit.is_stable() {
+    if !fit.is_stable() || fit.marginal_poles() > now.marginal_poles() {
         return (Outcome::Unstable, None);
     }
     let Some(lr_p) = lr_p_value(now, fit, data.len()) else {

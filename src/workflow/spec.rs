@@ -136,6 +136,22 @@ impl SpecFit {
         }
     }
 
+    /// How many poles of the system part sit on the stability boundary: damping ratio
+    /// `ζ = −Re s / |s|` (with `s = ln z` in discrete time) below [`MARGINAL_DAMPING`]. The
+    /// stability-constrained ML stops poles there; such a pole is not a resonance the data
+    /// determine.
+    pub fn marginal_poles(&self) -> usize {
+        self.poles.iter().filter(|p| {
+            let s = match self.spec.domain {
+                Domain::Discrete { .. } => p.ln(),
+                Domain::Continuous => **p,
+            };
+            let norm = s.norm();
+            norm > 0.0 && -s.re / norm < MARGINAL_DAMPING
+        })
+        .count()
+    }
+
     /// Whether the residuals are consistent with the noise at level `alpha`: the cost test
     /// (when the noise level is known) and the whiteness test both pass at α/2 each
     /// (Bonferroni, so that a correct model fails with probability at most α).
@@ -145,6 +161,10 @@ impl SpecFit {
         v.cost_p.is_none_or(|p| p >= level) && v.whiteness_p.is_none_or(|p| p >= level)
     }
 }
+
+/// Damping ratio under which a pole counts as on the stability boundary
+/// ([`SpecFit::marginal_poles`]).
+pub const MARGINAL_DAMPING: f64 = 1e-6;
 
 /// Fits `spec` to `data` ([`ModelSpec::fit`], which chooses the strategy) and reduces the
 /// fit to what the detectors need, on the lines it was made on ([`RationalFit::lines`]).

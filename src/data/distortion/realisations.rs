@@ -74,8 +74,7 @@ impl SpreadTest {
 ///
 /// Realisation `r` is averaged over its periods ([`PeriodicAverage`]: `Ū_r,k`, `Ȳ_r,k`
 /// and, for `P ≥ 2`, the noise (co)variances of the mean). At the excited lines (those
-/// with `|Ū_r,k| > fraction · max_j |Ū_r,j|` in every realisation, see
-/// [`FrequencyData::excited_lines`]):
+/// [`FrequencyData::excitation`] finds in every realisation, `fraction` its level rule):
 ///
 /// - `Ĝ_r,k = Ȳ_r,k / Ū_r,k` and the BLA `Ĝ_k = (1/R) Σ_r Ĝ_r,k`;
 /// - for `P ≥ 2` the noise variance of the mean
@@ -102,8 +101,8 @@ pub struct RealisationBla<T: Real> {
 
 impl<T: Real> RealisationBla<T> {
     /// The BLA of `records` (one per realisation) of `periods` periods each, at the lines
-    /// excited above `fraction` of the largest input line in every realisation (see the
-    /// type documentation).
+    /// excited in every realisation (see the type documentation; `fraction` is the level
+    /// rule of [`FrequencyData::excitation`]).
     ///
     /// # Errors
     /// - [`FdidError::TooShort`] when `records` is empty or no line is excited in every
@@ -117,10 +116,10 @@ impl<T: Real> RealisationBla<T> {
             .iter()
             .map(|r| PeriodicAverage::new(r, periods))
             .collect::<Result<Vec<_>>>()?;
-        let mut excited = averages[0].data().excited_lines(fraction);
+        let mut excited = averages[0].data().excitation(fraction).lines().to_vec();
         for a in &averages[1..] {
-            for (e, x) in excited.iter_mut().zip(a.data().excited_lines(fraction)) {
-                *e &= x;
+            for (e, x) in excited.iter_mut().zip(a.data().excitation(fraction).lines()) {
+                *e &= *x;
             }
         }
         let lines: Vec<usize> = (0..excited.len()).filter(|&k| excited[k]).collect();
