@@ -370,9 +370,8 @@ fn noise_reference(periods: Option<usize>, prepared: &mut Prepared) -> NoiseRefe
         && let Some(lines) = noisy.variance_dof()
     {
         prepared.data = noisy;
-        prepared.weighting = format!(
-            "1/sigma_k from the output error on the {lines} nearest unexcited lines"
-        );
+        prepared.weighting =
+            format!("1/sigma_k from the output error on the {lines} nearest unexcited lines");
         return NoiseReference::Unexcited { lines };
     }
     let lpm = Lpm::new();

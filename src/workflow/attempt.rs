@@ -61,7 +61,9 @@ impl Outcome {
             Outcome::Failed { reason } => format!("failed: {reason}"),
             Outcome::NotApplicable => "not applicable to this structure".into(),
             Outcome::NotLarger => "no more parameters than the current model".into(),
-            Outcome::Unstable => "the refit is unstable or has a pole on the stability boundary".into(),
+            Outcome::Unstable => {
+                "the refit is unstable or has a pole on the stability boundary".into()
+            }
             Outcome::Rejected { lr_p, level } => {
                 format!("LR p = {} >= {}", short(*lr_p), short(*level))
             }

@@ -141,15 +141,17 @@ impl SpecFit {
     /// stability-constrained ML stops poles there; such a pole is not a resonance the data
     /// determine.
     pub fn marginal_poles(&self) -> usize {
-        self.poles.iter().filter(|p| {
-            let s = match self.spec.domain {
-                Domain::Discrete { .. } => p.ln(),
-                Domain::Continuous => **p,
-            };
-            let norm = s.norm();
-            norm > 0.0 && -s.re / norm < MARGINAL_DAMPING
-        })
-        .count()
+        self.poles
+            .iter()
+            .filter(|p| {
+                let s = match self.spec.domain {
+                    Domain::Discrete { .. } => p.ln(),
+                    Domain::Continuous => **p,
+                };
+                let norm = s.norm();
+                norm > 0.0 && -s.re / norm < MARGINAL_DAMPING
+            })
+            .count()
     }
 
     /// Whether the residuals are consistent with the noise at level `alpha`: the cost test

@@ -118,7 +118,10 @@ impl<T: Real> RealisationBla<T> {
             .collect::<Result<Vec<_>>>()?;
         let mut excited = averages[0].data().excitation(fraction).lines().to_vec();
         for a in &averages[1..] {
-            for (e, x) in excited.iter_mut().zip(a.data().excitation(fraction).lines()) {
+            for (e, x) in excited
+                .iter_mut()
+                .zip(a.data().excitation(fraction).lines())
+            {
                 *e &= *x;
             }
         }
