@@ -66,7 +66,7 @@ pub enum NoiseReference {
 }
 
 impl NoiseReference {
-    /// The JSON name: `periods`, `given`, `lpm`, `realisations` or `estimated`.
+    /// The JSON name: `periods`, `given`, `lpm`, `unexcited`, `realisations` or `estimated`.
     pub fn name(&self) -> &'static str {
         match self {
             Self::Periods(_) => "periods",

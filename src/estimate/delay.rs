@@ -379,25 +379,49 @@ impl<'a, T: Real, M: FurtherStarts<T>> DelaySearch<'a, T, M> {
         }
     }
 
-    /// Step 5: unless the threshold is reached, refines the delays ±1 and ±2 multiples of
-    /// π/ω_max from the best refined delay, skipping those within δ/2 of a refined one,
+    /// Step 5: unless the threshold is reached, refines the delays ±1 and ±2 sample periods
+    /// from the best refined delay τ_b — the data's sample time T_s when they have one, else
+    /// π/ω_max — and, with a sample time, the whole number of samples nearest to τ_b and
+    /// ±1, ±2 samples from it (a delay of whole samples is exact for a discrete model),
     /// until one reaches the threshold. A delay wrong by one sample (half a period of the
-    /// top frequency) is the commonest local minimum of discrete models.
+    /// top frequency) is the commonest local minimum of discrete models. A start within δ/2
+    /// of a refined delay is skipped when that delay's cost is already the best: a
+    /// refinement that ended in a worse local minimum does not hide its neighbourhood.
     fn refine_sample_multiples(&mut self) {
-        if let (Some((b, _)), false) = (best(&self.refined), self.done()) {
-            let sample = T::lit(4.0) * self.step;
-            for k in [-2.0, -1.0, 1.0, 2.0] {
-                let t = self.model.clamp(b + sample * T::lit(k));
-                if self
-                    .refined
+        let Some((b, best_cost)) = best(&self.refined).filter(|_| !self.done()) else {
+            return;
+        };
+        let ts = self.data.ts();
+        let sample = ts.unwrap_or(T::lit(4.0) * self.step);
+        let mut starts: Vec<T> = [-2.0, -1.0, 1.0, 2.0]
+            .iter()
+            .map(|k| b + sample * T::lit(*k))
+            .collect();
+        if let Some(ts) = ts {
+            let whole = Float::round(b / ts) * ts;
+            starts.extend(
+                [0.0, -1.0, 1.0, -2.0, 2.0]
                     .iter()
-                    .all(|(r, _)| Float::abs(*r - t) >= self.step / T::lit(2.0))
-                {
-                    self.refine(t);
-                    if self.done() {
-                        break;
-                    }
-                }
+                    .map(|k| whole + ts * T::lit(*k)),
+            );
+        }
+        let mut tried: Vec<T> = Vec::new();
+        for t in starts {
+            let t = self.model.clamp(t);
+            let covered = self
+                .refined
+                .iter()
+                .any(|(r, c)| Float::abs(*r - t) < self.step / T::lit(2.0) && *c <= best_cost)
+                || tried
+                    .iter()
+                    .any(|r| Float::abs(*r - t) < self.step / T::lit(8.0));
+            if covered {
+                continue;
+            }
+            tried.push(t);
+            self.refine(t);
+            if self.done() {
+                break;
             }
         }
     }

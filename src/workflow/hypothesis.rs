@@ -251,6 +251,7 @@ impl Workflow {
                 }
                 (None, Some(measured)) => {
                     // no structural refit is accepted: the deferred findings act
+                    run.attempts = attempts;
                     if run.take(measured, &mut acted) {
                         break;
                     }
@@ -269,7 +270,8 @@ impl Workflow {
     /// that together they raise a false alarm with probability at most α/2, the other half
     /// going to the structural steps (gated by the consistency tests). With `defer`
     /// (structural detectors fire), findings of tests that assume an adequate model
-    /// ([`Detector::model_based`]) are passed over.
+    /// ([`Detector::model_based`]) are passed over, and so are findings the model class
+    /// cannot absorb (no piecewise model kept): naming them would end the refinement.
     fn measurement_step<H: Hypothesis>(
         &self,
         data: &FrequencyData<f64>,
@@ -345,6 +347,11 @@ impl Workflow {
                             absorbed: tv.consistent_with_noise(ctx.alpha),
                             piecewise: Some(tv),
                         })));
+                    }
+                    // an effect the model class cannot absorb ends the refinement: while
+                    // structural detectors fire it waits, as the model-based tests do
+                    if defer {
+                        continue;
                     }
                     return Some(measured(step(fit.cost), None, None, false));
                 }
