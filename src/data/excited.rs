@@ -586,6 +586,68 @@ mod tests {
         }
     }
 
+    /// Property: an odd multisine over a random band with its even lines and the lines
+    /// outside the band at a random noise level 40–100 dB down keeps exactly the designed
+    /// lines; a random input of random length and colour keeps every line; in f32 and f64.
+    #[test]
+    fn designed_lines_exactly_and_random_inputs_whole() {
+        fn odd_multisine<T: Real>(seed: u64, first: u8, width: u16, db: u8) -> bool {
+            let mut state = seed;
+            let n = 1024usize;
+            let lo = 1 + 2 * (first as usize % 50);
+            let hi = (lo + 40 + 2 * (width as usize % 400)).min(n - 41);
+            let noise = 10f64.powf(-(40.0 + (db % 61) as f64) / 20.0);
+            let u: Vec<f64> = (0..n)
+                .map(|k| {
+                    let r = noise * rayleigh(&mut state);
+                    if k % 2 == 1 && (lo..=hi).contains(&k) {
+                        1.0 + r
+                    } else {
+                        r
+                    }
+                })
+                .collect();
+            let omega: Vec<T> = (0..n).map(|k| T::lit(0.01 * k as f64)).collect();
+            let u: Vec<Complex<T>> = u
+                .iter()
+                .map(|v| Complex::new(T::lit(*v), T::zero()))
+                .collect();
+            let data = FrequencyData::new(omega, u.clone(), u, None).unwrap();
+            let ex = data.excitation(1e-6);
+            (0..n).all(|k| ex.lines()[k] == (k % 2 == 1 && (lo..=hi).contains(&k)))
+        }
+        fn random_input<T: Real>(seed: u64, len: u16, pole: u8) -> bool {
+            let mut state = seed;
+            let n = 64 + len as usize % 2000;
+            // a first-order colouring |1/(1 − a e^{−iω})| with a in [0, 0.95]
+            let a = (pole % 96) as f64 / 100.0;
+            let u: Vec<f64> = (0..n)
+                .map(|k| {
+                    let w = std::f64::consts::PI * k as f64 / n as f64;
+                    let gain = 1.0 / Complex::new(1.0 - a * w.cos(), a * w.sin()).norm();
+                    gain * rayleigh(&mut state)
+                })
+                .collect();
+            let omega: Vec<T> = (0..n).map(|k| T::lit(0.01 * k as f64)).collect();
+            let u: Vec<Complex<T>> = u
+                .iter()
+                .map(|v| Complex::new(T::lit(*v), T::zero()))
+                .collect();
+            let data = FrequencyData::new(omega, u.clone(), u, None).unwrap();
+            let ex = data.excitation(1e-6);
+            ex.rule() == ExcitationRule::Level && ex.count() == n - 1
+        }
+        fn prop(seed: u64, first: u8, width: u16, db: u8) -> bool {
+            odd_multisine::<f64>(seed, first, width, db)
+                && odd_multisine::<f32>(seed, first, width, db)
+                && random_input::<f64>(seed, width, db)
+                && random_input::<f32>(seed, width, db)
+        }
+        quickcheck::QuickCheck::new()
+            .tests(200)
+            .quickcheck(prop as fn(u64, u8, u16, u8) -> bool);
+    }
+
     #[test]
     fn band_limited_multisine_by_gap() {
         let mut state = 3u64;
