@@ -563,10 +563,18 @@ mod tests {
     use super::*;
     use num_complex::Complex;
 
-    fn data(u: Vec<f64>) -> FrequencyData<f64> {
-        let omega = (0..u.len()).map(|k| 0.01 * k as f64).collect();
-        let u: Vec<Complex<f64>> = u.into_iter().map(|v| Complex::new(v, 0.0)).collect();
+    /// Frequency data with U = Y = `u` on the grid 0.01 k rad/s.
+    fn data_in<T: Real>(u: &[f64]) -> FrequencyData<T> {
+        let omega = (0..u.len()).map(|k| T::lit(0.01 * k as f64)).collect();
+        let u: Vec<Complex<T>> = u
+            .iter()
+            .map(|v| Complex::new(T::lit(*v), T::zero()))
+            .collect();
         FrequencyData::new(omega, u.clone(), u, None).unwrap()
+    }
+
+    fn data(u: Vec<f64>) -> FrequencyData<f64> {
+        data_in(&u)
     }
 
     /// |U_k| of a complex Gaussian line: Rayleigh, from two uniforms.
@@ -607,13 +615,7 @@ mod tests {
                     }
                 })
                 .collect();
-            let omega: Vec<T> = (0..n).map(|k| T::lit(0.01 * k as f64)).collect();
-            let u: Vec<Complex<T>> = u
-                .iter()
-                .map(|v| Complex::new(T::lit(*v), T::zero()))
-                .collect();
-            let data = FrequencyData::new(omega, u.clone(), u, None).unwrap();
-            let ex = data.excitation(1e-6);
+            let ex = data_in::<T>(&u).excitation(1e-6);
             (0..n).all(|k| ex.lines()[k] == (k % 2 == 1 && (lo..=hi).contains(&k)))
         }
         fn random_input<T: Real>(seed: u64, len: u16, pole: u8) -> bool {
@@ -628,13 +630,7 @@ mod tests {
                     gain * rayleigh(&mut state)
                 })
                 .collect();
-            let omega: Vec<T> = (0..n).map(|k| T::lit(0.01 * k as f64)).collect();
-            let u: Vec<Complex<T>> = u
-                .iter()
-                .map(|v| Complex::new(T::lit(*v), T::zero()))
-                .collect();
-            let data = FrequencyData::new(omega, u.clone(), u, None).unwrap();
-            let ex = data.excitation(1e-6);
+            let ex = data_in::<T>(&u).excitation(1e-6);
             ex.rule() == ExcitationRule::Level && ex.count() == n - 1
         }
         fn prop(seed: u64, first: u8, width: u16, db: u8) -> bool {

@@ -8,7 +8,6 @@
 //! | robot arm (DaISy, `data/robot_arm.csv`) | order 4: resonances near bins 59 and 129 of 1024 (0.058 and 0.126 cycles/sample) |
 //! | battery impedance (`data/eis_battery.csv`) | a distributed RC system: real poles (Voigt elements), no resonance |
 //! | Silverbox (`data/silverbox.csv`, 10 realisations) | odd lines 1…2683 excited; second-order BLA near 69.5 Hz, ζ ≈ 0.05 |
-//! | F-16 GVT (`../shared/data/f16-gvt`, Force) | full-grid multisine on DFT lines 41…307 of 8192 (267 lines) |
 #![cfg(feature = "cli")]
 use crate::cli_common as cli;
 
@@ -199,39 +198,4 @@ fn silverbox_realisations_give_a_consistent_second_order_bla() {
             .any(|(f, z)| (f - 69.5).abs() < 0.5 && (0.03..0.07).contains(z)),
         "{m:?}"
     );
-}
-
-/// The F-16 record without --band: the gap rule finds the 267 lines of the full-grid
-/// multisine (DFT lines 41…307 of 8192).
-#[test]
-fn f16_gap_rule_finds_the_multisine_band() {
-    let path = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("../shared/data/f16-gvt/F16Data_FullMSine_Level1.csv");
-    assert!(path.exists(), "{} is missing", path.display());
-    let fit = json(
-        "fit",
-        &path,
-        &[
-            "--input",
-            "Force",
-            "--output",
-            "Acceleration1",
-            "--ts",
-            "0.0025",
-            "--periods",
-            "9",
-            "--skip-periods",
-            "1",
-            "--domain",
-            "s",
-            "--na",
-            "2",
-            "--nb",
-            "2",
-        ],
-    );
-    assert_eq!(fit["lines_excited"].as_u64(), Some(267));
-    let f = fit["frf"].as_array().unwrap();
-    let bin = |l: &Value| l[0].as_f64().unwrap() * 8192.0 / 400.0;
-    assert!((bin(&f[0]) - 41.0).abs() < 1e-6 && (bin(&f[f.len() - 1]) - 307.0).abs() < 1e-6);
 }
