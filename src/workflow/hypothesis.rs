@@ -270,8 +270,10 @@ impl Workflow {
     /// that together they raise a false alarm with probability at most α/2, the other half
     /// going to the structural steps (gated by the consistency tests). With `defer`
     /// (structural detectors fire), findings of tests that assume an adequate model
-    /// ([`Detector::model_based`]) are passed over, and so are findings the model class
-    /// cannot absorb (no piecewise model kept): naming them would end the refinement.
+    /// ([`Detector::model_based`]) wait, and so does a finding the model class cannot
+    /// absorb (no piecewise model kept: naming it would end the refinement); with a
+    /// waiting finding every less significant one waits too (it may be a side effect of
+    /// the waiting one), and the structural step runs.
     fn measurement_step<H: Hypothesis>(
         &self,
         data: &FrequencyData<f64>,
@@ -295,7 +297,9 @@ impl Workflow {
         findings.sort_by(|a, b| a.1.p_value.total_cmp(&b.1.p_value));
         for (detector, finding) in findings {
             if defer && detector.model_based(&finding) {
-                continue;
+                // the less significant findings wait with it: they may be its side
+                // effects (time variation also raises the detection lines)
+                return None;
             }
             // the detector's own test accepts a measurement-level step
             let step =
@@ -351,7 +355,7 @@ impl Workflow {
                     // an effect the model class cannot absorb ends the refinement: while
                     // structural detectors fire it waits, as the model-based tests do
                     if defer {
-                        continue;
+                        return None;
                     }
                     return Some(measured(step(fit.cost), None, None, false));
                 }
