@@ -399,7 +399,14 @@ fn segment_estimates_recover_random_systems() {
         let Ok(fit) = fit_spec(&ModelSpec::discrete(2, 2, 1.0), &data) else {
             return TestResult::discard();
         };
-        let drift = parameter_drift(&fit, &ctx, 2).unwrap().unwrap();
+        // `Ok(None)`: a segment fit without a covariance (documented); the case says
+        // nothing about the recovery
+        let Some(drift) = parameter_drift(&fit, &ctx, 2).unwrap() else {
+            println!(
+                "{case:?}: no drift statistic (a segment covariance is not positive definite)"
+            );
+            return TestResult::discard();
+        };
         let truth = truth_theta(&case.sys);
         let err = drift
             .theta
