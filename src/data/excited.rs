@@ -108,8 +108,8 @@ impl ExcitationRule {
 pub struct Excitation {
     lines: Vec<bool>,
     noise_lines: Vec<bool>,
-    /// Lines above the level and gap floors (before any grid).
-    above_gap: Vec<bool>,
+    /// Lines above the gap left out because they are off the grid the others follow.
+    off_grid: usize,
     floor: f64,
     rule: ExcitationRule,
 }
@@ -126,11 +126,6 @@ impl Excitation {
     /// unexcited ones) are used for neither.
     pub fn noise_lines(&self) -> &[bool] {
         &self.noise_lines
-    }
-
-    /// Whether line `k` lies above the level and gap floors.
-    fn above_gap(&self, k: usize) -> bool {
-        self.above_gap.get(k).copied().unwrap_or(false)
     }
 
     /// Number of excited lines.
@@ -156,17 +151,13 @@ impl Excitation {
             ExcitationRule::Gap { gap_db, pattern } => {
                 let gap = format!("gap: the lines above a {gap_db:.1} dB drop in the sorted |U|");
                 match pattern {
-                    Some(p) => {
-                        let off = (p.first..=p.last)
-                            .filter(|&k| !p.excited_class(k) && self.above_gap(k))
-                            .count();
-                        format!(
-                            "{gap}, on the grid of lines {} ({off} line{} above the gap off \
-                             the grid left out as disturbances)",
-                            p.describe(),
-                            if off == 1 { "" } else { "s" }
-                        )
-                    }
+                    Some(p) => format!(
+                        "{gap}, on the grid of lines {} ({} line{} above the gap off the grid \
+                         left out as disturbances)",
+                        p.describe(),
+                        self.off_grid,
+                        if self.off_grid == 1 { "" } else { "s" }
+                    ),
                     None => gap,
                 }
             }
@@ -273,10 +264,11 @@ impl<T: Real> FrequencyData<T> {
             for (noise, l) in noise_lines.iter_mut().zip(&level) {
                 *noise = *l > 0.0 && *l <= floor;
             }
+            let off_grid = kept.iter().zip(&lines).filter(|(k, l)| **k && !**l).count();
             return Excitation {
                 lines,
                 noise_lines,
-                above_gap: kept,
+                off_grid,
                 floor,
                 rule: ExcitationRule::Gap { gap_db, pattern },
             };
@@ -290,7 +282,7 @@ impl<T: Real> FrequencyData<T> {
             && beta_reg(d as f64, (m - d + 1) as f64, p) < EXCITATION_GRID_ALPHA;
         if !grid {
             return Excitation {
-                above_gap: kept.clone(),
+                off_grid: 0,
                 lines: kept,
                 noise_lines,
                 floor,
@@ -333,7 +325,7 @@ impl<T: Real> FrequencyData<T> {
         Excitation {
             lines,
             noise_lines,
-            above_gap: kept,
+            off_grid: 0,
             floor,
             rule: ExcitationRule::Grid {
                 dips: d,
