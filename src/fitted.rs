@@ -2,6 +2,7 @@
 //! covariance and the noise level, without the data (feature `serde` makes it
 //! serialisable, so that a fit can be saved and reloaded).
 
+use crate::error::{FdidError, Result};
 use crate::fit::Fit;
 use crate::model::ModelStructure;
 use crate::scalar::{Complex, Real};
@@ -49,6 +50,79 @@ impl<T: Real, M: ModelStructure<T> + Clone> FittedModel<T, M> {
 }
 
 impl<T: Real, M: ModelStructure<T>> FittedModel<T, M> {
+    /// Checks a summary read from a file: θ has the model's p entries, all finite; the
+    /// covariance is p × p, finite, symmetric and positive semidefinite (its smallest
+    /// eigenvalue ≥ −10⁻⁸ times its largest magnitude, to rounding); the noise variance and
+    /// the cost are finite and non-negative. (The model structure itself is checked when it
+    /// is deserialised.)
+    ///
+    /// # Errors
+    /// [`FdidError::InvalidArgument`] naming the field and the bad value.
+    pub fn check(&self) -> Result<()> {
+        let bad = |name: &'static str, value: String, reason: &str| FdidError::InvalidArgument {
+            name,
+            value,
+            reason: reason.into(),
+        };
+        let p = self.model.n_params();
+        if self.theta.len() != p {
+            return Err(bad(
+                "theta",
+                format!("{} entries", self.theta.len()),
+                &format!("the model has {p} parameters"),
+            ));
+        }
+        crate::error::check_finite("theta", &self.theta)?;
+        for (name, x) in [("noise_variance", self.noise_variance), ("cost", self.cost)] {
+            if !(x >= T::zero() && num_traits::Float::is_finite(x)) {
+                return Err(bad(name, format!("{x}"), "must be finite and non-negative"));
+            }
+        }
+        let Some(c) = &self.covariance else {
+            return Ok(());
+        };
+        if c.shape() != (p, p) {
+            return Err(bad(
+                "covariance",
+                format!("{}x{}", c.nrows(), c.ncols()),
+                &format!("theta has {p} entries"),
+            ));
+        }
+        crate::error::check_finite("covariance", c.as_slice())?;
+        let scale = c.iter().fold(T::zero(), |m, x| {
+            num_traits::Float::max(m, num_traits::Float::abs(*x))
+        });
+        let tol = T::lit(1e-8) * scale;
+        for i in 0..p {
+            for j in 0..i {
+                if num_traits::Float::abs(c[(i, j)] - c[(j, i)]) > tol {
+                    return Err(bad(
+                        "covariance",
+                        format!(
+                            "entries ({i}, {j}) = {} and ({j}, {i}) = {}",
+                            c[(i, j)],
+                            c[(j, i)]
+                        ),
+                        "a covariance is symmetric",
+                    ));
+                }
+            }
+        }
+        let least = c
+            .clone()
+            .symmetric_eigenvalues()
+            .iter()
+            .fold(T::infinity(), |m, x| num_traits::Float::min(m, *x));
+        if least < -tol {
+            return Err(bad(
+                "covariance",
+                format!("eigenvalue {least}"),
+                "a covariance is positive semidefinite",
+            ));
+        }
+        Ok(())
+    }
+
     /// G(θ̂, ω_k) at the angular frequencies `omega` (rad/s).
     pub fn response(&self, omega: &[T]) -> Vec<Complex<T>> {
         self.model.response(&self.theta, omega)

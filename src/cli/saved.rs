@@ -220,25 +220,14 @@ fn respond<M: ModelStructure<f64> + DeserializeOwned>(
 ) -> Result<Evaluated, Failure> {
     let model: FittedModel<f64, M> = serde_json::from_value(fitted.clone())
         .map_err(|e| Failure::runtime(format!("{name}: bad saved model: {e}")))?;
-    if model.theta.len() != model.model.n_params() {
-        return Err(Failure::runtime(format!(
-            "{name}: bad saved model: theta has {} entries, the model {}",
-            model.theta.len(),
-            model.model.n_params()
-        )));
-    }
-    if let Some(c) = &model.covariance
-        && (c.nrows() != model.theta.len() || c.ncols() != model.theta.len())
-    {
-        return Err(Failure::runtime(format!(
-            "{name}: bad saved model: the covariance is {}x{}, theta has {} entries",
-            c.nrows(),
-            c.ncols(),
-            model.theta.len()
-        )));
-    }
+    model
+        .check()
+        .map_err(|e| Failure::runtime(format!("{name}: bad saved model: {e}")))?;
     Ok((model.response(omega), model.response_std(omega)))
 }
+
+/// The most frequencies `fdid eval` evaluates in one call (about 0.5 GB of output).
+pub const MAX_EVAL_POINTS: usize = 10_000_000;
 
 /// Parses `--freq`: a comma-separated list of frequencies in Hz, or `FMIN:FMAX:N` for N
 /// log-spaced frequencies from FMIN to FMAX (both > 0).
@@ -255,6 +244,11 @@ pub fn parse_freq(text: &str) -> Result<Vec<f64>, String> {
                 .map_err(|_| bad("N is not a whole number"))?;
             if !(lo > 0.0 && hi > lo && hi.is_finite()) || n < 2 {
                 return Err(bad("FMIN:FMAX:N needs 0 < FMIN < FMAX and N >= 2"));
+            }
+            if n > MAX_EVAL_POINTS {
+                return Err(bad(&format!(
+                    "N = {n} frequencies; at most {MAX_EVAL_POINTS} are evaluated at once"
+                )));
             }
             let (a, b) = (lo.log10(), hi.log10());
             (0..n)

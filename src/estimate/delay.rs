@@ -34,6 +34,12 @@ const PHASE_ITERATIONS: usize = 4;
 const SCREEN_ITERATIONS: usize = 3;
 /// Local minima of the screening scan refitted in full.
 const REFINED_MINIMA: usize = 5;
+/// Evaluation budget factor of the ML refinements of the search (at most
+/// `SEARCH_PATIENCE·(p + 1)` residual evaluations each): they rank candidate delays, the
+/// ML from the best one runs with the pipeline's budget.
+const SEARCH_PATIENCE: usize = 4;
+/// The least evaluation budget of a refinement of the search, whatever the order.
+const SEARCH_EVALUATIONS: usize = 100;
 /// Cap on the candidates of the scan.
 const MAX_SCAN: usize = 512;
 /// Rounds of (delay-free fit, ML on the delayed model) per refined candidate.
@@ -68,7 +74,10 @@ const CANDIDATE_ROUNDS: usize = 3;
 ///    Levy alone, and in full on the lower half of the band, whose phase error from a
 ///    small delay error is halved — followed by output-error ML ([`MaximumLikelihood`],
 ///    eq. 23) of the delayed model by Levenberg–Marquardt from [θ_M, τ], τ moving to the
-///    ML delay. The three delay-free fits fall into different local solutions when τ is
+///    ML delay. These MLs only rank the candidates: each stops after max(4(p + 1), 100)
+///    residual evaluations (p parameters; a lightly damped high-order model crawls for
+///    thousands), and a round from a delay already tried (starts clamped to a bound
+///    coincide) is not repeated. The three delay-free fits fall into different local solutions when τ is
 ///    slightly wrong (a discrete model then often takes an unstable pole near z = −1), so
 ///    the joint ML from one of them usually reaches the true delay;
 /// 5. the same refinement at ±1 and ±2 multiples of π/ω_max from the best refined delay
@@ -209,7 +218,13 @@ struct DelaySearch<'a, T: Real, M> {
     first_error: Option<FdidError>,
     /// (τ, ML cost) of each refined candidate.
     refined: Vec<(T, T)>,
+    /// Every refinement round made.
+    rounds: Vec<RoundMade<T>>,
 }
+
+/// A refinement round made: its number, its start τ and its outcome (the ML delay and
+/// cost, `None` when it failed or diverged).
+type RoundMade<T> = (usize, T, Option<(T, T)>);
 
 impl<'a, T: Real, M: FurtherStarts<T>> DelaySearch<'a, T, M> {
     fn new(
@@ -248,12 +263,22 @@ impl<'a, T: Real, M: FurtherStarts<T>> DelaySearch<'a, T, M> {
             ml: MaximumLikelihood {
                 weighting: pipeline.weighting,
             },
-            lm: pipeline.ml.unwrap_or_default(),
+            lm: {
+                let lm = pipeline.ml.unwrap_or_default();
+                let p = ModelStructure::<T>::n_params(model) + 1;
+                LevenbergMarquardt {
+                    patience: lm
+                        .patience
+                        .min(SEARCH_PATIENCE.max(SEARCH_EVALUATIONS.div_ceil(p))),
+                    ..lm
+                }
+            },
             step: T::pi() / (T::lit(4.0) * w_max),
             threshold: stopping_cost(model, data, line_weights),
             fits: 0,
             first_error: None,
             refined: vec![],
+            rounds: vec![],
         }
     }
 
@@ -438,26 +463,41 @@ impl<'a, T: Real, M: FurtherStarts<T>> DelaySearch<'a, T, M> {
         let mut t = t;
         let mut last: Option<(T, T)> = None;
         for round in 0..CANDIDATE_ROUNDS {
-            self.fits += 1;
-            match self.refine_round(t, round) {
-                Ok(sol) if Float::is_finite(sol.theta[sol.theta.len() - 1]) => {
-                    let tau = self.model.clamp(sol.theta[sol.theta.len() - 1]);
-                    if last.is_none_or(|l| sol.cost < l.1) {
-                        last = Some((tau, sol.cost));
-                    }
-                    t = tau;
-                    if sol.cost <= self.threshold {
-                        break;
-                    }
-                }
-                Ok(_) => break,
-                Err(e) => {
-                    self.first_error.get_or_insert(e);
-                    break;
-                }
+            let Some((tau, cost)) = self.round(t, round) else {
+                break;
+            };
+            if last.is_none_or(|l| cost < l.1) {
+                last = Some((tau, cost));
+            }
+            t = tau;
+            if cost <= self.threshold {
+                break;
             }
         }
         self.refined.extend(last);
+    }
+
+    /// Round `round` of a refinement from `t` ([`Self::refine_round`]): the ML delay
+    /// (clamped into the bounds) and cost, `None` when the round failed or diverged. A
+    /// round already made from the same delay (starts clamped to a bound coincide) is
+    /// looked up, not repeated.
+    fn round(&mut self, t: T, round: usize) -> Option<(T, T)> {
+        if let Some((_, _, done)) = self.rounds.iter().find(|(r, s, _)| *r == round && *s == t) {
+            return *done;
+        }
+        self.fits += 1;
+        let outcome = match self.refine_round(t, round) {
+            Ok(sol) if Float::is_finite(sol.theta[sol.theta.len() - 1]) => {
+                Some((self.model.clamp(sol.theta[sol.theta.len() - 1]), sol.cost))
+            }
+            Ok(_) => None,
+            Err(e) => {
+                self.first_error.get_or_insert(e);
+                None
+            }
+        };
+        self.rounds.push((round, t, outcome));
+        outcome
     }
 
     /// One round of a refinement at τ = `t`: the delay-free fit at `t` (round 0: in full;

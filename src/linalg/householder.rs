@@ -61,6 +61,21 @@ impl<T: Real> Complement<T> {
         Some(Self { n, reflectors })
     }
 
+    /// Whether `other` has the same dimension and reflectors (start, length) with entries
+    /// equal to relative `tol`.
+    #[cfg(feature = "serde")]
+    pub(crate) fn same_as(&self, other: &Self, tol: T) -> bool {
+        let close = |x: T, y: T| Float::abs(x - y) <= tol * (T::one() + Float::abs(y));
+        self.n == other.n
+            && self.reflectors.len() == other.reflectors.len()
+            && self.reflectors.iter().zip(&other.reflectors).all(|(a, b)| {
+                a.start == b.start
+                    && a.v.len() == b.v.len()
+                    && close(a.tau, b.tau)
+                    && a.v.iter().zip(&b.v).all(|(x, y)| close(*x, *y))
+            })
+    }
+
     /// Dimension n of the space.
     pub(crate) fn dim(&self) -> usize {
         self.n

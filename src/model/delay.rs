@@ -64,9 +64,32 @@ use num_traits::Float;
 /// ```
 #[derive(Debug, Clone, PartialEq)]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(try_from = "StoredDelayed<M>"))]
 pub struct Delayed<M> {
     pub(crate) inner: M,
     pub(crate) bounds: Option<(f64, f64)>,
+}
+
+/// The stored fields of a [`Delayed`], whose bounds [`Delayed::with_bounds`] checks on
+/// reading.
+#[cfg(feature = "serde")]
+#[derive(serde::Deserialize)]
+pub struct StoredDelayed<M> {
+    inner: M,
+    bounds: Option<(f64, f64)>,
+}
+
+#[cfg(feature = "serde")]
+impl<M> TryFrom<StoredDelayed<M>> for Delayed<M> {
+    type Error = crate::error::FdidError;
+
+    fn try_from(s: StoredDelayed<M>) -> crate::error::Result<Self> {
+        let model = Delayed::new(s.inner);
+        match s.bounds {
+            None => Ok(model),
+            Some((lo, hi)) => model.with_bounds(lo, hi),
+        }
+    }
 }
 
 impl<M> Delayed<M> {

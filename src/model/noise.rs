@@ -273,10 +273,36 @@ pub struct WithNoiseModel<M> {
 /// parameter (its sample time is kept as `f64`, converted exactly from `T`).
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(try_from = "StoredNoise"))]
 struct NoiseModelParts {
     nc: usize,
     nd: usize,
     ts: f64,
+}
+
+/// The stored fields of [`NoiseModelParts`], checked by [`NoiseModel::new`] and the degree
+/// limit on reading.
+#[cfg(feature = "serde")]
+#[derive(serde::Deserialize)]
+struct StoredNoise {
+    nc: usize,
+    nd: usize,
+    ts: f64,
+}
+
+#[cfg(feature = "serde")]
+impl TryFrom<StoredNoise> for NoiseModelParts {
+    type Error = FdidError;
+
+    fn try_from(s: StoredNoise) -> Result<Self> {
+        super::check_degrees(s.nc, s.nd)?;
+        let checked = NoiseModel::new(s.nc, s.nd, s.ts)?;
+        Ok(Self {
+            nc: checked.nc,
+            nd: checked.nd,
+            ts: checked.ts,
+        })
+    }
 }
 
 impl<M> WithNoiseModel<M> {

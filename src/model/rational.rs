@@ -48,8 +48,13 @@ pub enum Domain<T: Real> {
 /// ```
 ///
 /// The Jacobian is analytic: ∂G/∂bₙ = φₙ/A, ∂G/∂aₙ = −G φₙ/A.
+///
+/// A deserialised model is rebuilt from its orders, basis and transient and checked against
+/// the stored numerator map ([`Rational::try_from`] of the stored fields): an edited or
+/// corrupted file is an error, not a model that panics or answers wrongly.
 #[derive(Debug, Clone, PartialEq)]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(try_from = "Stored<T>"))]
 pub struct Rational<T: Real> {
     na: usize,
     nb: usize,
@@ -944,4 +949,150 @@ pub(crate) fn log_spread_poles<T: Real>(na: usize, lo: T, hi: T, zeta: T) -> Vec
         poles.push(Complex::new(-hi, T::zero()));
     }
     poles
+}
+
+/// The fields of a [`Rational`] as stored, before [`Rational::try_from`] checks them.
+#[cfg(feature = "serde")]
+#[derive(serde::Deserialize)]
+pub struct Stored<T: Real> {
+    na: usize,
+    nb: usize,
+    basis: PolyBasis<T>,
+    numerator_map: Option<DMatrix<T>>,
+    #[serde(default)]
+    numerator_reflectors: Option<crate::linalg::householder::Complement<T>>,
+    transient: Option<T>,
+}
+
+#[cfg(feature = "serde")]
+impl<T: Real> TryFrom<Stored<T>> for Rational<T> {
+    type Error = FdidError;
+
+    /// Rebuilds the model from the stored orders, basis and transient by the constructors
+    /// ([`Rational::discrete`], [`Rational::partial_fractions`], the orthonormal basis'
+    /// recurrence checked for finite positive coefficients), and requires a stored numerator
+    /// map or reflectors to equal the rebuilt ones (relative 10⁻⁹).
+    ///
+    /// # Errors
+    /// [`FdidError::InvalidArgument`] naming the field that is inconsistent.
+    fn try_from(stored: Stored<T>) -> Result<Self> {
+        let bad = |name: &'static str, value: String, reason: &str| FdidError::InvalidArgument {
+            name,
+            value,
+            reason: reason.into(),
+        };
+        let Stored {
+            na,
+            nb,
+            basis,
+            numerator_map,
+            numerator_reflectors,
+            transient,
+        } = stored;
+        let rebuilt = match basis {
+            PolyBasis::DelayPowers { ts } => {
+                let model = Self::discrete(na, nb, ts)?;
+                match transient {
+                    None => model,
+                    Some(t) if t == ts => model.with_transient()?,
+                    Some(t) => {
+                        return Err(bad(
+                            "transient",
+                            format!("{t}"),
+                            "the transient's sample time must equal the model's",
+                        ));
+                    }
+                }
+            }
+            PolyBasis::Orthonormal { scale, gamma } => {
+                super::check_degrees(na, nb)?;
+                if !(scale > T::zero() && Float::is_finite(scale)) {
+                    return Err(bad(
+                        "basis scale",
+                        format!("{scale}"),
+                        "must be positive and finite",
+                    ));
+                }
+                if let Some((i, g)) = gamma
+                    .iter()
+                    .enumerate()
+                    .find(|(_, g)| !(**g > T::zero() && Float::is_finite(**g)))
+                {
+                    return Err(bad(
+                        "basis gamma",
+                        format!("{g} at entry {i}"),
+                        "recurrence coefficients must be positive and finite",
+                    ));
+                }
+                if gamma.len() < na.max(nb) {
+                    return Err(bad(
+                        "basis gamma",
+                        format!("{} coefficients", gamma.len()),
+                        &format!("the degrees na = {na}, nb = {nb} need {}", na.max(nb)),
+                    ));
+                }
+                if transient.is_some() {
+                    return Err(bad(
+                        "transient",
+                        "present".into(),
+                        "a polynomial continuous-time model has no transient term",
+                    ));
+                }
+                Self {
+                    na,
+                    nb,
+                    basis: PolyBasis::Orthonormal { scale, gamma },
+                    numerator_map: None,
+                    numerator_reflectors: None,
+                    transient: None,
+                }
+            }
+            PolyBasis::PartialFractions { poles } => {
+                let model = Self::partial_fractions(poles, nb)?;
+                if model.na != na {
+                    return Err(bad(
+                        "na",
+                        na.to_string(),
+                        &format!("the basis poles give na = {}", model.na),
+                    ));
+                }
+                match transient {
+                    None => model,
+                    Some(ts) => model.with_sampled_transient(ts)?,
+                }
+            }
+        };
+        let close = |a: &[T], b: &[T]| {
+            a.len() == b.len()
+                && a.iter()
+                    .zip(b)
+                    .all(|(x, y)| Float::abs(*x - *y) <= T::lit(1e-9) * (T::one() + Float::abs(*y)))
+        };
+        if let Some(z) = &numerator_map {
+            let same = rebuilt
+                .numerator_map
+                .as_ref()
+                .is_some_and(|r| r.shape() == z.shape() && close(z.as_slice(), r.as_slice()));
+            if !same {
+                return Err(bad(
+                    "numerator_map",
+                    format!("{}x{}", z.nrows(), z.ncols()),
+                    "not the map of the basis poles and degrees",
+                ));
+            }
+        }
+        if let Some(c) = &numerator_reflectors
+            && rebuilt
+                .numerator_reflectors
+                .as_ref()
+                .is_none_or(|r| !r.same_as(c, T::lit(1e-9)))
+        {
+            return Err(bad(
+                "numerator_reflectors",
+                format!("dimension {}, {} reflectors", c.dim(), c.rank()),
+                "not the reflectors of the basis poles and degrees",
+            ));
+        }
+        Ok(rebuilt)
+    }
 }

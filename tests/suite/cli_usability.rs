@@ -226,3 +226,60 @@ fn every_help_shows_an_example() {
         }
     }
 }
+
+/// `fdid eval` of an edited saved model exits 1 with the field named (an edited reflector
+/// used to panic, exit 70), and an N beyond 10⁷ in `--freq FMIN:FMAX:N` is a usage error
+/// (exit 2) before anything is allocated.
+#[test]
+fn eval_refuses_edited_models_and_huge_grids() {
+    let dir = Scratch::new("save-edited");
+    let model = dir.path("eis.json");
+    let m = model.to_str().unwrap();
+    let o = fdid(&[
+        "fit",
+        &bundled("eis_battery.csv"),
+        "--domain",
+        "s",
+        "--na",
+        "4",
+        "--nb",
+        "2",
+        "--band",
+        ":1000",
+        "--save",
+        m,
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let saved: Value = serde_json::from_str(&std::fs::read_to_string(&model).unwrap()).unwrap();
+    let variance = saved["fitted"]["covariance"][0][0].as_f64().unwrap();
+    for (path, new, named) in [
+        (
+            "/fitted/model/numerator_reflectors/reflectors/0/start",
+            serde_json::json!(7),
+            "numerator_reflectors",
+        ),
+        (
+            "/fitted/model/numerator_reflectors/n",
+            serde_json::json!(7),
+            "numerator_reflectors",
+        ),
+        (
+            "/fitted/covariance/0/0",
+            serde_json::json!(-variance),
+            "covariance",
+        ),
+    ] {
+        let mut v = saved.clone();
+        *v.pointer_mut(path).unwrap() = new;
+        let edited = dir.path("edited.json");
+        std::fs::write(&edited, v.to_string()).unwrap();
+        let o = fdid(&["eval", edited.to_str().unwrap(), "--freq", "1,10"]);
+        assert_eq!(o.status.code(), Some(1), "{path}: {}", stderr(&o));
+        assert!(stderr(&o).contains(named), "{path}: {}", stderr(&o));
+    }
+    for n in ["18446744073709551615", "1000000000000", "10000001"] {
+        let o = fdid(&["eval", m, "--freq", &format!("1:100:{n}")]);
+        assert_eq!(o.status.code(), Some(2), "{n}: {}", stderr(&o));
+        assert!(stderr(&o).contains("at most 10000000"), "{}", stderr(&o));
+    }
+}
