@@ -92,12 +92,23 @@ pub enum FdidError {
         max: f64,
     },
     /// The input spectrum is zero where data are used.
-    #[error("input spectrum is zero at line {index} (omega = {omega} rad/s)")]
+    #[error(
+        "the input spectrum is zero at {} Hz (entry {index} of the lines used): that line carries no information on the system",
+        omega / std::f64::consts::TAU
+    )]
     ZeroInput {
         /// Index of the line.
         index: usize,
         /// Its frequency.
         omega: f64,
+    },
+    /// The output is zero on every line: there is no response to fit.
+    #[error(
+        "the output is zero on all {lines} lines used: there is no response to fit (check the output column or signal)"
+    )]
+    ZeroOutput {
+        /// Number of lines.
+        lines: usize,
     },
     /// A linear problem is rank deficient or too ill-conditioned to solve.
     #[error("singular problem: {what} (condition number {condition:.3e})")]

@@ -2,7 +2,7 @@
 //! uncertainty of the fitted frequency response.
 
 use crate::criterion::{MlProblem, NoiseWeighting};
-use crate::data::FrequencyData;
+use crate::data::{FrequencyData, Normalisation};
 use crate::error::Result;
 use crate::model::{ModelStructure, PolesZeros};
 use crate::problem::NonlinearProblem;
@@ -413,6 +413,73 @@ impl<T: Real, M: ModelStructure<T>> Fit<T, M> {
         Ok(Self::assemble(model, data, theta, parts, stages))
     }
 
+    /// The fit to data normalised by `n` ([`Normalisation::apply`]) mapped back to the data
+    /// as given: θ_j = d_j·θ′_j with d from [`ModelStructure::normalisation_map`],
+    /// Cov θ̂ = D Cov θ̂′ D, G = (c_u/c_y)·G′; without the data's noise variances the
+    /// residuals scale by 1/c_y and the cost and λ̂ by 1/c_y² (with them, the normalised
+    /// residuals are the same). The stages' θ are mapped by the leading entries of d (the
+    /// start of a delayed or noise-model fit is its undelayed system) and their costs by
+    /// 1/c_y² (exact for the output-error and equation-error stages).
+    ///
+    /// # Errors
+    /// [`FdidError::InvalidArgument`](crate::FdidError::InvalidArgument) when the model has no
+    /// normalisation map; [`FdidError::Numerical`](crate::FdidError::Numerical) when a mapped
+    /// parameter is not finite (a gain beyond the type's range).
+    pub fn denormalised(mut self, n: &Normalisation<T>) -> Result<Self> {
+        if n.is_identity() {
+            return Ok(self);
+        }
+        let d = self
+            .model
+            .normalisation_map(n.output(), n.input())
+            .ok_or_else(|| crate::error::FdidError::InvalidArgument {
+                name: "model",
+                value: "a model structure without a normalisation map".into(),
+                reason: "its parameters cannot be mapped back from normalised data".into(),
+            })?;
+        let residual = if self.noise_known {
+            T::one()
+        } else {
+            T::one() / n.output()
+        };
+        let cost = residual * residual;
+        for (t, f) in self.theta.iter_mut().zip(&d) {
+            *t *= *f;
+        }
+        if let Some(bad) = self.theta.iter().position(|t| !Float::is_finite(*t)) {
+            return Err(crate::error::FdidError::Numerical {
+                what: format!(
+                    "parameter {bad} of the fit is beyond the range of the number type once \
+                     mapped back to the data's units"
+                ),
+            });
+        }
+        let dm = DMatrix::from_diagonal(&nalgebra::DVector::from_column_slice(&d));
+        let sandwich = |c: &DMatrix<T>| &dm * c * &dm;
+        self.covariance = self.covariance.as_ref().map(sandwich);
+        self.robust_covariance = self.robust_covariance.as_ref().map(sandwich);
+        self.covariance_factor = self.covariance_factor.as_ref().map(|f| &dm * f);
+        self.response_std = std::sync::OnceLock::new();
+        let gain = n.input() / n.output();
+        for g in &mut self.response {
+            *g = g.scale(gain);
+        }
+        for r in &mut self.residuals {
+            *r = r.scale(residual);
+        }
+        self.cost *= cost;
+        self.noise_variance *= cost;
+        for stage in &mut self.stages {
+            if stage.kind != StageKind::Delay {
+                for (t, f) in stage.solution.theta.iter_mut().zip(&d) {
+                    *t *= *f;
+                }
+            }
+            stage.solution.cost *= cost;
+        }
+        Ok(self)
+    }
+
     /// The model structure.
     pub fn model(&self) -> &M {
         &self.model
@@ -459,8 +526,20 @@ impl<T: Real, M: ModelStructure<T>> Fit<T, M> {
         self.covariance.as_ref()
     }
 
-    /// Standard deviations of θ̂.
+    /// Standard deviations of θ̂ (from the rows of the covariance factor when there is one,
+    /// each scaled by a power of two, so that they stay finite where the variances would
+    /// not: a gain near the type's limits).
     pub fn theta_std(&self) -> Option<Vec<T>> {
+        if let Some(f) = &self.covariance_factor {
+            return Some(
+                f.row_iter()
+                    .map(|row| {
+                        let c = crate::data::power_of_two_factor(row.iter().copied());
+                        Float::sqrt(row.iter().fold(T::zero(), |s, v| s + (*v * c) * (*v * c))) / c
+                    })
+                    .collect(),
+            );
+        }
         self.covariance.as_ref().map(|c| {
             (0..c.nrows())
                 .map(|i| Float::sqrt(Float::max(c[(i, i)], T::zero())))

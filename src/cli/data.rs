@@ -4,7 +4,7 @@ use super::Failure;
 use super::args::{CommonArgs, DomainArg, LinesArg, parse_band, parse_port};
 use fdid::criterion::interior_lines;
 use fdid::data::{
-    EXCITATION_FRACTION, ExcitationRule, PERIODICITY_TOLERANCE, RealisationBla,
+    EXCITATION_FRACTION, ExcitationRule, Normalisation, PERIODICITY_TOLERANCE, RealisationBla,
     UNEXCITED_NEIGHBOURS,
 };
 use fdid::io::{
@@ -74,9 +74,14 @@ struct TimeLines {
 
 /// Reads `args.data` and applies --periods, --ts and --band. `noise_model`: a noise model
 /// will be fitted, so the lines without input are kept and the Nyquist line dropped.
-pub fn prepare(args: &CommonArgs, noise_model: bool) -> Result<Prepared, Failure> {
+pub fn prepare(args: &CommonArgs, noise_model: bool, normalise: bool) -> Result<Prepared, Failure> {
     let (measurement, entry, channels) = read(args)?;
     let mut notes = Vec::new();
+    let measurement = if normalise {
+        normalise_extremes(measurement, &mut notes)?
+    } else {
+        measurement
+    };
     let time_record = matches!(measurement, Measurement::Time(_));
     let mut record = None;
     let mut periods = None;
@@ -138,6 +143,44 @@ pub fn prepare(args: &CommonArgs, noise_model: bool) -> Result<Prepared, Failure
         periods,
         realisations,
         unexcited_noise,
+    })
+}
+
+/// Binary exponent beyond which [`normalise_extremes`] scales the data: 2^200 ≈ 1.6e60,
+/// so that squared data and their sums stay far inside f64.
+const EXTREME_EXPONENT: i32 = 200;
+
+/// `diagnose` on data of extreme magnitude (largest |y| or |u| beyond 2^±200): the output
+/// and input scaled by powers of two (exact) so that the noise references, detectors and
+/// tests see data of order one, with a note; other data unchanged.
+fn normalise_extremes(
+    m: Measurement<f64>,
+    notes: &mut Vec<String>,
+) -> Result<Measurement<f64>, Failure> {
+    let n = match &m {
+        Measurement::Frequency(d) => Normalisation::of(d),
+        Measurement::Time(r) => Normalisation::of_samples(r.y(), r.u()),
+    };
+    if n.exponent() <= EXTREME_EXPONENT {
+        return Ok(m);
+    }
+    notes.push(format!(
+        "data of extreme magnitude: the output was scaled by 2^{} and the input by 2^{} \
+         (exact) for the analysis; poles, zeros, delays and tests are unchanged by it, but \
+         gains, parameters, costs without noise variances and figures are of the scaled data",
+        n.output().log2().round(),
+        n.input().log2().round()
+    ));
+    Ok(match m {
+        Measurement::Frequency(d) => Measurement::Frequency(n.apply(&d)),
+        Measurement::Time(r) => {
+            let scale = |x: &[f64], c: f64| x.iter().map(|v| v * c).collect();
+            Measurement::Time(TimeData::new(
+                scale(r.u(), n.input()),
+                scale(r.y(), n.output()),
+                r.ts(),
+            )?)
+        }
     })
 }
 
@@ -356,11 +399,15 @@ fn time_lines(
     let excitation = data.excitation(EXCITATION_FRACTION);
     let n_excited = excitation.count();
     if n_excited == 0 {
-        return Err(Failure::runtime(
+        return Err(Failure::runtime(if data.input_is_constant() {
+            "the input is constant (every line above DC is below 1e-10 of the DC line): it \
+             excites only DC, so the record carries no information about the dynamics"
+                .into()
+        } else {
             "the input spectrum is zero on every line above DC: the record carries no \
              information about the system"
-                .into(),
-        ));
+                .into()
+        }));
     }
     // a noise model is also identified from the lines without input
     let unexcited_noise = match excitation.rule() {

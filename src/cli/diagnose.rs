@@ -177,7 +177,7 @@ struct Diagnosis {
 pub fn diagnose(args: &DiagnoseArgs) -> Result<String, Failure> {
     let c = &args.common;
     check_usage(args)?;
-    let mut prepared = data::prepare(c, false)?;
+    let mut prepared = data::prepare(c, false, true)?;
     let file = c.data.display().to_string();
     let start = ModelSpec {
         domain: prepared.domain,

@@ -76,7 +76,7 @@ fn fit(args: &FitArgs) -> Result<String, Failure> {
     ])?;
     let criterion = Method::from(args.criterion);
     check_combinations(c, criterion, args.noise_order)?;
-    let prepared = data::prepare(c, args.noise_order.is_some())?;
+    let prepared = data::prepare(c, args.noise_order.is_some(), false)?;
     let file = c.data.display().to_string();
     let spec = ModelSpec {
         domain: prepared.domain,

@@ -4,6 +4,7 @@ use super::Failure;
 use super::args::CriterionArg;
 use super::data::Prepared;
 use fdid::basis::PolyBasis;
+use fdid::data::Normalisation;
 use fdid::estimate::{Method, ModelSpec, RationalFit};
 use fdid::fit::Stage;
 use fdid::model::Output;
@@ -974,10 +975,13 @@ fn relative_residual<M: ModelStructure<f64>>(
     if !out.evaluate(model, theta, data, false) {
         return f64::NAN;
     }
+    // both sums of the output scaled by the same power of two (exact), so that neither
+    // underflows nor overflows for data near the limits of f64
+    let c = Normalisation::of(data).output();
     let (mut r, mut y) = (0.0, 0.0);
     for (yh, yk) in out.yhat.iter().zip(data.y()) {
-        r += (*yk - *yh).norm_sqr();
-        y += yk.norm_sqr();
+        r += ((*yk - *yh) * c).norm_sqr();
+        y += (*yk * c).norm_sqr();
     }
     (r / y).sqrt()
 }

@@ -3,7 +3,7 @@
 
 use crate::data::{FrequencyData, TimeData};
 use crate::error::{FdidError, Result};
-use crate::scalar::Real;
+use crate::scalar::{Complex, Real};
 
 /// Default fraction of [`FrequencyData::excited_lines`]: a line is excited when
 /// `|U_k| > 10⁻⁶ max_{j: ω_j > 0} |U_j|` (−120 dB). Lines left out of a multisine keep
@@ -12,21 +12,48 @@ use crate::scalar::Real;
 /// Rayleigh-distributed `|U_k|` the chance is about `10⁻¹¹` per line).
 pub const EXCITATION_FRACTION: f64 = 1e-6;
 
+/// A line above DC is excited only when `|U_k| > 10⁻¹⁰ |U_DC|` (and above the floor of
+/// [`EXCITATION_FRACTION`]): the DFT of a constant input holds about `10⁻¹⁶ |U_DC|` of
+/// rounding on the other lines and excites none, while any input that varies by more than
+/// `10⁻¹⁰` of its mean (times √N) is not affected.
+pub const DC_ROUNDING: f64 = 1e-10;
+
 /// Default tolerance of [`TimeData::period_mismatch`]: the part of the input that differs
 /// between periods may carry at most `0.1` (−10 dB) of the power of the part that repeats.
 pub const PERIODICITY_TOLERANCE: f64 = 0.1;
 
 impl<T: Real> FrequencyData<T> {
-    /// The excitation floor `fraction · max_{k: ω_k > 0} |U_k|` (DC left out).
+    /// The excitation floor `max(fraction · max_{k: ω_k > 0} |U_k|,` [`DC_ROUNDING`]` · |U_DC|)`
+    /// (`U_DC` the line at ω = 0, if any): a constant input, whose DFT holds only rounding
+    /// (about 10⁻¹⁶ |U_DC|) above DC, excites no line.
     pub fn excitation_floor(&self, fraction: f64) -> f64 {
-        let max = self
-            .omega()
-            .iter()
-            .zip(self.u())
+        let level = |(_, u): (&T, &Complex<T>)| u.norm().to_f64_lossless();
+        let lines = || self.omega().iter().zip(self.u());
+        let max = lines()
             .filter(|(w, _)| **w > T::zero())
-            .map(|(_, u)| u.norm().to_f64_lossless())
+            .map(level)
             .fold(0.0, f64::max);
-        fraction * max
+        let dc = lines()
+            .filter(|(w, _)| **w == T::zero())
+            .map(level)
+            .fold(0.0, f64::max);
+        (fraction * max).max(DC_ROUNDING * dc)
+    }
+
+    /// True when the input has a DC line and no line above it reaches [`DC_ROUNDING`] of
+    /// it: the input is constant to rounding.
+    pub fn input_is_constant(&self) -> bool {
+        let mut dc = 0.0;
+        let mut max = 0.0;
+        for (w, u) in self.omega().iter().zip(self.u()) {
+            let l = u.norm().to_f64_lossless();
+            if *w == T::zero() {
+                dc = l;
+            } else {
+                max = f64::max(max, l);
+            }
+        }
+        dc > 0.0 && max <= DC_ROUNDING * dc
     }
 
     /// Per line, whether the input excites it: `ω_k > 0` and

@@ -357,6 +357,21 @@ impl<T: Real> FrequencyData<T> {
         self.band(f_min * T::two_pi(), f_max * T::two_pi())
     }
 
+    /// Checks that the data carry a response to fit: some `Y_k ≠ 0`.
+    ///
+    /// # Errors
+    /// [`FdidError::ZeroOutput`] when the output is zero on every line.
+    pub fn check_output(&self) -> Result<()> {
+        if self
+            .y
+            .iter()
+            .all(|y| y.re == T::zero() && y.im == T::zero())
+        {
+            return Err(FdidError::ZeroOutput { lines: self.len() });
+        }
+        Ok(())
+    }
+
     /// Keeps the lines where `keep[k]` is true, with their noise variances and sample time.
     ///
     /// # Errors
@@ -386,6 +401,29 @@ impl<T: Real> FrequencyData<T> {
             y: pick(&self.y, keep),
             u: pick(&self.u, keep),
             noise: self.noise.as_ref().map(|n| n.filter(keep)),
+            ts: self.ts,
+            variance_dof: self.variance_dof,
+            mixed_ts: self.mixed_ts,
+        }
+    }
+
+    /// Y scaled by `output`, U by `input` and the noise (co)variances with them (see
+    /// [`super::Normalisation`]).
+    pub(crate) fn scaled(&self, output: T, input: T) -> Self {
+        let scale = |v: &[Complex<T>], c: T| v.iter().map(|x| x.scale(c)).collect();
+        Self {
+            omega: self.omega.clone(),
+            y: scale(&self.y, output),
+            u: scale(&self.u, input),
+            noise: self.noise.as_ref().map(|n| NoiseVariances {
+                var_y: n.var_y.iter().map(|v| *v * output * output).collect(),
+                var_u: n.var_u.iter().map(|v| *v * input * input).collect(),
+                cov_yu: n
+                    .cov_yu
+                    .iter()
+                    .map(|v| v.scale(output).scale(input))
+                    .collect(),
+            }),
             ts: self.ts,
             variance_dof: self.variance_dof,
             mixed_ts: self.mixed_ts,

@@ -8,6 +8,7 @@ mod frequency;
 mod grid;
 mod lpm;
 mod merge;
+mod normalise;
 mod periodic;
 mod time;
 mod weighting;
@@ -16,7 +17,7 @@ pub(crate) use distortion::check_band_order;
 pub use distortion::{
     DetectionLine, DetectionTest, DistortionAnalysis, RealisationBla, SpreadTest,
 };
-pub use excitation::{EXCITATION_FRACTION, PERIODICITY_TOLERANCE};
+pub use excitation::{DC_ROUNDING, EXCITATION_FRACTION, PERIODICITY_TOLERANCE};
 pub use excited::{
     EXCITATION_DIP_DB, EXCITATION_GAP_DB, EXCITATION_GAP_MIN_LINES, EXCITATION_GRID_ALPHA,
     Excitation, ExcitationRule, GridPattern, UNEXCITED_NEIGHBOURS,
@@ -25,6 +26,8 @@ pub use frequency::{FrequencyData, NoiseVariances};
 pub use grid::{SAMPLE_TIME_TOLERANCE, nyquist_slack};
 pub use lpm::{Lpm, LpmEstimate, lpm};
 pub use merge::merge;
+pub use normalise::Normalisation;
+pub(crate) use normalise::power_of_two_factor;
 pub use periodic::PeriodicAverage;
 pub(crate) use time::check_ts;
 pub use time::{TimeData, dft_lines};

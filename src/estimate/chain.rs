@@ -2,7 +2,7 @@
 //! [`estimate`] that composes any criterion with any solver that accepts its problem.
 
 use crate::criterion::{Criterion, Levy, MaximumLikelihood, NoiseWeighting, SanathananKoerner};
-use crate::data::FrequencyData;
+use crate::data::{FrequencyData, Normalisation};
 use crate::error::Result;
 use crate::fit::{Fit, Stage, StageKind};
 use crate::model::{EquationError, ModelStructure};
@@ -259,10 +259,31 @@ impl Pipeline {
 
     /// Runs the chain on `model` and `data`, then (with `restarts` and ML) the model's
     /// further starts when the fit shows evidence of a local minimum (see [`Pipeline`]).
+    /// Data far from order one are normalised by powers of two first and the fit mapped
+    /// back ([`Normalisation`], [`Fit::denormalised`]) when the model has a
+    /// [`ModelStructure::normalisation_map`](crate::model::ModelStructure::normalisation_map),
+    /// so the poles do not depend on the data's units.
     ///
     /// # Errors
-    /// Invalid data for the model, singular linear problems, numerical failure.
+    /// [`FdidError::ZeroOutput`](crate::FdidError::ZeroOutput) when the output is zero on
+    /// every line; invalid data for the model, singular linear problems, numerical failure.
     pub fn fit<T: Real, M: FurtherStarts<T>>(
+        &self,
+        model: &M,
+        data: &FrequencyData<T>,
+    ) -> Result<Fit<T, M>> {
+        data.check_output()?;
+        // the model's own checks first (its size against the lines) bound the map's length
+        model.check_data(data)?;
+        let n = Normalisation::of(data);
+        if !n.is_identity() && model.normalisation_map(n.output(), n.input()).is_some() {
+            return self.fit_as_given(model, &n.apply(data))?.denormalised(&n);
+        }
+        self.fit_as_given(model, data)
+    }
+
+    /// [`Pipeline::fit`] without the normalisation.
+    fn fit_as_given<T: Real, M: FurtherStarts<T>>(
         &self,
         model: &M,
         data: &FrequencyData<T>,

@@ -6,7 +6,7 @@
 use super::fit_noise_model;
 use super::{Pipeline, estimate, fit_delayed, fit_eiv, fit_eiv_delayed};
 use crate::criterion::{TotalLeastSquares, interior_lines};
-use crate::data::{FrequencyData, NoiseWeighting};
+use crate::data::{FrequencyData, NoiseWeighting, Normalisation};
 use crate::error::{FdidError, Result};
 use crate::fit::{Fit, Stage, StageKind};
 use crate::model::WithNoiseModel;
@@ -231,7 +231,9 @@ impl ModelSpec {
         }
     }
 
-    /// Fits the spec to `data`, choosing the strategy from its settings:
+    /// Fits the spec to `data`, normalised by powers of two ([`Normalisation`]; the fit is
+    /// mapped back, so any finite data of the type's range give the same poles), choosing
+    /// the strategy from its settings:
     ///
     /// | delay | noise model | criterion | strategy |
     /// |---|---|---|---|
@@ -244,6 +246,7 @@ impl ModelSpec {
     /// | yes | yes | ml | the delayed fit with flat weighting on the excited lines, then [`refine_noise_model`](super::refine_noise_model) |
     ///
     /// # Errors
+    /// [`FdidError::ZeroOutput`] when the output is zero on every line;
     /// [`FdidError::TooFewFrequencies`] when 2·lines < na + nb + 1;
     /// [`FdidError::InvalidArgument`] for combinations that do not exist (a noise model with
     /// another criterion than ML; a delay with levy, sk or tls; a noise model on data
@@ -257,13 +260,20 @@ impl ModelSpec {
                 parameters: p,
             });
         }
+        data.check_output()?;
         let model = self.model(data)?;
         let stable = self.stability == Stability::Enforced;
         let pipeline = Pipeline {
             stable,
             ..Pipeline::default()
         };
-        let fit = self.fit_with(&pipeline, &model, data)?;
+        let normalisation = Normalisation::of(data);
+        let fit = if normalisation.is_identity() {
+            self.fit_with(&pipeline, &model, data)?
+        } else {
+            self.fit_with(&pipeline, &model, &normalisation.apply(data))?
+                .denormalised(&normalisation)?
+        };
         if stable && !fit.is_stable() {
             return Err(FdidError::NotConverged {
                 method: "stability-constrained fit",
@@ -455,6 +465,20 @@ macro_rules! each_fit {
 }
 
 impl RationalFit {
+    /// The fit to data normalised by `n` mapped back to the data as given
+    /// ([`Fit::denormalised`]).
+    ///
+    /// # Errors
+    /// As [`Fit::denormalised`].
+    pub fn denormalised(self, n: &Normalisation<f64>) -> Result<Self> {
+        Ok(match self {
+            RationalFit::Plain(f) => RationalFit::Plain(f.denormalised(n)?),
+            RationalFit::Delayed(f) => RationalFit::Delayed(f.denormalised(n)?),
+            RationalFit::NoiseModel(f) => RationalFit::NoiseModel(f.denormalised(n)?),
+            RationalFit::DelayedNoiseModel(f) => RationalFit::DelayedNoiseModel(f.denormalised(n)?),
+        })
+    }
+
     /// The rational part B/A (without delay and noise model).
     pub fn rational(&self) -> &Rational<f64> {
         match self {

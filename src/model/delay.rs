@@ -267,6 +267,13 @@ impl<T: Real, M: ModelStructure<T>> ModelStructure<T> for Delayed<M> {
         self.inner.has_transient()
     }
 
+    /// The inner model's map, and 1 for τ.
+    fn normalisation_map(&self, output: T, input: T) -> Option<Vec<T>> {
+        let mut d = self.inner.normalisation_map(output, input)?;
+        d.push(T::one());
+        Some(d)
+    }
+
     /// G = G_M(θ_M) e^{−iωτ}.
     fn response_into(&self, theta: &[T], omega: &[T], out: &mut [Complex<T>]) {
         let p = self.inner.n_params();

@@ -67,6 +67,18 @@ pub trait ModelStructure<T: Real> {
         true
     }
 
+    /// The diagonal map back from a fit to normalised data: for θ′ fitted to
+    /// (c_y·Y_k, c_u·U_k) (`output` = c_y, `input` = c_u), θ_j = d_j·θ′_j describes the data
+    /// (Y_k, U_k), with d returned here. Parameters of G's gain (a numerator) have
+    /// d_j = c_u/c_y, those of the output term T (a transient) 1/c_y, and those that shape
+    /// the response (poles, a delay, a monic noise model) 1. `None` (the default): the
+    /// model has no such map and is fitted to the data as given. See
+    /// [`crate::data::Normalisation`].
+    fn normalisation_map(&self, output: T, input: T) -> Option<Vec<T>> {
+        let _ = (output, input);
+        None
+    }
+
     /// Checks that the model can be fitted to `data` (domain, sample time, enough lines).
     ///
     /// # Errors

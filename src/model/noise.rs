@@ -379,6 +379,13 @@ impl<T: Real, M: ModelStructure<T>> ModelStructure<T> for WithNoiseModel<M> {
         self.system.has_transient()
     }
 
+    /// The system's map, and 1 for the monic noise model's parameters.
+    fn normalisation_map(&self, output: T, input: T) -> Option<Vec<T>> {
+        let mut d = self.system.normalisation_map(output, input)?;
+        d.extend(std::iter::repeat_n(T::one(), self.n_noise_params()));
+        Some(d)
+    }
+
     fn response_into(&self, theta: &[T], omega: &[T], out: &mut [Complex<T>]) {
         self.system
             .response_into(&theta[..self.system.n_params()], omega, out);

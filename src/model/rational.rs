@@ -657,6 +657,15 @@ impl<T: Real> ModelStructure<T> for Rational<T> {
         self.transient.is_some()
     }
 
+    /// Denominator 1, numerator c_u/c_y, transient 1/c_y (B and T are linear in their
+    /// parameters; A is monic).
+    fn normalisation_map(&self, output: T, input: T) -> Option<Vec<T>> {
+        let mut d = vec![T::one(); self.na];
+        d.extend(std::iter::repeat_n(input / output, self.nb + 1));
+        d.extend(std::iter::repeat_n(T::one() / output, self.n_transient()));
+        Some(d)
+    }
+
     fn response_into(&self, theta: &[T], omega: &[T], out: &mut [Complex<T>]) {
         let mut phi = self.zero_phi();
         let c = self.numerator_coefficients(theta);
@@ -863,13 +872,27 @@ impl<T: Real> PolesZeros<T> for Rational<T> {
         roots(&self.basis, &a)
     }
 
+    /// The roots of B, found from B's coefficients scaled by a power of two (the roots do
+    /// not depend on B's scale, so a gain near the type's limits does not overflow them).
     fn zeros(&self, theta: &[T]) -> Result<Vec<Complex<T>>> {
         let (_, b) = self.coefficients(theta);
+        let c = crate::data::power_of_two_factor(b.iter().copied());
+        let b: Vec<T> = b.iter().map(|v| *v * c).collect();
         roots(&self.basis, &self.b_in_basis(&b))
     }
 
+    /// The gain, linear in B: found from B scaled by a power of two c and divided by c.
     fn gain(&self, theta: &[T]) -> T {
         let (a, b) = self.coefficients(theta);
+        let c = crate::data::power_of_two_factor(b.iter().copied());
+        let b: Vec<T> = b.iter().map(|v| *v * c).collect();
+        self.gain_of(&a, &b) / c
+    }
+}
+
+impl<T: Real> Rational<T> {
+    /// The gain of coefficients `a` (denominator) and `b` (numerator, in θ's form).
+    fn gain_of(&self, a: &[T], b: &[T]) -> T {
         match &self.basis {
             PolyBasis::DelayPowers { .. } => {
                 // the first coefficient the root finder does not treat as zero
@@ -884,7 +907,7 @@ impl<T: Real> PolesZeros<T> for Rational<T> {
             PolyBasis::PartialFractions { .. } => {
                 // D·Π(s − q) is monic; N·Π(s − q) leads with c₀, or with its first Markov
                 // parameter when strictly proper
-                crate::roots::partial_fraction_leading(&self.basis, &self.b_in_basis(&b))
+                crate::roots::partial_fraction_leading(&self.basis, &self.b_in_basis(b))
                     .unwrap_or_else(T::zero)
             }
             PolyBasis::Orthonormal { scale, gamma } => {
@@ -899,7 +922,7 @@ impl<T: Real> PolesZeros<T> for Rational<T> {
                     }
                     n.saturating_sub(1)
                 };
-                let (da, db) = (deg(&a), deg(&b));
+                let (da, db) = (deg(a), deg(b));
                 let mut k = b[db] / a[da];
                 // ratio of leading coefficients: Π_{j≤db} 1/(ω_s γ_j) / Π_{j≤da} 1/(ω_s γ_j)
                 if da > db {

@@ -40,6 +40,8 @@ struct Reader<'a> {
     noise_section: bool,
     /// The line of the first data row.
     data_line: Option<usize>,
+    /// Whether every data line so far held exactly 3 numbers (a 1-port row).
+    only_one_port_rows: bool,
 }
 
 impl<'a> Reader<'a> {
@@ -57,6 +59,7 @@ impl<'a> Reader<'a> {
             values: Vec::new(),
             noise_section: false,
             data_line: None,
+            only_one_port_rows: true,
         }
     }
 
@@ -110,6 +113,23 @@ impl<'a> Reader<'a> {
     fn data(&mut self, line: usize, content: &str) -> Result<()> {
         self.data_line.get_or_insert(line);
         let opts = *self.options.get_or_insert_with(Options::default);
+        let count = fields(content).count();
+        if self.ports == 1 && count != self.width {
+            return Err(self.error(
+                line,
+                format!(
+                    "the line holds {count} numbers, but a 1-port row holds 3 (the frequency \
+                     and one complex value) on one line{}",
+                    match count {
+                        9 => ": it looks like a 2-port row (is the file a .s2p?)",
+                        _ => "",
+                    }
+                ),
+            ));
+        }
+        if count != 3 {
+            self.only_one_port_rows = false;
+        }
         for field in fields(content) {
             let v = number(field).map_err(|m| self.error(line, m))?;
             if self.row.is_empty() {
@@ -135,6 +155,21 @@ impl<'a> Reader<'a> {
 
     /// The file read: its rows complete, at least one of them.
     fn finish(self) -> Result<Touchstone> {
+        if self.ports > 1
+            && self.only_one_port_rows
+            && let Some(first) = self.data_line
+        {
+            return Err(self.error(
+                first,
+                format!(
+                    "every data line holds 3 numbers (the frequency and one complex value, \
+                     a 1-port row), but a {p}-port row holds {w}: the file looks like a \
+                     1-port file named .s{p}p (rename it .s1p)",
+                    p = self.ports,
+                    w = self.width
+                ),
+            ));
+        }
         if !self.row.is_empty() {
             return Err(self.error(self.row_line, short_row(&self.row, self.width, self.ports)));
         }

@@ -1,0 +1,120 @@
+//! Normalisation of the spectra by powers of two, so that fits see data of order one
+//! whatever the units (a response of 10⁻¹⁷⁰ or 10¹⁷⁰ would otherwise underflow or overflow
+//! in the squared residuals).
+
+use super::FrequencyData;
+use crate::scalar::Real;
+use num_traits::Float;
+
+/// The factors (c_y, c_u) of a normalisation Y′ = c_y·Y, U′ = c_u·U, variances scaled by
+/// c_y², c_u² and c_y·c_u.
+///
+/// Each factor is the power of two that brings the largest |Y_k| (|U_k|) into \[0.5, 1)
+/// (1 when the spectrum is zero), with the exponent capped at 0.9 of the type's largest so
+/// that the factor is finite. Multiplying by a power of two is exact in binary floating
+/// point (short of underflow), so a fit to the normalised data is the fit to the data:
+/// only the parameters of the gain and of the output term change, by the
+/// [`ModelStructure::normalisation_map`](crate::model::ModelStructure::normalisation_map).
+///
+/// ```
+/// use fdid::data::{FrequencyData, Normalisation};
+/// use fdid::Complex;
+/// let data = FrequencyData::from_frf(
+///     vec![1.0, 2.0],
+///     vec![Complex::new(3e-170, 0.0), Complex::new(0.0, -1e-170)],
+///     None,
+/// )?;
+/// let n = Normalisation::of(&data);
+/// assert_eq!(n.input(), 1.0);
+/// let scaled = n.apply(&data);
+/// assert!((0.5..1.0).contains(&scaled.y()[0].norm()));
+/// # Ok::<(), fdid::FdidError>(())
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Normalisation<T: Real> {
+    output: T,
+    input: T,
+}
+
+impl<T: Real> Normalisation<T> {
+    /// The factors for `data`.
+    pub fn of(data: &FrequencyData<T>) -> Self {
+        Self {
+            output: power_of_two_factor(data.y().iter().map(|v| v.norm())),
+            input: power_of_two_factor(data.u().iter().map(|v| v.norm())),
+        }
+    }
+
+    /// The factors for a time record's output samples `y` and input samples `u` (the DFT is
+    /// linear, so they normalise its spectra as well).
+    pub fn of_samples(y: &[T], u: &[T]) -> Self {
+        Self {
+            output: power_of_two_factor(y.iter().copied()),
+            input: power_of_two_factor(u.iter().copied()),
+        }
+    }
+
+    /// The larger of the binary exponents of the two factors' magnitudes: how far from
+    /// order one the data lie (0 for data already in \[0.5, 1)).
+    pub fn exponent(&self) -> i32 {
+        let e = |c: T| c.to_f64_lossless().log2().abs().round() as i32;
+        e(self.output).max(e(self.input))
+    }
+
+    /// c_y, the factor of the output spectrum.
+    pub fn output(&self) -> T {
+        self.output
+    }
+
+    /// c_u, the factor of the input spectrum.
+    pub fn input(&self) -> T {
+        self.input
+    }
+
+    /// True when both factors are 1 (the data are already of order one).
+    pub fn is_identity(&self) -> bool {
+        self.output == T::one() && self.input == T::one()
+    }
+
+    /// The data with Y and U scaled and their noise (co)variances with them.
+    pub fn apply(&self, data: &FrequencyData<T>) -> FrequencyData<T> {
+        data.scaled(self.output, self.input)
+    }
+}
+
+/// 2^−e with e the binary exponent of the largest of the magnitudes `x` (so that it
+/// becomes \[0.5, 1)), the exponent capped at ±0.9 of the type's largest; 1 when all are
+/// zero or one is not finite.
+pub(crate) fn power_of_two_factor<T: Real>(x: impl IntoIterator<Item = T>) -> T {
+    let largest = x
+        .into_iter()
+        .map(Float::abs)
+        .fold(T::zero(), |m, v| if v > m || v.is_nan() { v } else { m });
+    if largest == T::zero() || !Float::is_finite(largest) {
+        return T::one();
+    }
+    let cap = (<T as Float>::max_value().to_f64_lossless().log2() * 0.9).floor();
+    let exponent = (largest.to_f64_lossless().log2().floor() + 1.0).clamp(-cap, cap);
+    Float::powi(T::lit(2.0), -(exponent as i32))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn factors_are_powers_of_two_bringing_the_largest_to_one() {
+        for (largest, exponent) in [(1.0, -1), (0.75, 0), (3e-170, 563), (5e-324, 1073)] {
+            let c: f64 = power_of_two_factor([largest, 0.0]);
+            let cap = (f64::MAX.log2() * 0.9).floor() as i32;
+            assert_eq!(c, 2f64.powi(exponent.min(cap)), "largest {largest}");
+            if exponent < cap {
+                assert!((0.5..1.0).contains(&(largest * c)), "largest {largest}");
+            }
+        }
+        assert_eq!(power_of_two_factor([0.0f64, -0.0]), 1.0);
+        assert_eq!(power_of_two_factor([1.0, f64::NAN]), 1.0);
+        let c: f32 = power_of_two_factor([-1e-30f32]);
+        assert!((0.5..1.0).contains(&(1e-30 * c)));
+    }
+}
