@@ -25,7 +25,7 @@ use num_traits::Float;
 ///     None,
 /// )?;
 /// let n = Normalisation::of(&data);
-/// assert_eq!(n.input(), 1.0);
+/// assert_eq!(n.input(), 0.5); // |U| = 1 becomes 0.5
 /// let scaled = n.apply(&data);
 /// assert!((0.5..1.0).contains(&scaled.y()[0].norm()));
 /// # Ok::<(), fdid::FdidError>(())
