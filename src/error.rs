@@ -84,7 +84,11 @@ pub enum FdidError {
         reason: String,
     },
     /// A band selects no frequency lines.
-    #[error("the band [{min}, {max}] rad/s selects no frequency lines")]
+    #[error(
+        "the band {} .. {} Hz ({min} .. {max} rad/s) selects no frequency lines",
+        hz(*min),
+        hz(*max)
+    )]
     EmptyBand {
         /// Lower edge (rad/s).
         min: f64,
@@ -94,7 +98,7 @@ pub enum FdidError {
     /// The input spectrum is zero where data are used.
     #[error(
         "the input spectrum is zero at {} Hz (entry {index} of the lines used): that line carries no information on the system",
-        omega / std::f64::consts::TAU
+        hz(*omega)
     )]
     ZeroInput {
         /// Index of the line.
@@ -111,7 +115,7 @@ pub enum FdidError {
         lines: usize,
     },
     /// A linear problem is rank deficient or too ill-conditioned to solve.
-    #[error("singular problem: {what} (condition number {condition:.3e})")]
+    #[error("singular problem: {what} ({})", condition_text(*condition))]
     Singular {
         /// Which problem.
         what: &'static str,
@@ -180,5 +184,32 @@ pub(crate) fn check_finite_complex<T: crate::scalar::Real>(
             index,
             value: format!("{}", values[index]),
         }),
+    }
+}
+
+/// The condition number of a [`FdidError::Singular`] in words: a number, "exactly
+/// singular" for ∞, or a note that the matrix holds values that are not finite.
+fn condition_text(condition: f64) -> String {
+    if condition.is_nan() {
+        "the matrix holds values that are not finite".into()
+    } else if condition.is_infinite() {
+        "exactly singular".into()
+    } else {
+        format!("condition number {condition:.3e}")
+    }
+}
+
+/// The frequency ω (rad/s) in Hz with 7 significant digits (trailing zeros dropped).
+fn hz(omega: f64) -> String {
+    let f = omega / std::f64::consts::TAU;
+    if f == 0.0 || !f.is_finite() {
+        return f.to_string();
+    }
+    let decimals = (6 - f.abs().log10().floor() as i64).clamp(0, 320) as usize;
+    let text = format!("{f:.decimals$}");
+    if text.contains('.') {
+        text.trim_end_matches('0').trim_end_matches('.').to_string()
+    } else {
+        text
     }
 }

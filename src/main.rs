@@ -18,6 +18,7 @@ use std::process::ExitCode;
 
 use cli::Failure;
 use cli::args::Cli;
+use cli::message::one_line;
 
 fn main() -> ExitCode {
     // A bug anywhere below must still end in one `error:` line, not a backtrace.
@@ -61,13 +62,4 @@ fn main() -> ExitCode {
 fn report(f: &Failure) -> ExitCode {
     eprintln!("error: {}", one_line(&f.message));
     ExitCode::from(f.code)
-}
-
-/// Joins the lines of a message so it always prints as one line.
-fn one_line(s: &str) -> String {
-    s.split(['\n', '\r'])
-        .map(str::trim)
-        .filter(|l| !l.is_empty())
-        .collect::<Vec<_>>()
-        .join(" ")
 }

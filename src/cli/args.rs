@@ -97,7 +97,7 @@ parameterises the model), basis_poles, delay_std, delay_samples (tau/Ts, null wi
 sample time), transient (number of transient coefficients, 0 without --transient),
 noise_order, whiteness_lags, unresolved_poles ([{\"pole\":[re,im], \"s\":[sigma,w_p],
 \"band_hz\":[lo,hi], \"nearest_lines_hz\":[below,above]},..], [] when none). theta is [rational part, t1..tn (--transient), tau
-(--delay), c1..cN, d1..dN (--noise-order)]. Values that are not finite are written as null.
+(--delay), nc1..ncN, nd1..ndN (--noise-order: H = C/D)]. Values that are not finite are written as null.
 
 Model extensions (they combine: --delay --transient --noise-order N all at once works):
   --delay           G(iw) e^{-i w tau}; with --criterion ml or eiv
@@ -305,7 +305,7 @@ pub struct CommonArgs {
     /// Time records: number of periods P in the record; the DFT is averaged over them
     /// (P >= 2 also estimates noise variances used to weight the lines). Without it the
     /// whole record is transformed
-    #[arg(long, value_name = "P")]
+    #[arg(long, value_name = "P", value_parser = clap::builder::RangedU64ValueParser::<usize>::new().range(1..))]
     pub periods: Option<usize>,
 
     /// Fit a delayed model G(iw) e^{-i w tau}: tau (s) is one more parameter, started from
@@ -341,7 +341,7 @@ pub struct CommonArgs {
     /// linear approximation weighted by its total variance (noise + nonlinear distortion,
     /// from the spread between realisations); P >= 2 also gives the noise variance (from
     /// the spread between periods)
-    #[arg(long, value_name = "M")]
+    #[arg(long, value_name = "M", value_parser = clap::builder::RangedU64ValueParser::<usize>::new().range(1..))]
     pub realisations: Option<usize>,
 
     /// Raw tables of several channels (a benchmark CSV with a header, a whitespace-separated
@@ -652,7 +652,10 @@ pub fn clap_failure(e: clap::Error) -> ExitCode {
         Some("ltv") => "ltv",
         _ => "fit",
     };
-    eprintln!("error: {msg} (see `fdid {command} --help`)");
+    eprintln!(
+        "error: {} (see `fdid {command} --help`)",
+        super::message::one_line(msg)
+    );
     ExitCode::from(2)
 }
 

@@ -312,7 +312,14 @@ fn frequency_lines(
             )));
         }
         (DomainArg::Z, Some(ts)) => Some(ts),
-        (DomainArg::S, _) => None,
+        (DomainArg::S, Some(ts)) => {
+            return Err(Failure::usage(format!(
+                "--ts {ts} has no use with --domain s on frequency data ({}): a \
+                 continuous-time model has no sample time (drop --ts, or fit --domain z)",
+                args.data.display()
+            )));
+        }
+        (DomainArg::S, None) => None,
     };
     let n = data.len();
     let data = data.with_ts(ts)?;

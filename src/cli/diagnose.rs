@@ -193,6 +193,9 @@ pub fn diagnose(args: &DiagnoseArgs) -> Result<String, Failure> {
     check_data_kind(&start, &file, &prepared)?;
     // a report directory that cannot be made is a usage problem found before the work
     if let Some(dir) = &args.report {
+        for name in REPORT_FILES {
+            super::refuse_overwrite(&c.data, &dir.join(name), "--report")?;
+        }
         std::fs::create_dir_all(dir).map_err(|e| {
             Failure::runtime(format!(
                 "cannot create the report directory {}: {e}",
@@ -954,6 +957,9 @@ impl Diagnosis {
         )
     }
 }
+
+/// The files `--report DIR` writes.
+const REPORT_FILES: [&str; 4] = ["report.txt", "report.json", "bode.svg", "residuals.svg"];
 
 /// Writes report.txt, report.json and (with the `plot` feature) the SVG figures into
 /// `dir`; returns the paths written.

@@ -4,6 +4,7 @@ pub mod args;
 mod data;
 mod diagnose;
 mod ltv;
+pub mod message;
 mod report;
 mod saved;
 #[cfg(feature = "plot")]
@@ -53,6 +54,27 @@ pub fn run(cli: &Cli) -> Result<String, Failure> {
     }
 }
 
+/// Refuses an output file `out` (of `flag`) that is the data file `data` itself, before
+/// any work: writing it would destroy the measurement.
+fn refuse_overwrite(
+    data: &std::path::Path,
+    out: &std::path::Path,
+    flag: &str,
+) -> Result<(), Failure> {
+    let same = match (std::fs::canonicalize(data), std::fs::canonicalize(out)) {
+        (Ok(a), Ok(b)) => a == b,
+        _ => false,
+    };
+    if same {
+        return Err(Failure::usage(format!(
+            "{flag} {} is the data file: writing it would overwrite the measurement (choose \
+             another file name)",
+            out.display()
+        )));
+    }
+    Ok(())
+}
+
 /// Rejects model orders above [`MAX_ORDER`], naming the flag.
 fn check_orders(orders: &[(&str, usize)]) -> Result<(), Failure> {
     for (name, v) in orders {
@@ -76,6 +98,11 @@ fn fit(args: &FitArgs) -> Result<String, Failure> {
     ])?;
     let criterion = Method::from(args.criterion);
     check_combinations(c, criterion, args.noise_order)?;
+    for (flag, out) in [("--plot", &args.plot), ("--save", &args.save)] {
+        if let Some(out) = out {
+            refuse_overwrite(&c.data, out, flag)?;
+        }
+    }
     let prepared = data::prepare(c, args.noise_order.is_some(), false)?;
     let file = c.data.display().to_string();
     let spec = ModelSpec {

@@ -461,7 +461,8 @@ impl Report {
     }
 
     /// Names of the parameters θ, and what they are: the rational part, then t1 … tn
-    /// (transient), tau (delay), c1 …, d1 … (noise model).
+    /// (transient), tau (delay), nc1 …, nd1 … (noise model H = C/D: the names of the
+    /// rational part's coefficients are taken).
     fn theta_names(&self) -> (Vec<String>, &'static str) {
         let (mut names, caption) = self.rational_names();
         names.extend((1..=self.n_transient).map(|k| format!("t{k}")));
@@ -469,8 +470,8 @@ impl Report {
             names.push("tau".into());
         }
         if let Some(h) = &self.noise_model {
-            names.extend((1..h.c.len()).map(|k| format!("c{k}")));
-            names.extend((1..h.d.len()).map(|k| format!("d{k}")));
+            names.extend((1..h.c.len()).map(|k| format!("nc{k}")));
+            names.extend((1..h.d.len()).map(|k| format!("nd{k}")));
         }
         if names.len() == self.theta.len() {
             (names, caption)

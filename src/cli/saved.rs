@@ -59,6 +59,7 @@ pub fn saved(
         "fitted": fitted,
         "unresolved_poles": serde_json::to_value(Envelope {
             unresolved_poles: unresolved.to_vec(),
+            ts,
         })
         .map_err(|e| Failure::runtime(format!("cannot serialise the unresolved poles: {e}")))?
         ["unresolved_poles"],
@@ -78,6 +79,30 @@ struct Envelope {
     /// The poles the data did not resolve (one of each conjugate pair), `[re, im]` each.
     #[serde(default)]
     unresolved_poles: Vec<Complex<f64>>,
+    /// The sample time of a discrete-time model (s).
+    #[serde(default)]
+    ts: Option<f64>,
+}
+
+impl Envelope {
+    /// A warning when frequencies of `f_hz` lie above the Nyquist frequency of a
+    /// discrete-time model, where its response only repeats that below it.
+    fn nyquist_warning(&self, f_hz: &[f64]) -> Option<String> {
+        let ts = self.ts.filter(|t| t.is_finite() && *t > 0.0)?;
+        let nyquist = 0.5 / ts;
+        let above = f_hz
+            .iter()
+            .filter(|f| **f > nyquist * (1.0 + 1e-12))
+            .count();
+        (above > 0).then(|| {
+            format!(
+                "{above} of the {} frequencies lie above the Nyquist frequency 1/(2 Ts) = \
+                 {nyquist} Hz of this discrete-time model (Ts = {ts} s): there its response \
+                 repeats the one below (it is periodic in f with period 1/Ts)",
+                f_hz.len()
+            )
+        })
+    }
 }
 
 /// Writes `value` to `path`.
@@ -148,7 +173,7 @@ fn finite(x: f64) -> Value {
 }
 
 /// The output of `fdid eval --json`: `{"frf":[[f,re,im],..],"frf_std":[..]|null,
-/// "unresolved_poles":[[re,im],..]}`.
+/// "unresolved_poles":[[re,im],..],"warnings":[..]}`.
 fn eval_json(f_hz: &[f64], (g, std): &Evaluated, envelope: &Envelope) -> String {
     let frf: Vec<Value> = f_hz
         .iter()
@@ -163,17 +188,20 @@ fn eval_json(f_hz: &[f64], (g, std): &Evaluated, envelope: &Envelope) -> String 
         .iter()
         .map(|p| json!([finite(p.re), finite(p.im)]))
         .collect();
+    let warnings: Vec<String> = envelope.nyquist_warning(f_hz).into_iter().collect();
     json!({
         "frf": frf,
         "frf_std": frf_std,
         "unresolved_poles": unresolved,
+        "warnings": warnings,
     })
     .to_string()
         + "\n"
 }
 
 /// The CSV output of `fdid eval`: a comment line on the saved model `value` (from
-/// `name`), a `# warning:` line for each unresolved pole, then `f,re,im[,std]`.
+/// `name`), a `# warning:` line for each unresolved pole and one for frequencies above
+/// the Nyquist frequency, then `f,re,im[,std]`.
 fn eval_csv(
     f_hz: &[f64],
     (g, std): &Evaluated,
@@ -197,6 +225,9 @@ fn eval_csv(
             if p.im == 0.0 { "+" } else { "+/-" },
             p.im.abs()
         );
+    }
+    if let Some(w) = envelope.nyquist_warning(f_hz) {
+        let _ = writeln!(out, "# warning: {w}");
     }
     let _ = writeln!(out, "f,re,im{}", if std.is_some() { ",std" } else { "" });
     for (k, (f, g)) in f_hz.iter().zip(g).enumerate() {

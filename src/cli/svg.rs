@@ -46,6 +46,55 @@ fn range(v: impl Iterator<Item = f64>, margin: f64, fallback: (f64, f64)) -> (f6
     (lo - margin * (hi - lo), hi + margin * (hi - lo))
 }
 
+/// Bins of the frequency axis (log scale) a series is thinned to: one per pixel column.
+const COLUMNS: usize = SIZE.0 as usize;
+
+/// `points` (sorted by frequency, positive) thinned for drawing: within each of
+/// [`COLUMNS`] log-spaced bins of their frequency range only the first, lowest, highest
+/// and last points are kept, in order. The drawn envelope is that of all the points, and
+/// a curve holds at most 4·[`COLUMNS`] points whatever the number of lines.
+fn decimate(points: Vec<(f64, f64)>) -> Vec<(f64, f64)> {
+    if points.len() <= 4 * COLUMNS {
+        return points;
+    }
+    let (lo, hi) = (points[0].0.ln(), points[points.len() - 1].0.ln());
+    let width = (hi - lo) / COLUMNS as f64;
+    let bin = |x: f64| {
+        if width > 0.0 {
+            (((x.ln() - lo) / width) as usize).min(COLUMNS - 1)
+        } else {
+            0
+        }
+    };
+    let mut kept = Vec::with_capacity(4 * COLUMNS);
+    let mut start = 0;
+    while start < points.len() {
+        let b = bin(points[start].0);
+        let end = start + points[start..].partition_point(|p| bin(p.0) == b);
+        let group = &points[start..end];
+        let (mut low, mut high) = (0, 0);
+        for (i, p) in group.iter().enumerate() {
+            if p.1 < group[low].1 {
+                low = i;
+            }
+            if p.1 > group[high].1 {
+                high = i;
+            }
+        }
+        let mut idx = [0, low, high, group.len() - 1];
+        idx.sort_unstable();
+        let mut last = None;
+        for i in idx {
+            if last != Some(i) {
+                kept.push(group[i]);
+                last = Some(i);
+            }
+        }
+        start = end;
+    }
+    kept
+}
+
 /// Pieces of a phase curve (degrees, wrapped to (−180, 180]) split where it wraps, so
 /// that no vertical line joins −180 and 180.
 fn phase_pieces(f: &[f64], g: &[Complex<f64>]) -> Vec<Vec<(f64, f64)>> {
@@ -65,7 +114,7 @@ fn phase_pieces(f: &[f64], g: &[Complex<f64>]) -> Vec<Vec<(f64, f64)>> {
         prev = Some(p);
     }
     pieces.retain(|p| p.len() > 1);
-    pieces
+    pieces.into_iter().map(decimate).collect()
 }
 
 /// One model curve of a Bode plot: its response on the data's lines and, optionally,
@@ -313,13 +362,16 @@ fn curve_colour(i: usize, n: usize) -> RGBColor {
     if i + 1 == n { FINAL } else { INITIAL }
 }
 
-/// The points `(f, val(g))` at positive frequencies where the value is finite.
+/// The points `(f, val(g))` at positive frequencies where the value is finite,
+/// thinned by [`decimate`].
 fn points(f: &[f64], g: &[Complex<f64>], val: fn(Complex<f64>) -> f64) -> Vec<(f64, f64)> {
-    f.iter()
-        .zip(g)
-        .filter(|(x, z)| **x > 0.0 && val(**z).is_finite())
-        .map(|(x, z)| (*x, val(*z)))
-        .collect()
+    decimate(
+        f.iter()
+            .zip(g)
+            .filter(|(x, z)| **x > 0.0 && val(**z).is_finite())
+            .map(|(x, z)| (*x, val(*z)))
+            .collect(),
+    )
 }
 
 /// One model curve on the magnitude chart, with its band |Ĝ| ± 2σ_G when σ_G is given.
@@ -347,6 +399,7 @@ fn draw_model(
             .filter(|(x, m)| *x > 0.0 && *m > 0.0 && m.is_finite())
             .map(|(x, m)| (x, 20.0 * m.log10()))
             .collect();
+        let band = decimate(band);
         let series = mag
             .draw_series(LineSeries::new(band, colour.mix(0.5).stroke_width(1)))
             .map_err(text)?;
@@ -371,7 +424,7 @@ fn draw_noise_level(
         .filter(|(x, v)| **x > 0.0 && **v > 0.0 && v.is_finite())
         .map(|(x, v)| (*x, 20.0 * v.log10()))
         .collect();
-    mag.draw_series(LineSeries::new(line, NOISE.stroke_width(1)))
+    mag.draw_series(LineSeries::new(decimate(line), NOISE.stroke_width(1)))
         .map_err(text)?
         .label("noise level sigma_G = sqrt(var_y)/|U|")
         .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], NOISE));
@@ -387,7 +440,10 @@ fn draw_noise_level(
 /// # Errors
 /// The drawing backend's, as text.
 pub fn residuals(initial: &SpecFit, last: &SpecFit, alpha: f64) -> Result<String, String> {
-    let (a, b) = (normalised_residuals(initial), normalised_residuals(last));
+    let (a, b) = (
+        decimate(normalised_residuals(initial)),
+        decimate(normalised_residuals(last)),
+    );
     let level = level_per_line(last, alpha);
     let (fmin, fmax) = range(a.iter().chain(&b).map(|p| p.0.ln()), 0.0, (0.0, 1.0));
     let (fmin, fmax) = (fmin.exp(), fmax.exp());
@@ -415,7 +471,7 @@ pub fn residuals(initial: &SpecFit, last: &SpecFit, alpha: f64) -> Result<String
 }
 
 /// The points (f in Hz, |r_k| in noise standard deviations) of a fit's residuals at
-/// positive frequencies.
+/// positive frequencies (in order).
 fn normalised_residuals(fit: &SpecFit) -> Vec<(f64, f64)> {
     let scale = if fit.noise_known {
         1.0
@@ -499,4 +555,37 @@ fn draw_residuals(
         .border_style(BLACK)
         .draw()
         .map_err(text)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_million_points_thin_to_a_few_per_column_with_their_envelope() {
+        let n = 1_000_000;
+        let pts: Vec<(f64, f64)> = (1..=n)
+            .map(|k| {
+                let f = k as f64 * 0.01;
+                (f, (k as f64 * 0.7).sin() * 10.0 - f.ln())
+            })
+            .collect();
+        let kept = decimate(pts.clone());
+        assert!(kept.len() <= 4 * COLUMNS, "{} points", kept.len());
+        assert!(kept.windows(2).all(|w| w[0].0 < w[1].0));
+        let extreme = |v: &[(f64, f64)], max: bool| {
+            v.iter()
+                .map(|p| p.1)
+                .fold(if max { f64::MIN } else { f64::MAX }, |a, b| {
+                    if max { a.max(b) } else { a.min(b) }
+                })
+        };
+        assert_eq!(extreme(&kept, true), extreme(&pts, true));
+        assert_eq!(extreme(&kept, false), extreme(&pts, false));
+        assert_eq!(kept.first(), pts.first());
+        assert_eq!(kept.last(), pts.last());
+        // few points are left alone
+        let few = pts[..100].to_vec();
+        assert_eq!(decimate(few.clone()), few);
+    }
 }

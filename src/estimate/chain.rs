@@ -554,10 +554,11 @@ impl Pipeline {
             rcond_eps: fp.rcond_eps,
         };
         for it in 1..=fp.max_iterations.max(1) {
-            let Some(next) = model.relocated(&theta) else {
+            // no basis from the estimate's poles (two met, or one is not finite): the
+            // iteration ends with the best model seen, as when it stalls
+            let Some(Ok(next)) = model.relocated(&theta) else {
                 break;
             };
-            let next = next?;
             // only θ is needed: the SK cost is the output-error one
             let next_theta = if self.ml.is_some() {
                 self.levy_normal_equations(&next, data, &linear, work, false)?

@@ -9,7 +9,10 @@
 //! [`parse_touchstone`], and [`Touchstone::frequency_data`] for one entry as an FRF.
 
 mod csv;
+mod lines;
 mod touchstone;
+
+pub use self::lines::MAX_LINE_BYTES;
 
 pub use self::csv::{ChannelSelection, Column, parse_channels, parse_csv, read_channels, read_csv};
 pub use self::touchstone::{

@@ -163,7 +163,7 @@ impl<T: Real, P: NonlinearProblem<T> + ?Sized> Solver<T, P> for LevenbergMarquar
             other => {
                 return Err(FdidError::NotConverged {
                     method: "Levenberg–Marquardt",
-                    reason: format!("{other:?}"),
+                    reason: termination_text(&other),
                 });
             }
         };
@@ -179,5 +179,41 @@ impl<T: Real, P: NonlinearProblem<T> + ?Sized> Solver<T, P> for LevenbergMarquar
             iterations: adapter.evaluations.get(),
             termination,
         })
+    }
+}
+
+/// Why the Levenberg–Marquardt iteration stopped, in words (not the crate's `Debug` text).
+fn termination_text(reason: &TerminationReason) -> String {
+    match reason {
+        TerminationReason::Numerical(_) => "a numerical failure in a step: the model's \
+                                             response or Jacobian became non-finite or singular"
+            .into(),
+        TerminationReason::User(_) => "stopped by the problem".into(),
+        TerminationReason::NoParameters => "the problem has no parameters".into(),
+        TerminationReason::NoResiduals => "the problem has no residuals".into(),
+        TerminationReason::WrongDimensions(_) => "the residual and Jacobian sizes disagree".into(),
+        TerminationReason::ResidualsZero
+        | TerminationReason::Orthogonal
+        | TerminationReason::Converged { .. }
+        | TerminationReason::NoImprovementPossible(_) => "converged".into(),
+        TerminationReason::LostPatience => "the evaluation budget was used up".into(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn terminations_are_told_in_words() {
+        for reason in [
+            TerminationReason::Numerical("subproblem ||Dp||"),
+            TerminationReason::User("x"),
+            TerminationReason::WrongDimensions("jacobian"),
+            TerminationReason::NoParameters,
+        ] {
+            let text = termination_text(&reason);
+            assert!(!text.contains("||") && !text.contains('('), "{text}");
+        }
     }
 }

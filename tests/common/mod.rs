@@ -487,3 +487,21 @@ pub fn lfilter(b: &[f64], a: &[f64], x: &[f64]) -> Vec<f64> {
     }
     y
 }
+
+/// A quickcheck runner on a seeded generator (size 100), so that every run of the suite
+/// draws the same cases. `FDID_QC_SEED=<u64>` replaces the seed (to explore other cases);
+/// the seed in use is printed, and shown with a failure, so that it can be replayed.
+pub fn seeded(seed: u64) -> quickcheck::QuickCheck {
+    seeded_sized(100, seed)
+}
+
+/// [`seeded`] with a generator of the given size (the bound of generated integers and
+/// the length of generated vectors).
+pub fn seeded_sized(size: usize, seed: u64) -> quickcheck::QuickCheck {
+    let seed = std::env::var("FDID_QC_SEED")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(seed);
+    eprintln!("quickcheck seed {seed} (replay with FDID_QC_SEED={seed})");
+    quickcheck::QuickCheck::new().rng(quickcheck::Gen::from_size_and_seed(size, seed))
+}

@@ -832,8 +832,8 @@ fn noise_model_of_coloured_noise() {
         .collect();
     assert_eq!((c.len(), d.len()), (2, 2));
     assert_eq!((c[0], d[0]), (1.0, 1.0));
-    let (ce, cs) = param(&v, "c1");
-    let (de, ds) = param(&v, "d1");
+    let (ce, cs) = param(&v, "nc1");
+    let (de, ds) = param(&v, "nd1");
     assert_eq!((ce, de), (c[1], d[1]));
     assert!(
         (ce - c1).abs() < 4.0 * cs && cs < 0.05,
@@ -858,7 +858,7 @@ fn noise_model_of_coloured_noise() {
     // DC and Nyquist dropped, every other line kept
     assert_eq!(v["lines"], 1023);
     let names = v["theta_names"].as_array().unwrap();
-    assert_eq!(names[names.len() - 2..], ["c1", "d1"]);
+    assert_eq!(names[names.len() - 2..], ["nc1", "nd1"]);
     let o = run("fit", &path, &args);
     let out = stdout(&o);
     assert!(
@@ -892,7 +892,7 @@ fn noise_model_with_delay() {
         .iter()
         .map(|n| n.as_str().unwrap())
         .collect();
-    assert_eq!(names, ["a1", "a2", "b0", "b1", "tau", "c1", "d1"]);
+    assert_eq!(names, ["a1", "a2", "b0", "b1", "tau", "nc1", "nd1"]);
     let (tau, std) = param(&v, "tau");
     assert!(
         (tau / TS - 2.5).abs() < 0.05 && std > 0.0,

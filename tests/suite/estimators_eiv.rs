@@ -23,7 +23,7 @@ use fdid::criterion::{EivProblem, MlProblem};
 use fdid::prelude::*;
 use fdid::problem::NonlinearProblem;
 use nalgebra::DMatrix;
-use quickcheck::{Arbitrary, Gen, QuickCheck, TestResult};
+use quickcheck::{Arbitrary, Gen, TestResult};
 
 // ---------------------------------------------------------------------------------------
 // helpers
@@ -407,14 +407,7 @@ fn eiv_recovers<T: Real>(case: Dt) -> TestResult {
 
 /// Runs `prop` on 100 cases from a seeded generator (`FDID_QC_SEED` overrides the seed).
 fn check(seed: u64, prop: fn(Dt) -> TestResult) {
-    let seed = std::env::var("FDID_QC_SEED")
-        .ok()
-        .and_then(|s| s.parse().ok())
-        .unwrap_or(seed);
-    QuickCheck::new()
-        .tests(100)
-        .rng(Gen::from_size_and_seed(100, seed))
-        .quickcheck(prop);
+    crate::common::seeded(seed).tests(100).quickcheck(prop);
 }
 
 /// Property: random stable DT systems of orders 1–6 are recovered (f64, FRF error < 1e-8).

@@ -1,7 +1,7 @@
 //! Bad inputs to the estimator API return the right `FdidError` variant and never panic.
 
 use fdid::prelude::*;
-use quickcheck::{Arbitrary, Gen, QuickCheck, TestResult};
+use quickcheck::{Arbitrary, Gen, TestResult};
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 fn c(re: f64, im: f64) -> Complex<f64> {
@@ -612,13 +612,9 @@ fn garbage_never_panics(x: Garbage) -> TestResult {
 /// generator seeds found TLS panics, pinned by `tls_huge_data_regression`.
 #[test]
 fn garbage_data_never_panics() {
-    let seed = std::env::var("FDID_QC_SEED")
-        .ok()
-        .and_then(|s| s.parse().ok())
-        .unwrap_or(2024);
-    QuickCheck::new()
+    let seed = 2024;
+    crate::common::seeded(seed)
         .tests(1000)
-        .rng(Gen::from_size_and_seed(100, seed))
         .quickcheck(garbage_never_panics as fn(Garbage) -> TestResult);
     // 1000 cases × (f64, f32): make sure the generator reaches the estimators often
     let (reached, fitted) = (

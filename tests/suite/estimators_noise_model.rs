@@ -27,7 +27,7 @@ use fdid::criterion::{NoiseModelProblem, NoiseModelResiduals, interior_lines};
 use fdid::prelude::*;
 use fdid::problem::NonlinearProblem;
 use nalgebra::DMatrix;
-use quickcheck::{Gen, QuickCheck, TestResult};
+use quickcheck::{Gen, TestResult};
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
 
@@ -455,14 +455,7 @@ fn recovers<T: Real>(case: RandomCase, tol: f64) -> TestResult {
 }
 
 fn check(seed: u64, tests: u64, prop: fn(RandomCase) -> TestResult) {
-    let seed = std::env::var("FDID_QC_SEED")
-        .ok()
-        .and_then(|s| s.parse().ok())
-        .unwrap_or(seed);
-    QuickCheck::new()
-        .tests(tests)
-        .rng(Gen::from_size_and_seed(100, seed))
-        .quickcheck(prop);
+    crate::common::seeded(seed).tests(tests).quickcheck(prop);
 }
 
 #[test]

@@ -27,7 +27,7 @@ use crate::common;
 use common::{RandomSystem, random_ct_system, random_dt_system, rel_rms, two_resonances};
 use fdid::prelude::*;
 use fdid::solver::Termination;
-use quickcheck::{Arbitrary, Gen, QuickCheck, TestResult};
+use quickcheck::{Arbitrary, Gen, TestResult};
 
 /// One random case: a system seed and model orders.
 #[derive(Debug, Clone, Copy)]
@@ -179,14 +179,7 @@ fn sk_converges<T: Real, C: SystemCase>(case: C) -> TestResult {
 
 /// Runs `prop` on 100 cases from a seeded generator (`FDID_QC_SEED` overrides the seed).
 fn check<A: Arbitrary + std::fmt::Debug>(seed: u64, prop: fn(A) -> TestResult) {
-    let seed = std::env::var("FDID_QC_SEED")
-        .ok()
-        .and_then(|s| s.parse().ok())
-        .unwrap_or(seed);
-    QuickCheck::new()
-        .tests(100)
-        .rng(Gen::from_size_and_seed(100, seed))
-        .quickcheck(prop);
+    crate::common::seeded(seed).tests(100).quickcheck(prop);
 }
 
 // ---------------------------------------------------------------------------------------

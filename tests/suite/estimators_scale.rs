@@ -16,7 +16,7 @@ use crate::common;
 use common::{RandomSystem, random_ct_system, random_dt_system, rel_rms, two_resonances};
 use fdid::estimate::{ModelSpec, RationalFit};
 use fdid::prelude::*;
-use quickcheck::{Arbitrary, Gen, QuickCheck, TestResult};
+use quickcheck::{Arbitrary, Gen, TestResult};
 
 /// A random system (continuous or discrete time, `na ≤ MAX`) and a decimal exponent in
 /// `-K..=K`.
@@ -179,14 +179,9 @@ fn frequency_scale_scales_poles<const MAX: usize, const K: i32>(
 }
 
 fn check<A: Arbitrary + std::fmt::Debug>(seed: u64, prop: fn(A) -> TestResult) {
-    let seed = std::env::var("FDID_QC_SEED")
-        .ok()
-        .and_then(|s| s.parse().ok())
-        .unwrap_or(seed);
-    QuickCheck::new()
+    crate::common::seeded(seed)
         .tests(60)
         .max_tests(600)
-        .rng(Gen::from_size_and_seed(100, seed))
         .quickcheck(prop);
 }
 

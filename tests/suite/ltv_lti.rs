@@ -17,7 +17,7 @@ use fdid::ltv::{
 };
 use fdid::prelude::*;
 use fdid::problem::HomogeneousProblem;
-use quickcheck::{Arbitrary, Gen, QuickCheck, TestResult};
+use quickcheck::{Arbitrary, Gen, TestResult};
 use std::f64::consts::TAU;
 
 /// An exactly periodic record: u a multisine on lines 1..=k_max (random phases from
@@ -125,14 +125,7 @@ impl Arbitrary for Case {
 }
 
 fn check<A: Arbitrary + std::fmt::Debug>(seed: u64, tests: u64, prop: fn(A) -> TestResult) {
-    let seed = std::env::var("FDID_QC_SEED")
-        .ok()
-        .and_then(|s| s.parse().ok())
-        .unwrap_or(seed);
-    QuickCheck::new()
-        .tests(tests)
-        .rng(Gen::from_size_and_seed(100, seed))
-        .quickcheck(prop);
+    crate::common::seeded(seed).tests(tests).quickcheck(prop);
 }
 
 /// Worst relative FRF error at t = 0, T/2, T of a fit with N_p = 0.

@@ -14,7 +14,7 @@ use crate::common;
 use common::{Noise, poly_from_roots, random_ct_system};
 use fdid::ltv::{FrequencyBasis, Lines, LtvOde, TimeBasis};
 use fdid::prelude::*;
-use quickcheck::{Arbitrary, Gen, QuickCheck, TestResult};
+use quickcheck::{Arbitrary, Gen, TestResult};
 use std::f64::consts::TAU;
 
 /// A time-varying ODE with linear-in-time coefficients, monic in the highest derivative.
@@ -286,14 +286,7 @@ impl Arbitrary for Case {
 }
 
 fn check<A: Arbitrary + std::fmt::Debug>(seed: u64, tests: u64, prop: fn(A) -> TestResult) {
-    let seed = std::env::var("FDID_QC_SEED")
-        .ok()
-        .and_then(|s| s.parse().ok())
-        .unwrap_or(seed);
-    QuickCheck::new()
-        .tests(tests)
-        .rng(Gen::from_size_and_seed(100, seed))
-        .quickcheck(prop);
+    crate::common::seeded(seed).tests(tests).quickcheck(prop);
 }
 
 /// Property: over random slowly time-varying systems (orders 1–3), the frozen-FRF error

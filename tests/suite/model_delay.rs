@@ -24,7 +24,7 @@ use fdid::model::{Output, remove_delay};
 use fdid::prelude::*;
 use fdid::problem::NonlinearProblem;
 use nalgebra::DMatrix;
-use quickcheck::{Arbitrary, Gen, QuickCheck, TestResult};
+use quickcheck::{Arbitrary, Gen, TestResult};
 
 // ---------------------------------------------------------------------------------------
 // Helpers
@@ -535,15 +535,13 @@ fn random_systems_recover_dt_f32() {
 #[test]
 #[ignore]
 fn quickcheck_all_recover() {
-    QuickCheck::new()
+    crate::common::seeded(qc_seed(11))
         .tests(100)
         .max_tests(100)
-        .rng(Gen::from_size_and_seed(100, qc_seed(11)))
         .quickcheck(recovers::<f64, false, 4> as fn(Case<false, 4>) -> TestResult);
-    QuickCheck::new()
+    crate::common::seeded(qc_seed(12))
         .tests(100)
         .max_tests(100)
-        .rng(Gen::from_size_and_seed(100, qc_seed(12)))
         .quickcheck(recovers::<f64, true, 4> as fn(Case<true, 4>) -> TestResult);
 }
 

@@ -3,9 +3,10 @@
 //! `.dat` file without one).
 
 use super::checks::check_time_grid;
-use super::{parse_error, shorten};
+use super::parse_error;
 use crate::data::TimeData;
 use crate::error::{FdidError, Result};
+use crate::io::lines::{echo, read_text};
 use crate::scalar::Real;
 use std::io::Read;
 use std::path::Path;
@@ -34,7 +35,7 @@ impl Column {
 impl std::fmt::Display for Column {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
-            Self::Name(n) => write!(f, "`{n}`"),
+            Self::Name(n) => write!(f, "`{}`", echo(n)),
             Self::Index(i) => write!(f, "column {i}"),
         }
     }
@@ -96,23 +97,12 @@ pub fn read_channels<T: Real>(path: &Path, selection: &ChannelSelection) -> Resu
 /// positive and finite or that contradicts the `t` column, invalid UTF-8;
 /// [`FdidError::TooShort`] for fewer than 2 rows; as [`TimeData::new`] otherwise.
 pub fn parse_channels<T: Real, R: Read>(
-    mut reader: R,
+    reader: R,
     name: &str,
     selection: &ChannelSelection,
 ) -> Result<TimeData<T>> {
-    let mut bytes = Vec::new();
-    reader
-        .read_to_end(&mut bytes)
-        .map_err(|e| FdidError::Io(format!("{name}: {e}")))?;
-    let text = std::str::from_utf8(&bytes).map_err(|e| {
-        let line = bytes[..e.valid_up_to()]
-            .iter()
-            .filter(|b| **b == b'\n')
-            .count()
-            + 1;
-        parse_error(name, line, "the line is not valid UTF-8 text".into())
-    })?;
-    let table = Table::parse(text, name)?;
+    let text = read_text(reader, name)?;
+    let table = Table::parse(&text, name)?;
     let input = table.index(&selection.input, "--input", name)?;
     let output = table.index(&selection.output, "--output", name)?;
     let u = table.numbers::<T>(input, name)?;
@@ -148,7 +138,7 @@ impl<'a> Table<'a> {
         let mut records = text
             .lines()
             .enumerate()
-            .map(|(i, l)| (i + 1, l.trim_start_matches('\u{feff}').trim()))
+            .map(|(i, l)| (i + 1, l.trim()))
             .filter(|(_, l)| !l.is_empty() && !l.starts_with('#'))
             .peekable();
         let Some(&(first_line, first)) = records.peek() else {
@@ -194,7 +184,7 @@ impl<'a> Table<'a> {
                         "expected {width} fields (as the {}), found {}: `{}`",
                         if header { "header" } else { "first row" },
                         f.len(),
-                        shorten(l)
+                        echo(l)
                     ),
                 ));
             }
@@ -258,7 +248,7 @@ impl<'a> Table<'a> {
                 names
                     .iter()
                     .enumerate()
-                    .map(|(j, n)| format!("{} `{n}`", j + 1))
+                    .map(|(j, n)| format!("{} `{}`", j + 1, echo(n)))
                     .collect::<Vec<_>>()
                     .join(", ")
             ),
@@ -269,7 +259,7 @@ impl<'a> Table<'a> {
     /// The label of column `j` in messages.
     fn label(&self, j: usize) -> String {
         match &self.names {
-            Some(names) => format!("column `{}`", names[j]),
+            Some(names) => format!("column `{}`", echo(&names[j])),
             None => format!("column {}", j + 1),
         }
     }
@@ -288,7 +278,7 @@ impl<'a> Table<'a> {
                     parse_error(
                         name,
                         *line,
-                        format!("{col}: `{}` is not a number", shorten(text)),
+                        format!("{col}: `{}` is not a number", echo(text)),
                     )
                 })?;
                 if !v.is_finite() || !num_traits::Float::is_finite(T::lit(v)) {
@@ -296,7 +286,8 @@ impl<'a> Table<'a> {
                         name,
                         *line,
                         format!(
-                            "{col}: value `{text}` is not finite in {}",
+                            "{col}: value `{}` is not finite in {}",
+                            echo(text),
                             std::any::type_name::<T>()
                         ),
                     ));

@@ -1,34 +1,41 @@
 //! Checks of the frequency and time columns.
 
-use crate::error::{FdidError, Result};
-
 /// Relative tolerance on the time grid: every `t_i` must lie within `1e-3·Ts` of
 /// `t_0 + i·Ts`.
 const TIME_GRID_TOLERANCE: f64 = 1e-3;
 
-/// Frequencies (Hz) must be non-negative and strictly increasing.
-pub(super) fn check_frequencies(f: &[f64]) -> Result<()> {
+/// Frequencies (Hz) must be non-negative and strictly increasing. Errors carry the line
+/// number (`lines[i]` of data row `i`).
+pub(super) fn check_frequencies(
+    f: &[f64],
+    lines: &[usize],
+) -> std::result::Result<(), (usize, String)> {
+    let line = |i: usize| lines.get(i).copied().unwrap_or(0);
     for (i, &fi) in f.iter().enumerate() {
         if fi < 0.0 {
-            return Err(FdidError::NegativeFrequency {
-                index: i,
-                value: fi,
-            });
+            return Err((line(i), format!("column `f`: negative frequency {fi} Hz")));
         }
         if i > 0 {
             let prev = f[i - 1];
             if fi == prev {
-                return Err(FdidError::DuplicateFrequency {
-                    index: i,
-                    value: fi,
-                });
+                return Err((
+                    line(i),
+                    format!(
+                        "column `f`: duplicate frequency {fi} Hz (the previous row, line {}, \
+                         has it too)",
+                        line(i - 1)
+                    ),
+                ));
             }
             if fi < prev {
-                return Err(FdidError::Unsorted {
-                    index: i,
-                    value: fi,
-                    previous: prev,
-                });
+                return Err((
+                    line(i),
+                    format!(
+                        "column `f`: frequency {fi} Hz is below the previous row's {prev} Hz \
+                         (line {}): frequencies must increase",
+                        line(i - 1)
+                    ),
+                ));
             }
         }
     }
@@ -36,7 +43,9 @@ pub(super) fn check_frequencies(f: &[f64]) -> Result<()> {
 }
 
 /// Checks that the times increase strictly and lie on a uniform grid; returns
-/// `Ts = (t_{N−1} − t_0)/(N − 1)`. Errors carry the line number.
+/// `Ts = (t_{N−1} − t_0)/(N − 1)`. Errors carry the line number: a step far from the
+/// median step (a missing or extra row) is reported where it occurs, before the grid test
+/// (which would name the first row that the skewed grid misses).
 pub(super) fn check_time_grid(
     t: &[f64],
     lines: &[usize],
@@ -53,6 +62,9 @@ pub(super) fn check_time_grid(
                 ),
             ));
         }
+    }
+    if let Some(e) = irregular_step(t, &line) {
+        return Err(e);
     }
     let n = t.len();
     let t0 = t[0];
@@ -79,4 +91,44 @@ pub(super) fn check_time_grid(
         }
     }
     Ok(ts)
+}
+
+/// The first step `t_i − t_{i−1}` more than half the median step away from it, as an error
+/// at row `i`, saying how many rows seem to be missing.
+fn irregular_step(t: &[f64], line: &impl Fn(usize) -> usize) -> Option<(usize, String)> {
+    let steps: Vec<f64> = t.windows(2).map(|w| w[1] - w[0]).collect();
+    if steps.len() < 2 {
+        return None;
+    }
+    let mut sorted = steps.clone();
+    sorted.sort_by(f64::total_cmp);
+    let median = sorted[sorted.len() / 2];
+    if !(median.is_finite() && median > 0.0) {
+        return None;
+    }
+    let i = steps
+        .iter()
+        .position(|d| (d - median).abs() > 0.5 * median)?
+        + 1;
+    let step = steps[i - 1];
+    let ratio = step / median;
+    let what = if ratio > 1.5 && (ratio - ratio.round()).abs() < 0.1 {
+        let k = ratio.round() - 1.0;
+        format!(
+            "{k} row{} missing before it?",
+            if k == 1.0 { " seems" } else { "s seem" }
+        )
+    } else {
+        "a row missing or extra, or the times of another file pasted in?".into()
+    };
+    Some((
+        line(i),
+        format!(
+            "column `t`: t = {} is {step:.6e} s after the previous row (t = {}, line {}), but \
+             the sample time is {median:.6e} s (the median step): {what}",
+            t[i],
+            t[i - 1],
+            line(i - 1)
+        ),
+    ))
 }

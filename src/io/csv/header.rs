@@ -1,5 +1,7 @@
 //! The header of a CSV file: the layout its column names give.
 
+use crate::io::lines::echo;
+
 /// The three file layouts.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(super) enum Kind {
@@ -28,13 +30,13 @@ impl Kind {
             Err(format!(
                 "header `{}`: missing columns: frequency data need `re`, `im` (FRF) or \
                  `u_re`, `u_im`, `y_re`, `y_im` (spectra)",
-                names.join(",")
+                echo(&names.join(","))
             ))
         } else {
             Err(format!(
                 "unrecognized header `{}`: expected columns f,re,im (FRF), \
                  f,u_re,u_im,y_re,y_im (spectra) or t,u,y (time record)",
-                names.join(",")
+                echo(&names.join(","))
             ))
         }
     }
@@ -88,13 +90,14 @@ impl Layout {
             }
             if !kind.required().contains(&n.as_str()) && !kind.optional().contains(&n.as_str()) {
                 return Err(format!(
-                    "unknown column `{n}` in {} data (allowed: {})",
+                    "unknown column `{}` in {} data (allowed: {})",
+                    echo(n),
                     kind.label(),
                     kind.allowed()
                 ));
             }
             if names[..j].contains(n) {
-                return Err(format!("duplicate column `{n}`"));
+                return Err(format!("duplicate column `{}`", echo(n)));
             }
         }
         if let Some(m) = kind.required().iter().find(|c| !has(c)) {

@@ -13,6 +13,7 @@ use self::records::Lines;
 use super::Measurement;
 use crate::data::{FrequencyData, NoiseVariances, TimeData};
 use crate::error::{FdidError, Result};
+use crate::io::lines::echo;
 use crate::scalar::{Complex, Real};
 use std::io::Read;
 use std::path::Path;
@@ -31,7 +32,8 @@ pub fn read_csv<T: Real>(path: &Path) -> Result<Measurement<T>> {
 ///
 /// # Format
 ///
-/// UTF-8 text (a leading byte-order mark is ignored), one row per line (`\n` or `\r\n`),
+/// UTF-8 text (a leading byte-order mark is ignored), one row per line (`\n`, `\r\n` or a
+/// lone `\r`; a line may hold at most [`MAX_LINE_BYTES`](crate::io::MAX_LINE_BYTES)),
 /// fields separated by commas; spaces around a field and one pair of double quotes
 /// wrapping it are removed (quoted fields cannot contain commas or line breaks). Blank
 /// lines and lines whose first non-blank character is `#` are ignored anywhere. The first
@@ -59,11 +61,10 @@ pub fn read_csv<T: Real>(path: &Path) -> Result<Measurement<T>> {
 ///   whole) for: no header, an unrecognized header, a missing, unknown, empty or duplicate
 ///   column name, a row with the wrong number of fields, a field that is not a number,
 ///   NaN or infinite, a value out of range of `T`, a negative variance, a decreasing or
-///   non-uniform time column, invalid UTF-8;
+///   non-uniform time column (a skipped row is named where it occurs), invalid UTF-8, a
+///   line longer than [`MAX_LINE_BYTES`](crate::io::MAX_LINE_BYTES), and for a negative,
+///   repeated or decreasing frequency (in Hz);
 /// - [`FdidError::TooShort`] when there are no data rows (or one row of a time record);
-/// - [`FdidError::NegativeFrequency`], [`FdidError::Unsorted`],
-///   [`FdidError::DuplicateFrequency`] for bad frequencies (the index is the 0-based data
-///   row, the values are in Hz);
 /// - [`FdidError::Io`] when reading fails.
 pub fn parse_csv<T: Real, R: Read>(reader: R, name: &str) -> Result<Measurement<T>> {
     let mut lines = Lines::new(reader);
@@ -123,7 +124,7 @@ fn read_rows<T: Real, R: Read>(lines: &mut Lines<R>, layout: Layout, name: &str)
                     "expected {ncols} fields ({}), found {}: `{}`",
                     names.join(","),
                     fields.len(),
-                    shorten(&fields.join(","))
+                    echo(&fields.join(","))
                 ),
             ));
         }
@@ -144,13 +145,17 @@ fn read_rows<T: Real, R: Read>(lines: &mut Lines<R>, layout: Layout, name: &str)
 fn field_value<T: Real>(col: &str, text: &str) -> std::result::Result<f64, String> {
     let v: f64 = text
         .parse()
-        .map_err(|_| format!("column `{col}`: `{}` is not a number", shorten(text)))?;
+        .map_err(|_| format!("column `{col}`: `{}` is not a number", echo(text)))?;
     if !v.is_finite() {
-        return Err(format!("column `{col}`: value `{text}` is not finite"));
+        return Err(format!(
+            "column `{col}`: value `{}` is not finite",
+            echo(text)
+        ));
     }
     if !num_traits::Float::is_finite(T::lit(v)) {
         return Err(format!(
-            "column `{col}`: value `{text}` is out of range for {}",
+            "column `{col}`: value `{}` is out of range for {}",
+            echo(text),
             std::any::type_name::<T>()
         ));
     }
@@ -220,7 +225,7 @@ impl Table {
                 got: 0,
             });
         }
-        check_frequencies(f)?;
+        check_frequencies(f, &self.lines).map_err(|(line, m)| parse_error(name, line, m))?;
         let omega = self.omega::<T>(f, name)?;
         self.check_variances(name)?;
         let data = if self.layout.kind == Kind::Frf {
@@ -293,16 +298,5 @@ impl Table {
             var_u: vu.map(to_real).unwrap_or(zeros),
             cov_yu: vec![Complex::new(T::zero(), T::zero()); n],
         })
-    }
-}
-
-/// Text for messages, cut to at most 200 characters.
-fn shorten(s: &str) -> String {
-    if s.chars().count() > 200 {
-        let mut t: String = s.chars().take(200).collect();
-        t.push('…');
-        t
-    } else {
-        s.to_string()
     }
 }

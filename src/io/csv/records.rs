@@ -1,42 +1,19 @@
 //! The records of a CSV file: its lines that are neither blank nor comments, split into
 //! fields.
 
-use crate::error::FdidError;
+use crate::io::lines::{LineError, LineReader};
 use std::io::Read;
 
-/// A line-by-line reader of comma-separated fields that skips blank and comment lines
-/// and counts lines exactly (1-based).
+/// A reader of comma-separated fields that skips blank and comment lines and counts lines
+/// exactly (1-based), on [`LineReader`] (bounded line length, any line break).
 pub(super) struct Lines<R: Read> {
-    reader: std::io::BufReader<R>,
-    buf: Vec<u8>,
-    line: usize,
-}
-
-/// A failure of [`Lines::next_record`], turned into an error once the file name is known.
-pub(super) enum LineError {
-    Io(std::io::Error),
-    Utf8(usize),
-}
-
-impl LineError {
-    pub(super) fn into_error(self, name: &str) -> FdidError {
-        match self {
-            LineError::Io(e) => FdidError::Io(format!("{name}: {e}")),
-            LineError::Utf8(line) => FdidError::Parse {
-                path: name.to_string(),
-                line,
-                message: "the line is not valid UTF-8 text".into(),
-            },
-        }
-    }
+    lines: LineReader<R>,
 }
 
 impl<R: Read> Lines<R> {
     pub(super) fn new(reader: R) -> Self {
         Self {
-            reader: std::io::BufReader::new(reader),
-            buf: Vec::new(),
-            line: 0,
+            lines: LineReader::new(reader),
         }
     }
 
@@ -45,24 +22,8 @@ impl<R: Read> Lines<R> {
     pub(super) fn next_record(
         &mut self,
     ) -> std::result::Result<Option<(usize, Vec<String>)>, LineError> {
-        use std::io::BufRead;
-        loop {
-            self.buf.clear();
-            let n = self
-                .reader
-                .read_until(b'\n', &mut self.buf)
-                .map_err(LineError::Io)?;
-            if n == 0 {
-                return Ok(None);
-            }
-            self.line += 1;
-            let text = std::str::from_utf8(&self.buf).map_err(|_| LineError::Utf8(self.line))?;
-            let text = if self.line == 1 {
-                text.trim_start_matches('\u{feff}')
-            } else {
-                text
-            }
-            .trim();
+        while let Some((line, text)) = self.lines.next_line()? {
+            let text = text.trim();
             if text.is_empty() || text.starts_with('#') {
                 continue;
             }
@@ -76,7 +37,8 @@ impl<R: Read> Lines<R> {
                         .to_string()
                 })
                 .collect();
-            return Ok(Some((self.line, fields)));
+            return Ok(Some((line, fields)));
         }
+        Ok(None)
     }
 }

@@ -11,11 +11,12 @@ mod v2;
 #[cfg(test)]
 mod tests;
 
-use self::text::{content, keyword, read_text};
+use self::text::{content, keyword};
 use self::v1::parse_v1;
 use self::v2::parse_v2;
 use crate::data::FrequencyData;
 use crate::error::{FdidError, Result};
+use crate::io::lines::read_text;
 use crate::scalar::{Complex, Real};
 use std::io::Read;
 use std::path::Path;

@@ -1,6 +1,7 @@
 //! The option line `# <unit> <parameter> <format> R <ref>` of both versions.
 
 use super::{NetworkParameter, NumberFormat};
+use crate::io::lines::echo;
 
 /// The settings of the option line.
 #[derive(Debug, Clone, Copy)]
@@ -31,7 +32,8 @@ impl Options {
         let mut once = |slot: usize, field: &str| {
             if std::mem::replace(&mut seen[slot], true) {
                 Err(format!(
-                    "option line: `{field}` repeats a setting given before"
+                    "option line: `{}` repeats a setting given before",
+                    echo(field)
                 ))
             } else {
                 Ok(())
@@ -54,8 +56,9 @@ impl Options {
                 o.reference = reference(fields.next())?;
             } else {
                 return Err(format!(
-                    "option line: unknown field `{field}` (expected a unit Hz/kHz/MHz/GHz, \
-                     a parameter S/Y/Z/H/G, a format RI/MA/DB or R <ohms>)"
+                    "option line: unknown field `{}` (expected a unit Hz/kHz/MHz/GHz, \
+                     a parameter S/Y/Z/H/G, a format RI/MA/DB or R <ohms>)",
+                    echo(field)
                 ));
             }
         }
@@ -100,9 +103,12 @@ fn number_format(field: &str) -> Option<NumberFormat> {
 fn reference(value: Option<&str>) -> std::result::Result<f64, String> {
     let value = value
         .ok_or_else(|| "option line: `R` needs the reference resistance after it".to_string())?;
-    let r: f64 = value
-        .parse()
-        .map_err(|_| format!("option line: reference resistance `{value}` is not a number"))?;
+    let r: f64 = value.parse().map_err(|_| {
+        format!(
+            "option line: reference resistance `{}` is not a number",
+            echo(value)
+        )
+    })?;
     if !(r.is_finite() && r > 0.0) {
         return Err(format!(
             "option line: reference resistance {value} must be positive and finite"

@@ -1,6 +1,8 @@
 //! The data rows of both versions: the order of their frequencies and the message for a
 //! row cut short.
 
+use crate::io::lines::echo;
+
 /// The message for a row of `width` numbers cut short after `row`.
 pub(super) fn short_row(row: &[f64], width: usize, ports: usize) -> String {
     format!(
@@ -20,10 +22,10 @@ pub(super) fn check_frequency(
     field: &str,
 ) -> std::result::Result<(), String> {
     if f < 0.0 {
-        return Err(format!("negative frequency `{field}`"));
+        return Err(format!("negative frequency `{}`", echo(field)));
     }
     if !f.is_finite() {
-        return Err(format!("frequency `{field}` is out of range in Hz"));
+        return Err(format!("frequency `{}` is out of range in Hz", echo(field)));
     }
     if let Some(p) = previous
         && f <= p

@@ -3,9 +3,9 @@
 
 use super::{Reader, Section};
 use crate::error::Result;
+use crate::io::lines::echo;
 use crate::io::touchstone::NetworkParameter;
 use crate::io::touchstone::matrix::MatrixFormat;
-use crate::io::touchstone::text::shorten;
 
 /// The keywords that take no argument.
 const WITHOUT_ARGUMENT: [&str; 5] = [
@@ -39,7 +39,7 @@ impl Reader<'_> {
                 format!(
                     "`[{written}]` takes no argument, got `{}` (data rows go on the lines \
                      after it)",
-                    shorten(arg)
+                    echo(arg)
                 ),
             ));
         }
@@ -71,7 +71,7 @@ impl Reader<'_> {
             "end" => self.end(line, written),
             _ => Err(self.error(
                 line,
-                format!("unknown Touchstone 2.0 keyword `[{}]`", shorten(written)),
+                format!("unknown Touchstone 2.0 keyword `[{}]`", echo(written)),
             )),
         }
     }
@@ -129,7 +129,7 @@ impl Reader<'_> {
                 line,
                 format!(
                     "`[{written}]` needs a positive whole number, got `{}`",
-                    shorten(arg)
+                    echo(arg)
                 ),
             )),
         }
@@ -186,7 +186,7 @@ impl Reader<'_> {
             _ => {
                 return Err(self.error(
                     line,
-                    format!("`[{written}]` needs 12_21 or 21_12, got `{}`", shorten(arg)),
+                    format!("`[{written}]` needs 12_21 or 21_12, got `{}`", echo(arg)),
                 ));
             }
         };
@@ -238,7 +238,7 @@ impl Reader<'_> {
                     line,
                     format!(
                         "`[{written}]` needs Full, Lower or Upper, got `{}`",
-                        shorten(arg)
+                        echo(arg)
                     ),
                 ));
             }

@@ -5,9 +5,10 @@ mod keywords;
 use super::matrix::MatrixFormat;
 use super::options::Options;
 use super::rows::{check_frequency, short_row};
-use super::text::{content, fields, keyword, number, shorten};
+use super::text::{content, fields, keyword, number};
 use super::{Touchstone, TouchstoneVersion, parse_error};
 use crate::error::{FdidError, Result};
+use crate::io::lines::echo;
 use crate::scalar::Complex;
 
 /// Where a version 2 file is.
@@ -61,7 +62,7 @@ pub(super) fn parse_v2(
             format!(
                 "`[Version] {}`: only Touchstone version 2.0 (or version 1, without \
                  `[Version]`) is read",
-                shorten(version)
+                echo(version)
             ),
         ));
     }
@@ -139,7 +140,7 @@ impl<'a> Reader<'a> {
                 line,
                 format!(
                     "`{}` after `[End]`: only comments may follow it",
-                    shorten(content)
+                    echo(content)
                 ),
             ));
         }
@@ -183,14 +184,14 @@ impl<'a> Reader<'a> {
                 line,
                 format!(
                     "`{}`: the option line (`# ...`) must follow `[Version] 2.0`",
-                    shorten(content)
+                    echo(content)
                 ),
             )),
             _ => Err(self.error(
                 line,
                 format!(
                     "`{}` before `[Network Data]`: data rows come after that keyword",
-                    shorten(content)
+                    echo(content)
                 ),
             )),
         }
@@ -248,7 +249,7 @@ impl<'a> Reader<'a> {
                     "more than the {declared} frequencies of `[Number of Frequencies]` \
                      (line {}): a row starts with `{}` after the last one",
                     self.h.frequencies.map_or(0, |f| f.1),
-                    shorten(field)
+                    echo(field)
                 ),
             ));
         }
@@ -346,7 +347,7 @@ fn reference_value(field: &str, ports: usize, index: usize) -> std::result::Resu
     if index >= ports {
         return Err(format!(
             "`[Reference]`: `{}` is one value more than the {ports} port{} need",
-            shorten(field),
+            echo(field),
             if ports == 1 { "" } else { "s" }
         ));
     }

@@ -1,0 +1,227 @@
+//! The lines of a text data file, read with bounded memory: line breaks `\n`, `\r\n` or a
+//! lone `\r`, 1-based line numbers, a byte-order mark ignored, and no line longer than
+//! [`MAX_LINE_BYTES`].
+
+use crate::error::FdidError;
+use std::io::{BufRead, Read};
+
+/// The longest line a data file may hold, in bytes (1 MiB): a longer one is refused with
+/// its line number instead of being read into memory without bound (a file without line
+/// breaks, a binary file).
+pub const MAX_LINE_BYTES: usize = 1 << 20;
+
+/// Reads the lines of a text file one at a time.
+pub(crate) struct LineReader<R: Read> {
+    reader: std::io::BufReader<R>,
+    buf: Vec<u8>,
+    line: usize,
+    /// The last line ended with `\r`: a `\n` right after it belongs to that break.
+    after_cr: bool,
+}
+
+/// A failure of [`LineReader::next_line`], turned into an error once the file name is
+/// known ([`LineError::into_error`]).
+#[derive(Debug)]
+pub(crate) enum LineError {
+    /// Reading failed.
+    Io(std::io::Error),
+    /// The line (1-based) is not valid UTF-8.
+    Utf8(usize),
+    /// The line (1-based) is longer than [`MAX_LINE_BYTES`].
+    TooLong(usize),
+}
+
+impl LineError {
+    /// The error of file `name`.
+    pub(crate) fn into_error(self, name: &str) -> FdidError {
+        let parse = |line, message: String| FdidError::Parse {
+            path: name.to_string(),
+            line,
+            message,
+        };
+        match self {
+            Self::Io(e) => FdidError::Io(format!("{name}: {e}")),
+            Self::Utf8(line) => parse(line, "the line is not valid UTF-8 text".into()),
+            Self::TooLong(line) => parse(
+                line,
+                format!(
+                    "the line is longer than {MAX_LINE_BYTES} bytes (1 MiB): a data file has \
+                     one row per line (is this a binary file, or one without line breaks?)"
+                ),
+            ),
+        }
+    }
+}
+
+impl<R: Read> LineReader<R> {
+    /// A reader at the start of `reader`.
+    pub(crate) fn new(reader: R) -> Self {
+        Self {
+            reader: std::io::BufReader::new(reader),
+            buf: Vec::new(),
+            line: 0,
+            after_cr: false,
+        }
+    }
+
+    /// The next line without its line break, with its 1-based number; `None` at the end.
+    pub(crate) fn next_line(&mut self) -> Result<Option<(usize, &str)>, LineError> {
+        self.buf.clear();
+        let mut found = false;
+        loop {
+            let chunk = self.reader.fill_buf().map_err(LineError::Io)?;
+            if chunk.is_empty() {
+                break;
+            }
+            let skip = usize::from(std::mem::take(&mut self.after_cr) && chunk[0] == b'\n');
+            let rest = &chunk[skip..];
+            let end = rest.iter().position(|b| *b == b'\n' || *b == b'\r');
+            let take = end.unwrap_or(rest.len());
+            if self.buf.len() + take > MAX_LINE_BYTES {
+                return Err(LineError::TooLong(self.line + 1));
+            }
+            self.buf.extend_from_slice(&rest[..take]);
+            found |= take > 0 || end.is_some();
+            match end {
+                Some(p) => {
+                    self.after_cr = rest[p] == b'\r';
+                    self.reader.consume(skip + p + 1);
+                    break;
+                }
+                None => {
+                    let n = chunk.len();
+                    self.reader.consume(n);
+                }
+            }
+        }
+        if !found {
+            return Ok(None);
+        }
+        self.line += 1;
+        let text = std::str::from_utf8(&self.buf).map_err(|_| LineError::Utf8(self.line))?;
+        let text = if self.line == 1 {
+            text.strip_prefix('\u{feff}').unwrap_or(text)
+        } else {
+            text
+        };
+        Ok(Some((self.line, text)))
+    }
+}
+
+/// The whole text of `reader` with every line break as `\n` (so that `str::lines`
+/// numbers the lines as the file does), without a byte-order mark; errors name `name`.
+pub(crate) fn read_text<R: Read>(reader: R, name: &str) -> crate::error::Result<String> {
+    let mut lines = LineReader::new(reader);
+    let mut text = String::new();
+    while let Some((_, line)) = lines.next_line().map_err(|e| e.into_error(name))? {
+        text.push_str(line);
+        text.push('\n');
+    }
+    Ok(text)
+}
+
+/// A value from a file as echoed in a message: at most 200 characters (then `…`), with
+/// control characters escaped (`\u{0}`, `\t`), so that an error stays one readable line.
+pub(crate) fn echo(value: &str) -> String {
+    const MAX: usize = 200;
+    let mut out = String::new();
+    for (i, c) in value.chars().enumerate() {
+        if i == MAX {
+            out.push('…');
+            break;
+        }
+        if c.is_control() {
+            out.extend(c.escape_default());
+        } else {
+            out.push(c);
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn all(bytes: &[u8]) -> Vec<(usize, String)> {
+        let mut r = LineReader::new(bytes);
+        let mut v = vec![];
+        while let Some((n, l)) = r.next_line().unwrap() {
+            v.push((n, l.to_string()));
+        }
+        v
+    }
+
+    #[test]
+    fn every_line_break_counts_once() {
+        let want: Vec<(usize, String)> = vec![(1, "a".into()), (2, "".into()), (3, "b".into())];
+        assert_eq!(all(b"a\n\nb\n"), want);
+        assert_eq!(all(b"a\r\n\r\nb"), want);
+        assert_eq!(all(b"a\r\rb\r"), want);
+        assert_eq!(all(b"\xef\xbb\xbfa\n\nb"), want);
+        assert!(all(b"").is_empty());
+    }
+
+    #[test]
+    fn a_crlf_split_across_reads_is_one_break() {
+        // a reader that returns one byte per read
+        struct Slow<'a>(&'a [u8]);
+        impl Read for Slow<'_> {
+            fn read(&mut self, out: &mut [u8]) -> std::io::Result<usize> {
+                match self.0.split_first() {
+                    Some((b, rest)) if !out.is_empty() => {
+                        out[0] = *b;
+                        self.0 = rest;
+                        Ok(1)
+                    }
+                    _ => Ok(0),
+                }
+            }
+        }
+        let mut r = LineReader::new(Slow(b"x\r\ny\r\n\r\nz"));
+        let mut v = vec![];
+        while let Some((n, l)) = r.next_line().unwrap() {
+            v.push((n, l.to_string()));
+        }
+        assert_eq!(
+            v,
+            vec![
+                (1, "x".into()),
+                (2, "y".into()),
+                (3, "".into()),
+                (4, "z".into())
+            ]
+        );
+    }
+
+    #[test]
+    fn a_line_beyond_the_cap_is_refused_with_its_number() {
+        let mut bytes = b"f,re,im\n1,2,3\n".to_vec();
+        bytes.extend(std::iter::repeat_n(b'7', MAX_LINE_BYTES + 1));
+        let mut r = LineReader::new(&bytes[..]);
+        assert!(r.next_line().unwrap().is_some());
+        assert!(r.next_line().unwrap().is_some());
+        assert!(matches!(r.next_line(), Err(LineError::TooLong(3))));
+        // exactly at the cap is fine
+        let ok = vec![b'7'; MAX_LINE_BYTES];
+        assert_eq!(
+            LineReader::new(&ok[..])
+                .next_line()
+                .unwrap()
+                .unwrap()
+                .1
+                .len(),
+            MAX_LINE_BYTES
+        );
+    }
+
+    #[test]
+    fn echoes_are_short_and_printable() {
+        assert_eq!(echo("1.5e3"), "1.5e3");
+        assert_eq!(echo("a\u{0}b\tc\u{1b}"), "a\\u{0}b\\tc\\u{1b}");
+        let long = "9".repeat(100_000);
+        let e = echo(&long);
+        assert_eq!(e.chars().count(), 201);
+        assert!(e.ends_with('…'));
+    }
+}
