@@ -473,6 +473,11 @@ pub struct DiagnoseArgs {
     /// Fit every model stable by construction (as `fdid fit --stable`)
     #[arg(long)]
     pub stable: bool,
+
+    /// Run on more than 10000 lines (refused by default: the workflow's many refits take
+    /// minutes there; select a band with --band or average periods with --periods)
+    #[arg(long)]
+    pub allow_long: bool,
 }
 
 /// Options of `fdid ltv`.

@@ -178,6 +178,17 @@ pub fn diagnose(args: &DiagnoseArgs) -> Result<String, Failure> {
     let c = &args.common;
     check_usage(args)?;
     let mut prepared = data::prepare(c, false, true)?;
+    let lines = prepared.data.len();
+    if lines > MAX_LINES && !args.allow_long {
+        return Err(Failure::usage(format!(
+            "{} gives {lines} lines, more than the {MAX_LINES} diagnose works on by default: \
+             its refits grow faster than the lines (measured on 2 cores: 10 000 lines 14 s, \
+             20 000 lines 143 s); select the band of interest with --band FMIN:FMAX, average \
+             periods with --periods P, or pass --allow-long to run anyway (`fdid fit` takes \
+             any number of lines)",
+            c.data.display()
+        )));
+    }
     let file = c.data.display().to_string();
     let start = ModelSpec {
         domain: prepared.domain,
@@ -957,6 +968,9 @@ impl Diagnosis {
         )
     }
 }
+
+/// The most lines `fdid diagnose` works on without `--allow-long`.
+const MAX_LINES: usize = 10_000;
 
 /// The files `--report DIR` writes.
 const REPORT_FILES: [&str; 4] = ["report.txt", "report.json", "bode.svg", "residuals.svg"];

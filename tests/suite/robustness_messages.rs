@@ -239,6 +239,41 @@ mod command {
         }
     }
 
+    /// Old: `diagnose` on a record of 10⁶ samples ran for hours; now more than 10 000
+    /// lines are refused up front, naming the remedies.
+    #[test]
+    fn diagnose_refuses_long_data_up_front() {
+        let dir = Scratch::new("long_record");
+        let mut text = String::from("t,u,y\n");
+        let mut y = [0.0f64; 2];
+        for k in 0..30_000u32 {
+            let u = (f64::from(k) * 0.37).sin() + (f64::from(k) * 1.3).cos();
+            let next = 1.2 * y[0] - 0.5 * y[1] + 0.3 * u;
+            text.push_str(&format!("{},{u},{next}\n", f64::from(k) * 0.01));
+            y = [next, y[0]];
+        }
+        let file = dir.file("long.csv", &text);
+        let args = ["--domain", "z", "--na", "2", "--nb", "2"];
+        let started = std::time::Instant::now();
+        let out = run("diagnose", &file, &args);
+        let err = stderr(&out);
+        assert_eq!(out.status.code(), Some(2), "{err}");
+        assert!(
+            err.contains("lines, more than the 10000")
+                && err.contains("--band")
+                && err.contains("--allow-long"),
+            "{err}"
+        );
+        one_clean_line(&err);
+        // refused before any fit (reading and the DFT only)
+        println!("refused in {:?}", started.elapsed());
+        // a band brings it under the limit: accepted (the check is on the lines used)
+        let mut banded = args.to_vec();
+        banded.extend(["--band", ":5", "--max-steps", "0"]);
+        let out = run("diagnose", &file, &banded);
+        assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
+    }
+
     /// Bad files of every kind end in exit 1 with one clean error line: never 70 (a caught
     /// panic) or a signal.
     #[test]

@@ -1,5 +1,5 @@
 use crate::data::FrequencyData;
-use crate::workflow::bands::scan_windows;
+use crate::workflow::bands::WindowScan;
 use crate::workflow::finding::{
     Context, Detail, DetailFields, Detector, Effect, Finding, NamedValues, residual_power,
 };
@@ -13,7 +13,8 @@ use crate::workflow::spec::SpecFit;
 /// w = 3 … max(3, N/20), the window sum S is compared with the scaled χ² of the same mean
 /// and variance, S ≈ g χ²(h), g = v/(2μ), h = 2wμ²/v; the statistic is the smallest
 /// upper-tail probability, the p-value that times the number of windows tried
-/// (Bonferroni, capped at 1).
+/// (Bonferroni, capped at 1). Beyond 5·10⁷ windows the multi-scale plan of
+/// `WindowScan::plan` bounds the scan (linear in the lines).
 ///
 /// Proposal: na + 2, nb + 2; detail: [`MissingResonanceDetail`]. Starting the refit from
 /// a pole pair at the peak is a later refinement.
@@ -32,13 +33,27 @@ impl Detector for MissingResonance {
         if n < 3 || !(var > 0.0) {
             return None;
         }
+        let scan = WindowScan::new(&power, mean, var);
+        let plan = scan.plan(3..=w_max.min(n));
+        let windows = scan.count(&plan);
+        // at each width the smallest p-value is that of the largest sum (the first one)
         let (mut best, mut best_at) = (1.0_f64, (0, 3));
-        let windows = scan_windows(&power, mean, var, 3..=w_max.min(n), |start, w, p| {
-            if p < best {
-                best = p;
-                best_at = (start, w);
+        for &(w, stride) in &plan {
+            let mut top: Option<(usize, f64)> = None;
+            for start in scan.starts(w, stride) {
+                let sum = scan.sum(start, w);
+                if top.is_none_or(|(_, t)| sum > t) {
+                    top = Some((start, sum));
+                }
             }
-        });
+            if let Some((start, sum)) = top {
+                let p = scan.p_value(sum, w);
+                if p < best {
+                    best = p;
+                    best_at = (start, w);
+                }
+            }
+        }
         let (start, w) = best_at;
         let peak = (start..start + w)
             .max_by(|a, b| power[*a].total_cmp(&power[*b]))
