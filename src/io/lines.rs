@@ -120,13 +120,23 @@ pub(crate) fn read_text<R: Read>(reader: R, name: &str) -> crate::error::Result<
     Ok(text)
 }
 
-/// A value from a file as echoed in a message: at most 200 characters (then `…`), with
-/// control characters escaped (`\u{0}`, `\t`), so that an error stays one readable line.
+/// A value from a file as echoed in a message: [`printable`] with at most 200
+/// characters, so that an error stays one readable line.
 pub(crate) fn echo(value: &str) -> String {
-    const MAX: usize = 200;
+    printable(value, 200)
+}
+
+/// `text` cut to at most `max` characters (then `…`) with its control characters escaped
+/// (`\u{0}`, `\t`, `\n`): safe to print on one line of a terminal.
+///
+/// ```
+/// assert_eq!(fdid::io::printable("a\u{0}b", 10), "a\\u{0}b");
+/// assert_eq!(fdid::io::printable("abcdef", 3), "abc…");
+/// ```
+pub fn printable(text: &str, max: usize) -> String {
     let mut out = String::new();
-    for (i, c) in value.chars().enumerate() {
-        if i == MAX {
+    for (i, c) in text.chars().enumerate() {
+        if i == max {
             out.push('…');
             break;
         }

@@ -12,7 +12,7 @@ mod csv;
 mod lines;
 mod touchstone;
 
-pub use self::lines::MAX_LINE_BYTES;
+pub use self::lines::{MAX_LINE_BYTES, printable};
 
 pub use self::csv::{ChannelSelection, Column, parse_channels, parse_csv, read_channels, read_csv};
 pub use self::touchstone::{

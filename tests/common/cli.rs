@@ -95,6 +95,16 @@ pub fn json(subcommand: &str, path: &Path, args: &[&str]) -> Value {
     serde_json::from_str(&text).expect("valid JSON")
 }
 
+/// The `theta_names` of a JSON report.
+pub fn theta_names(v: &Value) -> Vec<&str> {
+    v["theta_names"]
+        .as_array()
+        .expect("theta_names")
+        .iter()
+        .map(|n| n.as_str().expect("a name"))
+        .collect()
+}
+
 /// The path of the bundled data file `data/NAME`.
 pub fn bundled(name: &str) -> String {
     format!("{}/data/{name}", env!("CARGO_MANIFEST_DIR"))

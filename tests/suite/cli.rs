@@ -4,7 +4,7 @@
 
 use crate::cli_common as cli;
 
-use cli::{Scratch, fdid, json, run, stderr, stdout};
+use cli::{Scratch, fdid, json, run, stderr, stdout, theta_names};
 use serde_json::Value;
 use std::f64::consts::TAU;
 use std::path::{Path, PathBuf};
@@ -759,12 +759,7 @@ fn transient_term_fits_a_short_non_periodic_record() {
     let with = json("fit", &path, &[&base[..], &["--transient"]].concat());
     assert_eq!(with["transient"], 2);
     assert_eq!(plain["transient"], 0);
-    let names: Vec<&str> = with["theta_names"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|n| n.as_str().unwrap())
-        .collect();
+    let names = theta_names(&with);
     assert_eq!(names, ["a1", "a2", "b0", "b1", "t1", "t2"]);
     let (c0, c1) = (num(&plain, "cost"), num(&with, "cost"));
     assert!(
@@ -886,12 +881,7 @@ fn noise_model_with_delay() {
             "1",
         ],
     );
-    let names: Vec<&str> = v["theta_names"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|n| n.as_str().unwrap())
-        .collect();
+    let names = theta_names(&v);
     assert_eq!(names, ["a1", "a2", "b0", "b1", "tau", "nc1", "nd1"]);
     let (tau, std) = param(&v, "tau");
     assert!(

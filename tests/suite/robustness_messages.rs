@@ -109,7 +109,7 @@ fn error_texts_speak_in_words_and_hz() {
 
 #[cfg(feature = "cli")]
 mod command {
-    use crate::cli_common::{Scratch, bundled, fdid, run, stderr, stdout};
+    use crate::cli_common::{Scratch, bundled, fdid, run, stderr, stdout, theta_names};
 
     /// `fdid fit FILE ARGS` exits with `code`; its error line (if any) is one printable
     /// line of at most 1000 characters (plus the prefix).
@@ -176,12 +176,7 @@ mod command {
             "--json",
         ]);
         let v: serde_json::Value = serde_json::from_str(&stdout(&out)).unwrap();
-        let names: Vec<&str> = v["theta_names"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .map(|n| n.as_str().unwrap())
-            .collect();
+        let names = theta_names(&v);
         let mut unique = names.clone();
         unique.sort_unstable();
         unique.dedup();
