@@ -248,7 +248,7 @@ fn a_time_shift_is_the_same_delay_at_any_scale() {
 /// The command on data of extreme magnitude.
 #[cfg(feature = "cli")]
 mod command {
-    use crate::cli_common::{Scratch, bundled, fdid, stderr, stdout};
+    use crate::cli_common::{Scratch, bundled, json};
     use fdid::prelude::*;
 
     /// `fdid fit` on a lightly damped FRF (poles −3.13 ± 62.75i) times 10^−170 and 10^170
@@ -270,19 +270,7 @@ mod command {
         };
         let json = |name: &str, scale: f64| {
             let path = dir.file(name, &frf(scale));
-            let out = fdid(&[
-                "fit",
-                path.to_str().unwrap(),
-                "--domain",
-                "s",
-                "--na",
-                "2",
-                "--nb",
-                "1",
-                "--json",
-            ]);
-            assert!(out.status.success(), "{}", stderr(&out));
-            serde_json::from_str::<serde_json::Value>(&stdout(&out)).unwrap()
+            json("fit", &path, &["--domain", "s", "--na", "2", "--nb", "1"])
         };
         let plain = json("plain.csv", 1.0);
         let pole = |v: &serde_json::Value| {
@@ -330,21 +318,11 @@ mod command {
             scaled.push('\n');
         }
         let path = dir.file("dryer_tiny.csv", &scaled);
-        let out = fdid(&[
+        let v = json(
             "diagnose",
-            path.to_str().unwrap(),
-            "--domain",
-            "z",
-            "--ts",
-            "0.08",
-            "--na",
-            "2",
-            "--nb",
-            "2",
-            "--json",
-        ]);
-        assert!(out.status.success(), "{}", stderr(&out));
-        let v: serde_json::Value = serde_json::from_str(&stdout(&out)).unwrap();
+            &path,
+            &["--domain", "z", "--ts", "0.08", "--na", "2", "--nb", "2"],
+        );
         assert_eq!(v["consistent_with_noise"], true, "{}", v["effects"]);
         let delay = v["final"]["delay_samples"].as_f64().unwrap();
         assert!((delay - 3.0).abs() <= 0.5, "delay {delay} samples");

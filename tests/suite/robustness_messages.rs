@@ -109,7 +109,7 @@ fn error_texts_speak_in_words_and_hz() {
 
 #[cfg(feature = "cli")]
 mod command {
-    use crate::cli_common::{Scratch, bundled, fdid, run, stderr, stdout, theta_names};
+    use crate::cli_common::{Scratch, bundled, fdid, json, run, stderr, stdout, theta_names};
 
     /// `fdid fit FILE ARGS` exits with `code`; its error line (if any) is one printable
     /// line of at most 1000 characters (plus the prefix).
@@ -161,10 +161,8 @@ mod command {
     /// Old: with `--noise-order` in s the names `c1` and `d1` appeared twice.
     #[test]
     fn parameter_names_are_unique() {
-        let dryer = bundled("dryer.csv");
-        let out = fdid(&[
-            "fit",
-            &dryer,
+        let dryer = std::path::PathBuf::from(bundled("dryer.csv"));
+        let args = [
             "--domain",
             "s",
             "--na",
@@ -173,9 +171,8 @@ mod command {
             "2",
             "--noise-order",
             "1",
-            "--json",
-        ]);
-        let v: serde_json::Value = serde_json::from_str(&stdout(&out)).unwrap();
+        ];
+        let v = json("fit", &dryer, &args);
         let names = theta_names(&v);
         let mut unique = names.clone();
         unique.sort_unstable();

@@ -101,8 +101,7 @@ fn irregular_step(t: &[f64], line: &impl Fn(usize) -> usize) -> Option<(usize, S
         return None;
     }
     let mut sorted = steps.clone();
-    sorted.sort_by(f64::total_cmp);
-    let median = sorted[sorted.len() / 2];
+    let (_, &mut median, _) = sorted.select_nth_unstable_by(steps.len() / 2, f64::total_cmp);
     if !(median.is_finite() && median > 0.0) {
         return None;
     }
