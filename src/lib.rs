@@ -91,6 +91,7 @@ pub mod linalg;
 pub mod ltv;
 pub mod model;
 pub mod problem;
+pub mod progress;
 pub mod roots;
 pub mod scalar;
 pub mod simulate;

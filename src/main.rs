@@ -40,7 +40,7 @@ fn main() -> ExitCode {
         Ok(c) => c,
         Err(e) => return cli::args::clap_failure(e),
     };
-    match std::panic::catch_unwind(|| cli::run(&cli)) {
+    match std::panic::catch_unwind(|| cli::progress::run(|| cli::run(&cli))) {
         Ok(Ok(out)) => {
             let mut stdout = std::io::stdout().lock();
             match stdout

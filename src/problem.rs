@@ -82,6 +82,11 @@ pub trait ReweightedProblem<T: Real> {
         crate::linalg::gram::least_squares_gram(&a, &b, crate::linalg::gram::max_condition::<T>())
             .map(|(theta, cost)| (theta.as_slice().to_vec(), cost))
     }
+    /// The real equations of one solve (the rows of [`ReweightedProblem::system`]), for
+    /// the work budget of [`crate::solver::work`]. The default forms the system once.
+    fn rows(&self) -> usize {
+        self.system(None).0.nrows()
+    }
     /// A scale-free measure of the change between two estimates (e.g. relative change of
     /// the model response), used for the convergence test.
     fn change(&self, old: &[T], new: &[T]) -> T;

@@ -419,6 +419,11 @@ pub struct FitArgs {
     /// warning line (JSON: "stable":false)
     #[arg(long)]
     pub stable: bool,
+
+    /// Run a delay search (--delay) or a noise model (--noise-order) whose evaluation
+    /// budget could take more than about a minute (refused by default, with the bound)
+    #[arg(long)]
+    pub allow_long: bool,
 }
 
 /// Options of `fdid eval`.

@@ -986,7 +986,7 @@ fn write_report(
     let mut written = Vec::new();
     let mut put = |name: &str, contents: &str| -> Result<(), Failure> {
         let path = dir.join(name);
-        std::fs::write(&path, contents)
+        super::progress::write_atomic(&path, contents.as_bytes())
             .map_err(|e| Failure::runtime(format!("cannot write {}: {e}", path.display())))?;
         written.push(path.display().to_string());
         Ok(())

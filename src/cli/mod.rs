@@ -1,10 +1,12 @@
 //! The `fdid` command: argument handling, data preparation, estimation and output.
 
 pub mod args;
+mod budget;
 mod data;
 mod diagnose;
 mod ltv;
 pub mod message;
+pub mod progress;
 mod report;
 mod saved;
 #[cfg(feature = "plot")]
@@ -121,8 +123,11 @@ fn fit(args: &FitArgs) -> Result<String, Failure> {
         },
     };
     check_data_kind(&spec, &file, &prepared)?;
-    let fitted = spec.fit(&prepared.data)?;
-    let report = Report::of(&spec, &file, &prepared, &prepared.data, &fitted)?;
+    let (fitted, stopped) = budget::fit(&spec, &prepared.data, args.allow_long)?;
+    let mut report = Report::of(&spec, &file, &prepared, &prepared.data, &fitted)?;
+    if let Some(note) = stopped {
+        report.add_note(note.into());
+    }
     if let Some(path) = &args.plot {
         write_plot(path, &prepared, &report)?;
     }
@@ -163,7 +168,7 @@ fn write_plot(path: &std::path::Path, prepared: &Prepared, report: &Report) -> R
     };
     let figure = svg::bode_curves(&prepared.data, &[curve], true)
         .map_err(|e| Failure::runtime(format!("cannot draw the Bode plot: {e}")))?;
-    std::fs::write(path, figure)
+    progress::write_atomic(path, figure.as_bytes())
         .map_err(|e| Failure::runtime(format!("cannot write {}: {e}", path.display())))
 }
 

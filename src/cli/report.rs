@@ -327,6 +327,11 @@ pub struct Report {
 }
 
 impl Report {
+    /// Adds a note, printed after the fit's own.
+    pub fn add_note(&mut self, note: String) {
+        self.notes.push(note);
+    }
+
     /// The fitted response on the data's lines and its standard deviation, if known.
     pub fn response(&self) -> (&[Complex<f64>], Option<&[f64]>) {
         (&self.frf, self.frf_std.as_deref())

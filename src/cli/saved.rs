@@ -109,7 +109,7 @@ impl Envelope {
 pub fn write(path: &std::path::Path, value: &Value) -> Result<(), Failure> {
     let text = serde_json::to_string_pretty(value)
         .map_err(|e| Failure::runtime(format!("cannot serialise the fitted model: {e}")))?;
-    std::fs::write(path, text + "\n")
+    super::progress::write_atomic(path, (text + "\n").as_bytes())
         .map_err(|e| Failure::runtime(format!("cannot write {}: {e}", path.display())))
 }
 

@@ -136,6 +136,10 @@ impl<T: Real, M: EquationError<T> + ?Sized> ReweightedProblem<T> for SkProblem<'
         Some((theta.as_slice().to_vec(), cost))
     }
 
+    fn rows(&self) -> usize {
+        2 * self.system.regressor().nrows()
+    }
+
     fn change(&self, old: &[T], new: &[T]) -> T {
         super::relative_change(&self.response(old), &self.response(new))
     }

@@ -29,21 +29,24 @@ pub struct DelayStart<T: Real> {
 }
 
 /// Phase-slope iterations after the slope of the raw phase.
-const PHASE_ITERATIONS: usize = 4;
+pub(super) const PHASE_ITERATIONS: usize = 4;
 /// Sanathanan–Koerner iterations of a screening fit in the candidate scan.
-const SCREEN_ITERATIONS: usize = 3;
+pub(super) const SCREEN_ITERATIONS: usize = 3;
 /// Local minima of the screening scan refitted in full.
-const REFINED_MINIMA: usize = 5;
+pub(super) const REFINED_MINIMA: usize = 5;
 /// Evaluation budget factor of the ML refinements of the search (at most
 /// `SEARCH_PATIENCE·(p + 1)` residual evaluations each): they rank candidate delays, the
 /// ML from the best one runs with the pipeline's budget.
-const SEARCH_PATIENCE: usize = 4;
+pub(super) const SEARCH_PATIENCE: usize = 4;
 /// The least evaluation budget of a refinement of the search, whatever the order.
-const SEARCH_EVALUATIONS: usize = 100;
+pub(super) const SEARCH_EVALUATIONS: usize = 100;
 /// Cap on the candidates of the scan.
-const MAX_SCAN: usize = 512;
+pub(super) const MAX_SCAN: usize = 512;
+/// The most delays a whole number of samples from the best refined one that are refined
+/// too (±1, ±2 sample periods from it; the nearest whole number of samples and ±1, ±2).
+pub(super) const SAMPLE_MULTIPLES: usize = 9;
 /// Rounds of (delay-free fit, ML on the delayed model) per refined candidate.
-const CANDIDATE_ROUNDS: usize = 3;
+pub(super) const CANDIDATE_ROUNDS: usize = 3;
 
 /// A starting value τ₀ for the delay of `model` on `data`, from the phase slope and a scan
 /// of candidate delays by output-error cost, each delay-free fit made with `pipeline`
@@ -363,7 +366,11 @@ impl<'a, T: Real, M: FurtherStarts<T>> DelaySearch<'a, T, M> {
     /// a finite cost, in the order of `grid`.
     fn screen(&mut self, grid: Vec<T>) -> Vec<(T, T)> {
         let mut scan: Vec<(T, T)> = vec![];
-        for t in grid {
+        let n = grid.len();
+        for (i, t) in grid.into_iter().enumerate() {
+            if i % 32 == 0 {
+                crate::progress::report(|| format!("delay search: candidate {} of {n}", i + 1));
+            }
             self.fits += 1;
             match self.search.fit(&self.screen, t) {
                 Ok((cost, _)) if Float::is_finite(cost) => scan.push((t, cost)),
@@ -418,10 +425,12 @@ impl<'a, T: Real, M: FurtherStarts<T>> DelaySearch<'a, T, M> {
         };
         let ts = self.data.ts();
         let sample = ts.unwrap_or(T::lit(4.0) * self.step);
-        let mut starts: Vec<T> = [-2.0, -1.0, 1.0, 2.0]
-            .iter()
-            .map(|k| b + sample * T::lit(*k))
-            .collect();
+        let mut starts: Vec<T> = Vec::with_capacity(SAMPLE_MULTIPLES);
+        starts.extend(
+            [-2.0, -1.0, 1.0, 2.0]
+                .iter()
+                .map(|k| b + sample * T::lit(*k)),
+        );
         if let Some(ts) = ts {
             let whole = Float::round(b / ts) * ts;
             starts.extend(

@@ -27,6 +27,7 @@ mod modal;
 pub mod multistart;
 mod noise_model;
 mod spec;
+mod work;
 
 pub use chain::{FurtherStarts, Pipeline, estimate};
 pub use delay::{DelayStart, delay_start, fit_delayed};

@@ -69,7 +69,18 @@ impl FixedPoint {
         let mut best: Option<(Vec<T>, T)> = start.map(|s| (s.to_vec(), problem.cost(s)));
         let mut last_cost: Option<T> = None;
         let ctol = T::lit(self.cost_tolerance);
+        let solve_cost = super::work::solve_cost(problem.rows(), start.map_or(0, <[T]>::len));
         for it in 1..=self.max_iterations.max(1) {
+            // a spent work budget stops the iteration at its best estimate (one solve at least)
+            if it > 1 && best.is_some() && !super::work::charge(solve_cost) {
+                let (theta, cost) = best.unwrap_or_default();
+                return Ok(Solution {
+                    theta,
+                    cost,
+                    iterations: it - 1,
+                    termination: Termination::MaxIterations,
+                });
+            }
             let fast = if gram {
                 problem.solve_normal_equations(previous.as_deref())
             } else {

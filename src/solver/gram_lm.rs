@@ -67,6 +67,7 @@ impl<T: Real, P: NonlinearProblem<T> + ?Sized> Solver<T, P> for GramLevenbergMar
         let mut grad = DVector::zeros(p);
         let max_cond = max_condition::<T>();
         let budget = self.settings.patience.max(1) * (p + 1);
+        let evaluation_cost = super::work::solve_cost(m, p);
         let mut evaluations = 1usize;
         if !problem.normal_equations_into(&x, &mut r, &mut jac, &mut gram, &mut grad) {
             return Err(FdidError::Numerical {
@@ -126,6 +127,9 @@ impl<T: Real, P: NonlinearProblem<T> + ?Sized> Solver<T, P> for GramLevenbergMar
                 let snorm = step.norm();
                 for ((xt, xv), (s, d)) in x_try.iter_mut().zip(&x).zip(step.iter().zip(&sc.d)) {
                     *xt = *xv + *s / *d;
+                }
+                if !super::work::charge(evaluation_cost) {
+                    return done(x, cost, evaluations, Termination::MaxIterations);
                 }
                 evaluations += 1;
                 let new_cost = if problem.residuals_into(&x_try, &mut r_try) {

@@ -91,6 +91,12 @@ struct Adapter<'p, T: Real, P: ?Sized> {
     problem: &'p P,
     x: DVector<T>,
     evaluations: std::cell::Cell<usize>,
+    /// The cost of one evaluation for the work budget ([`super::work`]).
+    evaluation_cost: f64,
+    /// Set when an evaluation was refused because the work budget was spent.
+    spent: std::cell::Cell<bool>,
+    /// The point of lowest cost evaluated, with its cost.
+    best: std::cell::RefCell<Option<(T, Vec<T>)>>,
 }
 
 impl<T: Real, P: NonlinearProblem<T> + ?Sized> LeastSquaresProblem<T, Dyn, Dyn>
@@ -109,12 +115,22 @@ impl<T: Real, P: NonlinearProblem<T> + ?Sized> LeastSquaresProblem<T, Dyn, Dyn>
     }
 
     fn residuals(&self) -> Option<DVector<T>> {
+        if !super::work::charge(self.evaluation_cost) {
+            self.spent.set(true);
+            return None;
+        }
         self.evaluations.set(self.evaluations.get() + 1);
         let mut r = DVector::zeros(self.problem.n_residuals());
-        if !self
+        if self
             .problem
             .residuals_into(self.x.as_slice(), r.as_mut_slice())
         {
+            let cost = r.norm_squared();
+            let mut best = self.best.borrow_mut();
+            if best.as_ref().is_none_or(|(c, _)| cost < *c) {
+                *best = Some((cost, self.x.as_slice().to_vec()));
+            }
+        } else {
             // a step into a region where the model blows up: make it unattractive so the
             // trust region shrinks, rather than aborting
             let big = num_traits::Float::sqrt(<T as num_traits::Float>::max_value()) / T::lit(1e3);
@@ -151,10 +167,26 @@ impl<T: Real, P: NonlinearProblem<T> + ?Sized> Solver<T, P> for LevenbergMarquar
             problem,
             x: DVector::from_column_slice(start),
             evaluations: std::cell::Cell::new(0),
+            evaluation_cost: super::work::solve_cost(problem.n_residuals(), problem.n_params()),
+            spent: std::cell::Cell::new(false),
+            best: std::cell::RefCell::new(None),
         };
         let (adapter, report) = lm.minimize(adapter);
-        let theta = adapter.x.as_slice().to_vec();
-        let termination = match report.termination {
+        let termination = if adapter.spent.get() {
+            // stopped by the work budget: the best point evaluated (the start if none)
+            TerminationReason::LostPatience
+        } else {
+            report.termination
+        };
+        let theta = if adapter.spent.get() {
+            adapter
+                .best
+                .into_inner()
+                .map_or_else(|| start.to_vec(), |(_, x)| x)
+        } else {
+            adapter.x.as_slice().to_vec()
+        };
+        let termination = match termination {
             TerminationReason::ResidualsZero
             | TerminationReason::Orthogonal
             | TerminationReason::Converged { .. }

@@ -14,6 +14,7 @@ mod fixed_point;
 mod gram_lm;
 mod linear;
 mod lm;
+pub mod work;
 
 pub use crate::linalg::least_squares;
 pub use feasible::Feasible;

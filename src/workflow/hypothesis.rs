@@ -192,6 +192,9 @@ impl Workflow {
         };
         let mut acted: Vec<Effect> = Vec::new();
         while run.steps.len() < self.max_steps {
+            crate::progress::report(|| {
+                format!("step {}: running the detectors", run.steps.len() + 1)
+            });
             // the structural detectors first: while those of the system's structure fire,
             // the model may be missing a term, and a measurement test that assumes an
             // adequate model is deferred
@@ -408,6 +411,7 @@ impl Workflow {
         let mut attempts = Vec::new();
         let mut candidates: Vec<(usize, Finding, H, f64, f64)> = Vec::new();
         for finding in all.into_iter().filter(|f| silent || f.p_value < ctx.alpha) {
+            crate::progress::report(|| format!("refitting for {}", finding.effect));
             let (outcome, candidate) = try_refit(current, data, &finding, alpha);
             if let Some((next, p, gain)) = candidate {
                 candidates.push((attempts.len(), finding.clone(), next, p, gain));

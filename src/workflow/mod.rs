@@ -399,7 +399,9 @@ impl Workflow {
             ..
         } = self.explore(data, initial_fit.clone(), &ctx);
         let spec_before = current.spec.clone();
+        crate::progress::report(|| "revising the accepted steps".into());
         self.revise(&data, &ctx, &mut steps, &mut step_fits, &mut current);
+        crate::progress::report(|| "backward elimination".into());
         let eliminated = self.eliminate(&data, alpha, &steps, &mut current);
         // a revised structure: the segment models of the final spec
         if let Some((tv, segments)) = time_varying.as_mut()
@@ -420,6 +422,7 @@ impl Workflow {
         }
         let time_varying = time_varying.map(|(tv, _)| tv);
         let ltv = ltv_step::after_time_variation(&steps, &current, &ctx, time_varying.as_ref());
+        crate::progress::report(|| "the detectors on the final model".into());
         let remaining = self.findings(&data, &current, &ctx);
         Ok(Report {
             effects: steps

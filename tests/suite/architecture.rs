@@ -26,7 +26,10 @@ use std::path::{Path, PathBuf};
 
 /// The layers, lowest first.
 const LAYERS: &[(&str, &[&str])] = &[
-    ("foundation", &["scalar", "error", "stats", "test_rng"]),
+    (
+        "foundation",
+        &["scalar", "error", "stats", "test_rng", "progress"],
+    ),
     ("linear algebra", &["linalg", "basis", "roots"]),
     ("data", &["data", "simulate", "io"]),
     ("model", &["model", "greybox"]),

@@ -69,6 +69,7 @@ mod saved_model;
 mod silverbox;
 mod simulate;
 mod stress_numerical;
+mod work_budget;
 mod workflow_combined;
 mod workflow_detect;
 mod workflow_greybox;

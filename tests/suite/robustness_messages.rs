@@ -266,6 +266,112 @@ mod command {
         assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
     }
 
+    /// Old: `--noise-order 50` ran for over 590 s, `--delay` with na 20 for over 120 s and
+    /// either on a 10⁶-sample record for minutes, with no word. Now a fit whose search
+    /// budget could take more than about a minute is refused up front (exit 2, the bound
+    /// and the way out named); `--allow-long` lifts the refusal; small orders run.
+    #[test]
+    fn fits_beyond_a_minute_are_refused_up_front() {
+        let dryer = std::path::PathBuf::from(bundled("dryer.csv"));
+        let z = ["--domain", "z", "--na", "2", "--nb", "2"];
+        let long = [
+            (&z[..], &["--noise-order", "50"][..], "--noise-order 50"),
+            (
+                &["--domain", "z", "--na", "20", "--nb", "20"][..],
+                &["--delay"][..],
+                "--delay",
+            ),
+        ];
+        for (orders, extra, named) in long {
+            let args = [orders, extra].concat();
+            let started = std::time::Instant::now();
+            let err = exits(&dryer, &args, 2);
+            assert!(
+                started.elapsed() < std::time::Duration::from_secs(20),
+                "not refused up front: {:?}",
+                started.elapsed()
+            );
+            assert!(
+                err.contains(named)
+                    && err.contains("could take up to")
+                    && err.contains("--allow-long"),
+                "{err}"
+            );
+        }
+        // 10⁶ samples: even the lowest orders of a delay or a noise model are refused
+        let dir = Scratch::new("million");
+        let mut text = String::with_capacity(30_000_000);
+        text.push_str("t,u,y\n");
+        let mut y = [0.0f64; 2];
+        for k in 0..1_000_000u32 {
+            let u = (f64::from(k) * 0.37).sin();
+            let next = 1.2 * y[0] - 0.5 * y[1] + 0.3 * u;
+            text.push_str(&format!("{k},{u:.6},{next:.6}\n"));
+            y = [next, y[0]];
+        }
+        let file = dir.file("million.csv", &text);
+        let one = ["--domain", "z", "--ts", "1", "--na", "1", "--nb", "0"];
+        for extra in [&["--delay"][..], &["--noise-order", "3"][..]] {
+            let err = exits(&file, &[&one[..], extra].concat(), 2);
+            assert!(
+                err.contains("500000 lines") || err.contains("499999 lines"),
+                "{err}"
+            );
+        }
+        // the refusal is lifted by --allow-long, and a small order runs without it
+        let mut allowed = z.to_vec();
+        allowed.extend(["--noise-order", "1", "--allow-long"]);
+        exits(&dryer, &allowed, 0);
+        allowed.pop();
+        exits(&dryer, &allowed, 0);
+    }
+
+    /// Old: Ctrl-C killed the command by the signal, in the middle of whatever it wrote.
+    /// Now it exits 130 with one line, and the file it was to write is absent (neither
+    /// complete nor partial). The fit takes a minute; the interrupt comes after 3 s.
+    #[cfg(unix)]
+    #[test]
+    fn ctrl_c_stops_cleanly() {
+        let dir = Scratch::new("interrupt");
+        let saved = dir.path("model.json");
+        let child = std::process::Command::new(env!("CARGO_BIN_EXE_fdid"))
+            .args([
+                "fit",
+                &bundled("dryer.csv"),
+                "--domain",
+                "z",
+                "--na",
+                "2",
+                "--nb",
+                "2",
+                "--noise-order",
+                "30",
+                "--allow-long",
+                "--save",
+                saved.to_str().unwrap(),
+            ])
+            .stderr(std::process::Stdio::piped())
+            .stdout(std::process::Stdio::piped())
+            .spawn()
+            .unwrap();
+        std::thread::sleep(std::time::Duration::from_secs(3));
+        let kill = std::process::Command::new("kill")
+            .args(["-INT", &child.id().to_string()])
+            .status()
+            .unwrap();
+        assert!(kill.success());
+        let out = child.wait_with_output().unwrap();
+        let err = stderr(&out);
+        assert_eq!(out.status.code(), Some(130), "{err}");
+        assert!(err.contains("interrupted"), "{err}");
+        one_clean_line(&err);
+        let left: Vec<_> = std::fs::read_dir(saved.parent().unwrap())
+            .unwrap()
+            .map(|e| e.unwrap().file_name())
+            .collect();
+        assert!(left.is_empty(), "{left:?}");
+    }
+
     /// Bad files of every kind end in exit 1 with one clean error line: never 70 (a caught
     /// panic) or a signal.
     #[test]

@@ -1,0 +1,64 @@
+//! How long a command may run by default: runs whose bound is beyond about a minute are
+//! refused up front, with the reason and what to change, unless `--allow-long` is given.
+
+use super::Failure;
+use fdid::estimate::{ModelSpec, RationalFit};
+use fdid::prelude::*;
+use std::result::Result;
+
+/// Multiply-adds of least-squares solves per second on two cores: the slowest rate of
+/// the delay searches and noise models measured on the bundled dryer record (2026).
+const WORK_PER_SECOND: f64 = 1.6e8;
+
+/// The longest bound `fdid fit` runs without `--allow-long` (s).
+const MAX_SECONDS: f64 = 60.0;
+
+/// The note of a fit stopped by the work budget.
+const STOPPED_NOTE: &str = "the fit was stopped at the work budget of about a minute on two \
+    cores before its iterations converged: the model may not be at the criterion's minimum \
+    (--allow-long lifts the budget; --band or lower orders make the fit cheaper)";
+
+/// `spec` fitted to `data`, with a note when the work budget stopped it. Unless
+/// `allow_long`: refused when the bound of its search stages ([`ModelSpec::search_work`])
+/// is beyond [`MAX_SECONDS`], and run within that much work ([`ModelSpec::fit_within`]).
+pub(super) fn fit(
+    spec: &ModelSpec,
+    data: &FrequencyData<f64>,
+    allow_long: bool,
+) -> Result<(RationalFit, Option<&'static str>), Failure> {
+    if allow_long {
+        return Ok((spec.fit(data)?, None));
+    }
+    check_search(spec, data)?;
+    let (fit, stopped) = spec.fit_within(data, MAX_SECONDS * WORK_PER_SECOND)?;
+    Ok((fit, stopped.then_some(STOPPED_NOTE)))
+}
+
+/// Refuses `spec` on `data` when the bound of its search stages is beyond [`MAX_SECONDS`].
+fn check_search(spec: &ModelSpec, data: &FrequencyData<f64>) -> Result<(), Failure> {
+    let work = spec.search_work(data)?;
+    let seconds = work / WORK_PER_SECOND;
+    if seconds <= MAX_SECONDS {
+        return Ok(());
+    }
+    let mut options = vec![];
+    if spec.delay {
+        options.push("--delay (a scan of up to 512 candidate delays, then ML)".to_string());
+    }
+    if let Some(n) = spec.noise_order {
+        options.push(format!(
+            "--noise-order {n} (maximum likelihood on {} parameters)",
+            spec.na + spec.nb + 1 + 2 * n
+        ));
+    }
+    Err(Failure::usage(format!(
+        "{} on {} lines with --na {} --nb {} could take up to {:.0} s on two cores, more \
+         than the minute `fdid fit` runs by default: select the band of interest with \
+         --band FMIN:FMAX, lower the orders, or pass --allow-long to run anyway",
+        options.join(" and "),
+        data.len(),
+        spec.na,
+        spec.nb,
+        seconds
+    )))
+}
