@@ -420,8 +420,9 @@ pub struct FitArgs {
     #[arg(long)]
     pub stable: bool,
 
-    /// Run a delay search (--delay) or a noise model (--noise-order) whose evaluation
-    /// budget could take more than about a minute (refused by default, with the bound)
+    /// Lift the limits that keep a fit to about a minute: without it a delay search
+    /// (--delay) or noise model (--noise-order) estimated to take longer is refused, and
+    /// the iterative solvers stop at a work budget (with a note in the report)
     #[arg(long)]
     pub allow_long: bool,
 }
@@ -480,7 +481,8 @@ pub struct DiagnoseArgs {
     pub stable: bool,
 
     /// Run on more than 10000 lines (refused by default: the workflow's many refits take
-    /// minutes there; select a band with --band or average periods with --periods)
+    /// minutes there; select a band with --band or average periods with --periods), and
+    /// without the work budget that stops a diagnosis after a minute or two
     #[arg(long)]
     pub allow_long: bool,
 }
@@ -522,6 +524,11 @@ pub struct LtvArgs {
     /// Print one JSON object instead of text
     #[arg(long)]
     pub json: bool,
+
+    /// Run a fit whose regressor (2 x lines rows, one column per parameter) is estimated
+    /// to take more than about a minute (refused by default, with the estimate)
+    #[arg(long)]
+    pub allow_long: bool,
 }
 
 /// Bases of `fdid ltv`.

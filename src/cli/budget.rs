@@ -51,14 +51,37 @@ fn check_search(spec: &ModelSpec, data: &FrequencyData<f64>) -> Result<(), Failu
             spec.na + spec.nb + 1 + 2 * n
         ));
     }
+    refuse(
+        &format!(
+            "{} on {} lines with --na {} --nb {}",
+            options.join(" and "),
+            data.len(),
+            spec.na,
+            spec.nb
+        ),
+        seconds,
+    )
+}
+
+/// Refuses `fdid ltv` when the total least squares of its regressor (`rows` real
+/// equations, `params` columns: QR, then the SVD of R, about 2·rows·params²) is estimated
+/// beyond [`MAX_SECONDS`], unless `allow_long`.
+pub(super) fn check_ltv(rows: usize, params: usize, allow_long: bool) -> Result<(), Failure> {
+    let seconds = 2.0 * rows as f64 * (params * params) as f64 / WORK_PER_SECOND;
+    if allow_long || seconds <= MAX_SECONDS {
+        return Ok(());
+    }
+    refuse(
+        &format!("the time-varying fit of {params} parameters on {rows} real equations"),
+        seconds,
+    )
+}
+
+/// The usage error for `what`, estimated at `seconds`.
+fn refuse(what: &str, seconds: f64) -> Result<(), Failure> {
     Err(Failure::usage(format!(
-        "{} on {} lines with --na {} --nb {} could take up to {:.0} s on two cores, more \
-         than the minute `fdid fit` runs by default: select the band of interest with \
-         --band FMIN:FMAX, lower the orders, or pass --allow-long to run anyway",
-        options.join(" and "),
-        data.len(),
-        spec.na,
-        spec.nb,
-        seconds
+        "{what} could take up to {seconds:.0} s on two cores, more than the minute the \
+         command runs by default: select the band of interest with --band FMIN:FMAX, lower \
+         the orders, or pass --allow-long to run anyway"
     )))
 }

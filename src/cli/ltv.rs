@@ -205,8 +205,8 @@ fn band_lines(args: &LtvArgs, n: usize, ts: f64) -> Result<Vec<usize>, Failure> 
         })
 }
 
-/// N_p against the record length and the parameter count against the lines: usage
-/// errors naming the flags.
+/// N_p against the record length, the parameter count against the lines and the cost
+/// of the fit against a minute: usage errors naming the flags.
 fn check_sizes(args: &LtvArgs, n: usize, lines: usize) -> Result<(), Failure> {
     let max = max_time_order(n);
     if args.np > max {
@@ -230,7 +230,7 @@ fn check_sizes(args: &LtvArgs, n: usize, lines: usize) -> Result<(), Failure> {
             2 * lines
         )));
     }
-    Ok(())
+    super::budget::check_ltv(2 * lines, params, args.allow_long)
 }
 
 /// The frozen system at the [`INSTANTS`] instants t_i = i (N − 1) Ts / 10 from the first

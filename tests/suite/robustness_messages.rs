@@ -266,8 +266,8 @@ mod command {
         assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
     }
 
-    /// Old: `--noise-order 50` ran for over 590 s, `--delay` with na 20 for over 120 s and
-    /// either on a 10⁶-sample record for minutes, with no word. Now a fit whose search
+    /// Old: `--noise-order 50` ran for over 590 s, `--delay` with na 20 for over 120 s,
+    /// either on a 10⁶-sample record and a large `fdid ltv` for minutes, with no word. Now a fit whose search
     /// budget could take more than about a minute is refused up front (exit 2, the bound
     /// and the way out named); `--allow-long` lifts the refusal; small orders run.
     #[test]
@@ -318,6 +318,16 @@ mod command {
                 "{err}"
             );
         }
+        // and a time-varying ODE of 692 parameters on its 10⁶ real equations (it ran for
+        // more than 5 minutes)
+        let out = run("ltv", &file, &["--na", "10", "--nb", "10", "--np", "30"]);
+        let err = stderr(&out);
+        assert_eq!(out.status.code(), Some(2), "{err}");
+        assert!(
+            err.contains("692 parameters") && err.contains("--allow-long"),
+            "{err}"
+        );
+        one_clean_line(&err);
         // the refusal is lifted by --allow-long, and a small order runs without it
         let mut allowed = z.to_vec();
         allowed.extend(["--noise-order", "1", "--allow-long"]);
