@@ -9,11 +9,12 @@ use super::delay::{
     CANDIDATE_ROUNDS, MAX_SCAN, PHASE_ITERATIONS, REFINED_MINIMA, SAMPLE_MULTIPLES,
     SCREEN_ITERATIONS, SEARCH_EVALUATIONS, SEARCH_PATIENCE,
 };
+use crate::solver::work::solve_cost;
 use crate::solver::{FixedPoint, LevenbergMarquardt};
 
 /// The cost of `evaluations` solves of 2·`lines` real rows and `q` columns.
 fn solves(evaluations: usize, lines: usize, q: usize) -> f64 {
-    evaluations as f64 * 2.0 * lines as f64 * (q * q) as f64
+    evaluations as f64 * solve_cost(2 * lines, q)
 }
 
 /// The most residual evaluations of a Levenberg–Marquardt run on `q` parameters with the
