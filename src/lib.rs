@@ -44,7 +44,7 @@
 //! ones: foundation (`scalar`, `error`, `stats`) → linear algebra (`linalg`, `basis`,
 //! `roots`) → data (`data`, `simulate`, `io`) → models (`model`, `greybox`) → criteria
 //! (`problem`, `criterion`) → solvers (`solver`) → fits (`fit`, `fitted`, `validation`) →
-//! estimation strategies (`estimate`, `ltv`) → the workflow (`workflow`). Models and
+//! estimation strategies (`estimate`, `ltv`, `mimo`) → the workflow (`workflow`). Models and
 //! criteria describe; only `estimate` runs them. The table is kept, and checked on every
 //! file, by the test `tests/suite/architecture.rs`.
 //!
@@ -89,6 +89,7 @@ mod guide;
 pub mod io;
 pub mod linalg;
 pub mod ltv;
+pub mod mimo;
 pub mod model;
 pub mod problem;
 pub mod progress;

@@ -7,6 +7,7 @@ mod excited;
 mod frequency;
 mod grid;
 mod lpm;
+mod matrix;
 mod merge;
 mod normalise;
 mod periodic;
@@ -25,6 +26,7 @@ pub use excited::{
 pub use frequency::{FrequencyData, NoiseVariances};
 pub use grid::{SAMPLE_TIME_TOLERANCE, nyquist_slack};
 pub use lpm::{Lpm, LpmEstimate, lpm};
+pub use matrix::FrfMatrix;
 pub use merge::merge;
 pub use normalise::Normalisation;
 pub(crate) use normalise::power_of_two_factor;

@@ -36,7 +36,7 @@ const LAYERS: &[(&str, &[&str])] = &[
     ("criterion", &["problem", "criterion"]),
     ("solver", &["solver"]),
     ("fit", &["fit", "fitted", "validation"]),
-    ("estimate", &["estimate", "ltv"]),
+    ("estimate", &["estimate", "ltv", "mimo"]),
     ("workflow", &["workflow"]),
 ];
 

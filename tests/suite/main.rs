@@ -53,6 +53,7 @@ mod io_touchstone_v2;
 mod ltv_lti;
 mod ltv_paper;
 mod ltv_varying;
+mod mimo;
 mod model_delay;
 mod model_modal;
 mod model_rational;

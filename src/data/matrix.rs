@@ -1,0 +1,209 @@
+//! Frequency response matrices: an ny × nu FRF per line, measured on one frequency grid,
+//! with optional per-entry noise variances.
+
+use super::{FrequencyData, NoiseVariances};
+use crate::error::{FdidError, Result};
+use crate::scalar::{Complex, Real};
+
+/// An ny × nu frequency response matrix G_k per line ω_k (rad/s): entry (i, j) is the
+/// response of output i to input j. Entries are stored column by column — (1,1), (2,1), …,
+/// (ny,1), (1,2), … — the order of a multi-channel CSV file (`f,re_11,im_11,re_21,im_21,…`)
+/// and of 2-port Touchstone data. Each entry is a [`FrequencyData`] (U = 1, Y = G_ij) on
+/// the common grid, with its own noise variances when known, so every single-channel tool
+/// applies to one entry.
+///
+/// ```
+/// use fdid::prelude::*;
+/// use fdid::data::FrfMatrix;
+///
+/// let omega = vec![1.0, 2.0, 3.0];
+/// let g11 = vec![Complex::new(1.0, 0.0); 3];
+/// let g21 = vec![Complex::new(0.0, 1.0); 3];
+/// let m = FrfMatrix::from_entries(omega, 2, 1, vec![g11, g21], None).unwrap();
+/// assert_eq!((m.ny(), m.nu(), m.len()), (2, 1, 3));
+/// assert_eq!(m.entry(1, 0).y()[0], Complex::new(0.0, 1.0));
+/// ```
+#[derive(Debug, Clone, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+pub struct FrfMatrix<T: Real> {
+    ny: usize,
+    nu: usize,
+    entries: Vec<FrequencyData<T>>,
+}
+
+impl<T: Real> FrfMatrix<T> {
+    /// Builds the matrix from its entries' responses (column by column, `ny·nu` vectors of
+    /// one value per line of `omega`), with an optional sample time.
+    ///
+    /// # Errors
+    /// `ny` or `nu` zero, a number of entries other than ny·nu, and every error of
+    /// [`FrequencyData::from_frf`] (lengths, non-finite values, unsorted frequencies).
+    pub fn from_entries(
+        omega: Vec<T>,
+        ny: usize,
+        nu: usize,
+        responses: Vec<Vec<Complex<T>>>,
+        ts: Option<T>,
+    ) -> Result<Self> {
+        check_shape(ny, nu, responses.len())?;
+        let entries = responses
+            .into_iter()
+            .map(|g| FrequencyData::from_frf(omega.clone(), g, ts))
+            .collect::<Result<Vec<_>>>()?;
+        Ok(Self { ny, nu, entries })
+    }
+
+    /// Builds the matrix from single-channel data, one per entry (column by column), which
+    /// must share their frequencies and sample time. Each entry is kept as its FRF
+    /// Y_k/U_k with the variance of that ratio when the entry carries output noise
+    /// variances (var_y/|U|²; input noise is not carried over).
+    ///
+    /// # Errors
+    /// A shape that does not match, entries on different frequencies or sample times, a
+    /// zero input on some line.
+    pub fn from_data(ny: usize, nu: usize, data: Vec<FrequencyData<T>>) -> Result<Self> {
+        check_shape(ny, nu, data.len())?;
+        let first = &data[0];
+        let mut entries = Vec::with_capacity(data.len());
+        for (e, d) in data.iter().enumerate() {
+            if d.omega() != first.omega() || d.ts() != first.ts() {
+                return Err(FdidError::InvalidArgument {
+                    name: "entries",
+                    value: format!("entry {} of {}", e + 1, data.len()),
+                    reason: "every entry must have the frequencies and sample time of the \
+                             first"
+                        .into(),
+                });
+            }
+            let frf = d.etfe()?;
+            let mut entry = FrequencyData::from_frf(d.omega().to_vec(), frf, d.ts())?;
+            if let Some(noise) = d.noise() {
+                let var: Vec<T> = noise
+                    .var_y
+                    .iter()
+                    .zip(d.u())
+                    .map(|(v, u)| *v / u.norm_sqr())
+                    .collect();
+                entry = entry.with_noise(NoiseVariances::output_only(var))?;
+            }
+            entries.push(entry);
+        }
+        Ok(Self { ny, nu, entries })
+    }
+
+    /// Attaches the noise variances of each entry's FRF (column by column, one per line).
+    ///
+    /// # Errors
+    /// A number of entries other than ny·nu; wrong lengths, negative or non-finite values.
+    pub fn with_variances(mut self, variances: Vec<Vec<T>>) -> Result<Self> {
+        check_shape(self.ny, self.nu, variances.len())?;
+        for (entry, var) in self.entries.iter_mut().zip(variances) {
+            *entry = entry.clone().with_noise(NoiseVariances::output_only(var))?;
+        }
+        Ok(self)
+    }
+
+    /// Outputs ny.
+    pub fn ny(&self) -> usize {
+        self.ny
+    }
+
+    /// Inputs nu.
+    pub fn nu(&self) -> usize {
+        self.nu
+    }
+
+    /// Number of frequency lines.
+    pub fn len(&self) -> usize {
+        self.entries[0].len()
+    }
+
+    /// Always false for a validated matrix.
+    pub fn is_empty(&self) -> bool {
+        self.entries[0].is_empty()
+    }
+
+    /// Angular frequencies (rad/s).
+    pub fn omega(&self) -> &[T] {
+        self.entries[0].omega()
+    }
+
+    /// Sample time, when the data are sampled.
+    pub fn ts(&self) -> Option<T> {
+        self.entries[0].ts()
+    }
+
+    /// Entry (i, j), zero-based: output i, input j.
+    ///
+    /// # Panics
+    /// When i ≥ ny or j ≥ nu.
+    pub fn entry(&self, i: usize, j: usize) -> &FrequencyData<T> {
+        assert!(i < self.ny && j < self.nu, "entry ({i}, {j}) out of range");
+        &self.entries[j * self.ny + i]
+    }
+
+    /// Every entry, column by column.
+    pub fn entries(&self) -> &[FrequencyData<T>] {
+        &self.entries
+    }
+
+    /// The (output, input) pair of the e-th entry in storage order, zero-based.
+    pub fn position(&self, e: usize) -> (usize, usize) {
+        (e % self.ny, e / self.ny)
+    }
+
+    /// True when every entry carries noise variances.
+    pub fn has_variances(&self) -> bool {
+        self.entries.iter().all(|e| e.noise().is_some())
+    }
+
+    /// Keeps the lines with `f_min ≤ f ≤ f_max` (Hz) in every entry.
+    ///
+    /// # Errors
+    /// As [`FrequencyData::band_hz`].
+    pub fn band_hz(&self, f_min: T, f_max: T) -> Result<Self> {
+        let entries = self
+            .entries
+            .iter()
+            .map(|e| e.band_hz(f_min, f_max))
+            .collect::<Result<Vec<_>>>()?;
+        Ok(Self {
+            ny: self.ny,
+            nu: self.nu,
+            entries,
+        })
+    }
+}
+
+fn check_shape(ny: usize, nu: usize, entries: usize) -> Result<()> {
+    if ny == 0 || nu == 0 || entries != ny * nu {
+        return Err(FdidError::InvalidArgument {
+            name: "entries",
+            value: format!("{entries} entries for {ny} outputs × {nu} inputs"),
+            reason: "a frequency response matrix needs ny·nu ≥ 1 entries".into(),
+        });
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn shape_and_grid_mismatches_are_errors() {
+        let c = Complex::new(1.0, 0.0);
+        let bad = FrfMatrix::from_entries(vec![1.0, 2.0], 2, 2, vec![vec![c; 2]; 3], None);
+        assert!(
+            bad.unwrap_err()
+                .to_string()
+                .contains("3 entries for 2 outputs")
+        );
+        let a = FrequencyData::from_frf(vec![1.0, 2.0], vec![c; 2], None).unwrap();
+        let b = FrequencyData::from_frf(vec![1.0, 3.0], vec![c; 2], None).unwrap();
+        assert!(FrfMatrix::from_data(2, 1, vec![a.clone(), b]).is_err());
+        let m = FrfMatrix::from_data(2, 1, vec![a.clone(), a]).unwrap();
+        assert_eq!(m.position(1), (1, 0));
+        assert!(!m.has_variances());
+    }
+}

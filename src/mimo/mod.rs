@@ -1,0 +1,318 @@
+//! Multi-input multi-output models with poles common to every entry: vector fitting's
+//! multiport form fitted to frequency response matrices ([`fit_common_poles`]), its real
+//! state-space realisation, the modes with their shapes, and a passivity check.
+//!
+//! A structure tested with one shaker and many accelerometers, an n-port network or a
+//! process with several actuators has one set of poles (its modes); fitting the entries
+//! one by one gives each its own, spurious, poles. Here every entry shares them:
+//!
+//! 1. **Pole relocation** (Sanathanan–Koerner as vector fitting, McKelvey eq. 41):
+//!    relaxed vector fitting with the fast block solution — one QR per entry, then one
+//!    small least squares for the shared denominator — so the cost grows linearly with
+//!    the number of entries ([`vector_fit`]).
+//! 2. **Maximum likelihood** (McKelvey eq. 23, output error, weighted by the entries'
+//!    variances): Levenberg–Marquardt over the poles alone with the residues eliminated
+//!    by variable projection, with the poles' asymptotic covariance (eq. 32).
+//!
+//! ```
+//! use fdid::prelude::*;
+//! use fdid::data::FrfMatrix;
+//! use fdid::mimo::{CommonPoleOptions, fit_common_poles};
+//!
+//! // two outputs of one input sharing the poles −0.1 ± 2i and −1
+//! let omega: Vec<f64> = (1..=80).map(|k| 0.05 * k as f64).collect();
+//! let p = Complex::new(-0.1, 2.0);
+//! let g = |r: Complex<f64>, r1: f64, w: f64| {
+//!     let s = Complex::new(0.0, w);
+//!     r / (s - p) + r.conj() / (s - p.conj()) + r1 / (s + 1.0)
+//! };
+//! let g1: Vec<_> = omega.iter().map(|w| g(Complex::new(1.0, 0.5), 2.0, *w)).collect();
+//! let g2: Vec<_> = omega.iter().map(|w| g(Complex::new(-0.3, 1.0), 0.5, *w)).collect();
+//! let data = FrfMatrix::from_entries(omega, 2, 1, vec![g1, g2], None).unwrap();
+//! let fit = fit_common_poles(&data, 3, &CommonPoleOptions::default()).unwrap();
+//! let pair = fit.model.poles.pairs[0];
+//! assert!((pair - p).norm() < 1e-8);
+//! ```
+
+mod model;
+mod passivity;
+mod poles;
+mod state_space;
+mod varpro;
+mod vector_fit;
+
+pub use model::{CommonPoleModel, Mode};
+pub use passivity::{Passivity, passivity};
+pub use poles::PoleSet;
+pub use state_space::StateSpace;
+
+use crate::data::FrfMatrix;
+use crate::error::{FdidError, Result};
+use crate::model::Domain;
+use crate::scalar::Real;
+use crate::solver::{GramLevenbergMarquardt, LevenbergMarquardt, Solver};
+use nalgebra::DMatrix;
+use num_traits::Float;
+use vector_fit::{Weighted, model_of, relocation_loop};
+
+/// Settings of [`fit_common_poles`].
+///
+/// | setting | default | meaning |
+/// |---|---|---|
+/// | `domain` | [`Domain::Continuous`] | poles in s (x = iω) or z (x = e^{iωTs}) |
+/// | `direct` | false | estimate a direct term D (biproper entries) |
+/// | `stable` | false | reflect unstable poles at every relocation and keep the ML step only when it stays stable |
+/// | `relocations` | 30 | cap on the pole relocations |
+/// | `ml` | true | refine by maximum likelihood (variable projection) |
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CommonPoleOptions<T: Real> {
+    /// s or z.
+    pub domain: Domain<T>,
+    /// Estimate a direct term.
+    pub direct: bool,
+    /// Return a stable model by construction.
+    pub stable: bool,
+    /// Cap on the relocation iterations.
+    pub relocations: usize,
+    /// Refine the relocated poles by maximum likelihood.
+    pub ml: bool,
+}
+
+impl<T: Real> Default for CommonPoleOptions<T> {
+    fn default() -> Self {
+        Self {
+            domain: Domain::Continuous,
+            direct: false,
+            stable: false,
+            relocations: 30,
+            ml: true,
+        }
+    }
+}
+
+/// The result of [`fit_common_poles`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct CommonPoleFit<T: Real> {
+    /// The fitted model.
+    pub model: CommonPoleModel<T>,
+    /// The weighted cost Σ_e Σ_k w²_e,k |G_e,k − Ĝ_e,k|² of the model.
+    pub cost: T,
+    /// The cost after pole relocation, before maximum likelihood.
+    pub relocation_cost: T,
+    /// Relocations made.
+    pub relocations: usize,
+    /// Whether the maximum-likelihood step was run and kept, and why not otherwise.
+    pub ml: MlOutcome,
+    /// Covariance of the pole parameters [real poles…, Re p, Im p of each pair…] in
+    /// physical units (rad/s in s), from the variable-projection Jacobian (McKelvey
+    /// eq. 32) scaled by the residual variance: 1/2 per real residual with the entries'
+    /// variances, the estimate V/(M − P) without them.
+    pub pole_covariance: Option<DMatrix<T>>,
+    /// Lines and entries fitted.
+    pub lines: usize,
+    /// Entries fitted (ny·nu).
+    pub entries: usize,
+    /// True when the entries' variances weighted the fit.
+    pub weighted: bool,
+}
+
+/// What became of the maximum-likelihood refinement.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum MlOutcome {
+    /// Not requested.
+    Skipped,
+    /// Run and kept (`converged` false when its budget stopped it).
+    Kept {
+        /// Met the convergence test.
+        converged: bool,
+    },
+    /// Run but not kept: it raised the cost or failed.
+    Failed,
+    /// Run but not kept: it moved a pole out of the stable region under `stable`.
+    Unstable,
+}
+
+impl<T: Real> CommonPoleFit<T> {
+    /// Root-mean-square error over every entry and line, unweighted, against `data`.
+    pub fn rms(&self, data: &FrfMatrix<T>) -> T {
+        let g = self.model.response(data.omega());
+        let mut sum = T::zero();
+        for (e, entry) in data.entries().iter().enumerate() {
+            let (i, j) = data.position(e);
+            for (k, h) in entry.y().iter().enumerate() {
+                sum = sum + (*h - g[k][(i, j)]).norm_sqr();
+            }
+        }
+        Float::sqrt(sum / T::from_usize_lossy(data.len() * data.entries().len()))
+    }
+
+    /// Standard deviations of the natural frequency (Hz) and damping of each pole slot
+    /// (real poles, then pairs, as [`PoleSet::slots`]), to first order from
+    /// [`CommonPoleFit::pole_covariance`]; `None` without it or for a discrete-time model.
+    pub fn mode_std(&self) -> Option<Vec<(T, T)>> {
+        let cov = self.pole_covariance.as_ref()?;
+        if self.model.domain != Domain::Continuous {
+            return None;
+        }
+        let poles = &self.model.poles;
+        let nr = poles.real.len();
+        let two_pi = T::two_pi();
+        let mut out: Vec<(T, T)> = (0..nr)
+            .map(|t| (Float::sqrt(Float::abs(cov[(t, t)])) / two_pi, T::zero()))
+            .collect();
+        for (m, p) in poles.pairs.iter().enumerate() {
+            let t = nr + 2 * m;
+            let w = p.norm();
+            // ∂|p|/∂(a, b) = (a, b)/|p|;  ∂ζ/∂(a, b) = (−b², ab)/|p|³ for ζ = −a/|p|
+            let gf = [p.re / w, p.im / w];
+            let w3 = w * w * w;
+            let gz = [-(p.im * p.im) / w3, p.re * p.im / w3];
+            let quad = |g: [T; 2]| {
+                let mut v = T::zero();
+                for a in 0..2 {
+                    for b in 0..2 {
+                        v = v + g[a] * cov[(t + a, t + b)] * g[b];
+                    }
+                }
+                Float::sqrt(Float::abs(v))
+            };
+            out.push((quad(gf) / two_pi, quad(gz)));
+        }
+        Some(out)
+    }
+}
+
+/// Fits a common-pole model of `order` poles to every entry of `data`: pole relocation
+/// from lightly damped starting poles spread over the band, then (by default) maximum
+/// likelihood by variable projection; see the [module documentation](self).
+///
+/// # Errors
+/// `order` 0, a discrete-time domain with lines beyond the Nyquist frequency, too few
+/// lines (2L < 2n + 1 + D), non-positive variances, a singular basis (e.g. poles that
+/// coincide) in the first relocation.
+pub fn fit_common_poles<T: Real>(
+    data: &FrfMatrix<T>,
+    order: usize,
+    options: &CommonPoleOptions<T>,
+) -> Result<CommonPoleFit<T>> {
+    if order == 0 {
+        return Err(FdidError::InvalidArgument {
+            name: "order",
+            value: "0".into(),
+            reason: "a common-pole model needs at least one pole".into(),
+        });
+    }
+    if let Domain::Discrete { ts } = options.domain {
+        let nyquist = T::pi() / ts;
+        let top = data.omega().iter().copied().fold(T::zero(), Float::max);
+        if top > nyquist * (T::one() + T::lit(1e-9)) {
+            return Err(FdidError::InvalidArgument {
+                name: "ts",
+                value: format!("{ts}"),
+                reason: format!(
+                    "lines up to {} Hz lie beyond the Nyquist frequency {} Hz",
+                    top / T::two_pi(),
+                    nyquist / T::two_pi()
+                ),
+            });
+        }
+    }
+    let direct = usize::from(options.direct);
+    let lines = data.len();
+    if 2 * lines < 2 * order + 1 + direct {
+        return Err(FdidError::TooFewFrequencies {
+            lines,
+            equations: 2 * lines,
+            parameters: 2 * order + 1 + direct,
+        });
+    }
+    let weighted = Weighted::new(data, options.domain, options.direct)?;
+    let (poles, coeffs, relocation_cost, relocations) = relocation_loop(
+        &weighted,
+        options.domain,
+        order,
+        options.stable,
+        options.relocations,
+    )?;
+    let mut fit = CommonPoleFit {
+        model: model_of(&weighted, options.domain, &poles, &coeffs),
+        cost: relocation_cost,
+        relocation_cost,
+        relocations,
+        ml: MlOutcome::Skipped,
+        pole_covariance: None,
+        lines,
+        entries: data.entries().len(),
+        weighted: weighted.w.is_some(),
+    };
+    let mut final_poles = poles.clone();
+    if options.ml {
+        let problem = varpro::VarPro {
+            data: &weighted,
+            n_real: poles.real.len(),
+            order,
+        };
+        let start = poles.theta();
+        let solved = GramLevenbergMarquardt::default()
+            .solve(&problem, Some(&start))
+            .or_else(|_| LevenbergMarquardt::default().solve(&problem, Some(&start)));
+        fit.ml = MlOutcome::Failed;
+        if let Ok(solution) = solved {
+            let candidate = PoleSet::from_theta(poles.real.len(), &solution.theta);
+            if options.stable && !candidate.is_stable(unit(options.domain)) {
+                fit.ml = MlOutcome::Unstable;
+            } else if let Ok((c, cost)) = weighted.linear_fit(&candidate)
+                && cost <= relocation_cost
+            {
+                fit.model = model_of(&weighted, options.domain, &candidate, &c);
+                fit.cost = cost;
+                fit.ml = MlOutcome::Kept {
+                    converged: solution.converged(),
+                };
+                final_poles = candidate;
+            }
+        }
+        fit.pole_covariance = covariance(&problem, &final_poles, &fit, &weighted);
+    }
+    fit.model.check()?;
+    Ok(fit)
+}
+
+/// The domain of the fitting variable (its stability region is the physical one's).
+fn unit<T: Real>(domain: Domain<T>) -> Domain<T> {
+    match domain {
+        Domain::Continuous => Domain::Continuous,
+        Domain::Discrete { .. } => Domain::Discrete { ts: T::one() },
+    }
+}
+
+/// The poles' covariance s²(JᵀJ)⁻¹ at the final poles, in physical units.
+fn covariance<T: Real>(
+    problem: &varpro::VarPro<'_, T>,
+    poles: &PoleSet<T>,
+    fit: &CommonPoleFit<T>,
+    data: &Weighted<T>,
+) -> Option<DMatrix<T>> {
+    use crate::problem::NonlinearProblem;
+    let theta = poles.theta();
+    let m = problem.n_residuals();
+    let mut r = vec![T::zero(); m];
+    let mut jac = DMatrix::zeros(0, 0);
+    let mut gram = DMatrix::zeros(0, 0);
+    let mut grad = nalgebra::DVector::zeros(0);
+    if !problem.normal_equations_into(&theta, &mut r, &mut jac, &mut gram, &mut grad) {
+        return None;
+    }
+    let params = problem.order + fit.entries * (problem.order + usize::from(data.direct));
+    let s2 = if data.w.is_some() {
+        T::lit(0.5)
+    } else if m > params {
+        fit.cost / T::from_usize_lossy(m - params)
+    } else {
+        return None;
+    };
+    let inverse = gram.try_inverse()?;
+    let scale2 = data.scale * data.scale;
+    let cov = inverse * (s2 * scale2);
+    cov.iter().all(|v| Float::is_finite(*v)).then_some(cov)
+}

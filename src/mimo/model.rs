@@ -1,0 +1,220 @@
+//! The common-pole model in partial-fraction form with residue matrices.
+
+use super::poles::PoleSet;
+use crate::error::{FdidError, Result};
+use crate::model::Domain;
+use crate::scalar::{Complex, Real};
+use nalgebra::DMatrix;
+use num_traits::Float;
+
+/// A multi-input multi-output model with poles shared by every entry, in vector fitting's
+/// multiport form:
+///
+/// ```text
+/// G(x) = D + Σ_m R_m/(x − p_m),   x = s = iω (continuous) or z = e^{iωTs} (discrete),
+/// ```
+///
+/// with one ny × nu residue matrix R_m per pole, R̄_m for the conjugate of a complex pole
+/// (so G is real), and an optional real direct term D. Entry (i, j) is the scalar
+/// partial-fraction model G_ij = D_ij + Σ (R_m)_ij/(x − p_m): every entry has the same
+/// denominator Π(x − p_m), the common-denominator (matrix-fraction) form
+/// G = N(x)/a(x) with a(x) = Π(x − p_m).
+///
+/// The residue matrices are stored per slot of [`PoleSet::slots`]: real poles first
+/// (real residues), then the Im p > 0 member of each pair.
+#[derive(Debug, Clone, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+pub struct CommonPoleModel<T: Real> {
+    /// s (poles in rad/s) or z (poles in the z-plane, sample time ts).
+    pub domain: Domain<T>,
+    /// The shared poles.
+    pub poles: PoleSet<T>,
+    /// One ny × nu residue matrix per slot of [`PoleSet::slots`].
+    pub residues: Vec<DMatrix<Complex<T>>>,
+    /// The direct term D (ny × nu), when estimated.
+    pub direct: Option<DMatrix<T>>,
+}
+
+/// One mode of a [`CommonPoleModel`]: its pole in s, natural frequency, damping, and the
+/// rank-one approximation of its residue matrix R ≈ σ₁u₁v₁ᴴ.
+#[derive(Debug, Clone, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+pub struct Mode<T: Real> {
+    /// The pole in s (rad/s); for a discrete-time model ln(p_z)/Ts.
+    pub pole: Complex<T>,
+    /// Natural frequency |p|/2π (Hz).
+    pub f_n_hz: T,
+    /// Damping ratio −Re p/|p|.
+    pub damping: T,
+    /// Output mode shape u₁ (length ny), scaled so its largest component is 1.
+    pub shape: Vec<Complex<T>>,
+    /// Input participation v₁ (length nu), scaled likewise.
+    pub participation: Vec<Complex<T>>,
+    /// σ₂/σ₁ of the residue matrix: 0 for an exactly rank-one residue (one mode shape).
+    pub rank_one_error: T,
+}
+
+impl<T: Real> CommonPoleModel<T> {
+    /// Outputs ny.
+    pub fn ny(&self) -> usize {
+        self.residues
+            .first()
+            .map(|r| r.nrows())
+            .or(self.direct.as_ref().map(|d| d.nrows()))
+            .unwrap_or(0)
+    }
+
+    /// Inputs nu.
+    pub fn nu(&self) -> usize {
+        self.residues
+            .first()
+            .map(|r| r.ncols())
+            .or(self.direct.as_ref().map(|d| d.ncols()))
+            .unwrap_or(0)
+    }
+
+    /// The order n (number of poles).
+    pub fn order(&self) -> usize {
+        self.poles.order()
+    }
+
+    /// G(iω) or G(e^{iωTs}) at each of `omega` (rad/s): one ny × nu matrix per line.
+    pub fn response(&self, omega: &[T]) -> Vec<DMatrix<Complex<T>>> {
+        let x = super::poles::points(omega, self.domain, T::one());
+        let slots = self.poles.slots();
+        let nr = self.poles.real.len();
+        let (ny, nu) = (self.ny(), self.nu());
+        x.iter()
+            .map(|xk| {
+                let mut g = match &self.direct {
+                    Some(d) => d.map(|v| Complex::new(v, T::zero())),
+                    None => DMatrix::zeros(ny, nu),
+                };
+                for (m, (p, r)) in slots.iter().zip(&self.residues).enumerate() {
+                    let a = crate::scalar::recip(*xk - *p);
+                    if m < nr {
+                        g += r * a;
+                    } else {
+                        let b = crate::scalar::recip(*xk - p.conj());
+                        g += r * a + r.map(|v| v.conj()) * b;
+                    }
+                }
+                g
+            })
+            .collect()
+    }
+
+    /// The response of entry (i, j) at `omega` (rad/s).
+    pub fn entry_response(&self, i: usize, j: usize, omega: &[T]) -> Vec<Complex<T>> {
+        self.response(omega).iter().map(|g| g[(i, j)]).collect()
+    }
+
+    /// The modes: each pole (one per pair) with its natural frequency, damping and mode
+    /// shape, sorted by natural frequency.
+    ///
+    /// # Errors
+    /// A pole on or beyond the origin of the z-plane (no continuous-time equivalent), a
+    /// residue matrix whose SVD fails.
+    pub fn modes(&self) -> Result<Vec<Mode<T>>> {
+        let mut out = Vec::new();
+        for (p, r) in self.poles.slots().iter().zip(&self.residues) {
+            let s = match self.domain {
+                Domain::Continuous => *p,
+                Domain::Discrete { ts } => {
+                    if p.norm() == T::zero() {
+                        return Err(FdidError::InvalidArgument {
+                            name: "pole",
+                            value: "0".into(),
+                            reason: "a pole at z = 0 has no continuous-time equivalent".into(),
+                        });
+                    }
+                    p.ln() / ts
+                }
+            };
+            let w = s.norm();
+            let (shape, participation, rank_one_error) = rank_one(r);
+            out.push(Mode {
+                pole: s,
+                f_n_hz: w / T::two_pi(),
+                damping: if w > T::zero() { -s.re / w } else { T::one() },
+                shape,
+                participation,
+                rank_one_error,
+            });
+        }
+        out.sort_by(|a, b| {
+            a.f_n_hz
+                .partial_cmp(&b.f_n_hz)
+                .unwrap_or(std::cmp::Ordering::Equal)
+        });
+        Ok(out)
+    }
+}
+
+/// The leading left and right singular vectors of a residue matrix (each scaled by
+/// [`normalised`]) and σ₂/σ₁; empty vectors when the SVD does not converge.
+fn rank_one<T: Real>(r: &DMatrix<Complex<T>>) -> (Vec<Complex<T>>, Vec<Complex<T>>, T) {
+    let Some(svd) =
+        nalgebra::SVD::try_new_unordered(r.clone(), true, true, T::default_epsilon(), 1000)
+    else {
+        return (Vec::new(), Vec::new(), T::zero());
+    };
+    let sv = &svd.singular_values;
+    let mut order: Vec<usize> = (0..sv.len()).collect();
+    order.sort_by(|a, b| {
+        sv[*b]
+            .partial_cmp(&sv[*a])
+            .unwrap_or(std::cmp::Ordering::Equal)
+    });
+    let (Some(u), Some(vt), Some(&top)) = (&svd.u, &svd.v_t, order.first()) else {
+        return (Vec::new(), Vec::new(), T::zero());
+    };
+    let ratio = match order.get(1) {
+        Some(&second) if sv[top] > T::zero() => sv[second] / sv[top],
+        _ => T::zero(),
+    };
+    (
+        normalised(u.column(top).iter().copied().collect()),
+        normalised(vt.row(top).iter().map(|v| v.conj()).collect()),
+        ratio,
+    )
+}
+
+/// A vector scaled so that its largest component is 1 (real).
+fn normalised<T: Real>(v: Vec<Complex<T>>) -> Vec<Complex<T>> {
+    let big = v
+        .iter()
+        .copied()
+        .fold(Complex::new(T::zero(), T::zero()), |a, b| {
+            if b.norm() > a.norm() { b } else { a }
+        });
+    if big.norm() == T::zero() {
+        return v;
+    }
+    v.into_iter().map(|c| c / big).collect()
+}
+
+impl<T: Real> CommonPoleModel<T> {
+    /// Checks that the poles and residues are finite and one residue matrix per slot.
+    pub(crate) fn check(&self) -> Result<()> {
+        self.poles.check_finite()?;
+        let n = self.poles.real.len() + self.poles.pairs.len();
+        if self.residues.len() != n {
+            return Err(FdidError::LengthMismatch {
+                what: "residue matrices",
+                expected: n,
+                got: self.residues.len(),
+            });
+        }
+        let finite = self.residues.iter().all(|r| {
+            r.iter()
+                .all(|v| Float::is_finite(v.re) && Float::is_finite(v.im))
+        });
+        if !finite {
+            return Err(FdidError::Numerical {
+                what: "residue matrices".into(),
+            });
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,385 @@
+//! Vector fitting with poles common to every entry: Sanathanan–Koerner pole relocation
+//! with the fast block solution, and the residue matrices by linear least squares.
+
+use super::model::CommonPoleModel;
+use super::poles::{PoleSet, basis, points, starting_poles};
+use crate::data::FrfMatrix;
+use crate::error::{FdidError, Result};
+use crate::model::Domain;
+use crate::scalar::{Complex, Real};
+use nalgebra::{DMatrix, DVector};
+use num_traits::Float;
+
+/// The weighted data of a common-pole fit in the fitting variable: the points x_k (iω/ω_s
+/// in s, e^{iωTs} in z), each entry's FRF and its weights 1/σ (none: unit weights).
+pub(crate) struct Weighted<T: Real> {
+    pub x: Vec<Complex<T>>,
+    /// ω_s, the largest line's frequency (s), or 1 (z): poles and residues in the fitting
+    /// variable are the physical ones divided by it.
+    pub scale: T,
+    pub h: Vec<Vec<Complex<T>>>,
+    pub w: Option<Vec<Vec<T>>>,
+    pub direct: bool,
+    pub ny: usize,
+    pub nu: usize,
+}
+
+impl<T: Real> Weighted<T> {
+    pub(crate) fn new(data: &FrfMatrix<T>, domain: Domain<T>, direct: bool) -> Result<Self> {
+        let omega = data.omega();
+        let scale = match domain {
+            Domain::Continuous => omega.iter().copied().fold(T::zero(), Float::max),
+            Domain::Discrete { .. } => T::one(),
+        };
+        if !(scale > T::zero()) {
+            return Err(FdidError::InvalidArgument {
+                name: "frequencies",
+                value: "0 Hz only".into(),
+                reason: "a continuous-time fit needs lines above 0 Hz".into(),
+            });
+        }
+        let w = if data.has_variances() {
+            let mut all = Vec::with_capacity(data.entries().len());
+            for (e, entry) in data.entries().iter().enumerate() {
+                let var = &entry.noise().expect("checked").var_y;
+                if let Some(k) = var.iter().position(|v| !(*v > T::zero())) {
+                    let (i, j) = data.position(e);
+                    return Err(FdidError::InvalidArgument {
+                        name: "noise variance",
+                        value: format!("{} at line {} of entry {}{}", var[k], k + 1, i + 1, j + 1),
+                        reason: "weighting needs positive variances".into(),
+                    });
+                }
+                all.push(var.iter().map(|v| T::one() / Float::sqrt(*v)).collect());
+            }
+            Some(all)
+        } else {
+            None
+        };
+        Ok(Self {
+            x: points(omega, domain, scale),
+            scale,
+            h: data.entries().iter().map(|e| e.y().to_vec()).collect(),
+            w,
+            direct,
+            ny: data.ny(),
+            nu: data.nu(),
+        })
+    }
+
+    pub(crate) fn lines(&self) -> usize {
+        self.x.len()
+    }
+
+    pub(crate) fn weight(&self, e: usize, k: usize) -> T {
+        self.w.as_ref().map_or(T::one(), |w| w[e][k])
+    }
+
+    /// The linear parameters of every entry for the poles (in the fitting variable): the
+    /// coefficients of the real basis and the direct term, by least squares (one QR shared
+    /// by all entries without weights, one per entry with them), and the weighted cost
+    /// Σ_e Σ_k w²|h − ĥ|².
+    pub(crate) fn linear_fit(&self, poles: &PoleSet<T>) -> Result<(Vec<DVector<T>>, T)> {
+        let a = self.regressor(poles);
+        let ne = self.h.len();
+        match &self.w {
+            None => {
+                let b = DMatrix::from_fn(2 * self.lines(), ne, |r, e| {
+                    let v = self.h[e][r / 2];
+                    if r % 2 == 0 { v.re } else { v.im }
+                });
+                let (x, costs) = shared_least_squares(crate::linalg::stack_rows(&a, None), b)?;
+                let cost = costs.iter().fold(T::zero(), |s, c| s + *c);
+                Ok(((0..ne).map(|e| x.column(e).into_owned()).collect(), cost))
+            }
+            Some(w) => {
+                let mut coeffs = Vec::with_capacity(ne);
+                let mut cost = T::zero();
+                for e in 0..ne {
+                    let b = DMatrix::from_fn(2 * self.lines(), 1, |r, _| {
+                        let v = self.h[e][r / 2] * w[e][r / 2];
+                        if r % 2 == 0 { v.re } else { v.im }
+                    });
+                    let (x, c) =
+                        shared_least_squares(crate::linalg::stack_rows(&a, Some(&w[e])), b)?;
+                    coeffs.push(x.column(0).into_owned());
+                    cost = cost + c[0];
+                }
+                Ok((coeffs, cost))
+            }
+        }
+    }
+
+    /// The complex regressor [φ(x) | 1] (L × (n + direct)).
+    pub(crate) fn regressor(&self, poles: &PoleSet<T>) -> DMatrix<Complex<T>> {
+        let phi = basis(&self.x, poles);
+        if !self.direct {
+            return phi;
+        }
+        let n = phi.ncols();
+        let mut a = phi.resize_horizontally(n + 1, Complex::new(T::zero(), T::zero()));
+        a.column_mut(n).fill(Complex::new(T::one(), T::zero()));
+        a
+    }
+
+    /// One pole relocation (relaxed vector fitting, Gustavsen 2006): for every entry e the
+    /// linearised equation
+    ///
+    /// ```text
+    /// w_k [Σ c_e,m φ_m(x_k) + d_e − h_e,k (σ₀ + Σ σ_m φ_m(x_k))] ≈ 0
+    /// ```
+    ///
+    /// (McKelvey eq. 41 with the denominator in the basis of the current poles), solved
+    /// by the fast block method: a QR per entry eliminates its own c_e, d_e and leaves
+    /// n + 1 rows in the shared σ (the R₂₂ block); the stacked blocks and the constraint
+    /// Re Σ_k σ(x_k) = L (which keeps σ₀ free but σ nonzero) give σ by one small least
+    /// squares. The new poles are the zeros of σ(x), the eigenvalues of A − b cᵀ/σ₀ of its
+    /// real state-space form. The cost is linear in the number of entries.
+    pub(crate) fn relocate(&self, poles: &PoleSet<T>) -> Result<PoleSet<T>> {
+        let phi = basis(&self.x, poles);
+        let (l, n) = phi.shape();
+        let m = n + usize::from(self.direct);
+        let cols = m + n + 1;
+        let ne = self.h.len();
+        let mut stack = DMatrix::<T>::zeros(ne * (n + 1) + 1, n + 1);
+        let mut norm = T::zero();
+        for e in 0..ne {
+            let mut a = DMatrix::<T>::zeros(2 * l, cols);
+            for k in 0..l {
+                let w = self.weight(e, k);
+                let h = self.h[e][k] * w;
+                norm = norm + h.norm_sqr();
+                for c in 0..n {
+                    let v = phi[(k, c)] * w;
+                    a[(2 * k, c)] = v.re;
+                    a[(2 * k + 1, c)] = v.im;
+                    let g = -(phi[(k, c)] * h);
+                    a[(2 * k, m + c)] = g.re;
+                    a[(2 * k + 1, m + c)] = g.im;
+                }
+                if self.direct {
+                    a[(2 * k, n)] = w;
+                }
+                a[(2 * k, m + n)] = -h.re;
+                a[(2 * k + 1, m + n)] = -h.im;
+            }
+            let r = a.qr().r();
+            stack
+                .view_mut((e * (n + 1), 0), (n + 1, n + 1))
+                .copy_from(&r.view((m, m), (n + 1, n + 1)));
+        }
+        let lf = T::from_usize_lossy(l);
+        let beta = Float::sqrt(norm) / lf;
+        let last = ne * (n + 1);
+        for c in 0..n {
+            let s = (0..l).fold(T::zero(), |s, k| s + phi[(k, c)].re);
+            stack[(last, c)] = beta * s;
+        }
+        stack[(last, n)] = beta * lf;
+        let mut rhs = DVector::<T>::zeros(ne * (n + 1) + 1);
+        rhs[last] = beta * lf;
+        let (sol, _) = crate::linalg::least_squares(stack.clone(), rhs, 1.0)?;
+        let tiny = Float::sqrt(T::default_epsilon()) * T::lit(1e-1);
+        let (c, s0) = if Float::abs(sol[n]) > tiny {
+            (sol.rows(0, n).into_owned(), sol[n])
+        } else {
+            // σ₀ ≈ 0: the relaxation gives no usable zeros; fix σ₀ = 1 (classic VF)
+            let a = stack.view((0, 0), (last, n)).into_owned();
+            let b = -stack.view((0, n), (last, 1)).column(0).into_owned();
+            let (c, _) = crate::linalg::least_squares(a, b, 1.0)?;
+            (c, T::one())
+        };
+        zeros_of_sigma(poles, &c, s0)
+    }
+}
+
+/// The zeros of σ(x) = σ₀ + Σ c_m φ_m(x): the eigenvalues of A − b cᵀ/σ₀ for the real
+/// realisation (A, b) of the basis — A = diag(p) for real poles and [[a, β], [−β, a]] with
+/// b = [2, 0]ᵀ for a pair a ± iβ (so that cᵀ(xI − A)⁻¹b = c₁φ₁ + c₂φ₂).
+fn zeros_of_sigma<T: Real>(poles: &PoleSet<T>, c: &DVector<T>, s0: T) -> Result<PoleSet<T>> {
+    let n = poles.order();
+    let nr = poles.real.len();
+    let mut a = DMatrix::<T>::zeros(n, n);
+    let mut b = DVector::<T>::zeros(n);
+    for (t, p) in poles.real.iter().enumerate() {
+        a[(t, t)] = *p;
+        b[t] = T::one();
+    }
+    for (m, p) in poles.pairs.iter().enumerate() {
+        let t = nr + 2 * m;
+        a[(t, t)] = p.re;
+        a[(t, t + 1)] = p.im;
+        a[(t + 1, t)] = -p.im;
+        a[(t + 1, t + 1)] = p.re;
+        b[t] = T::lit(2.0);
+    }
+    let h = a - &b * c.transpose() / s0;
+    let ev = crate::roots::eigenvalues(h)?;
+    let zeros = PoleSet::from_eigenvalues(&ev);
+    zeros.check_finite()?;
+    Ok(zeros)
+}
+
+/// Least squares min ‖A X − B‖ for every column of B with one QR of A (columns
+/// equilibrated first); returns X and each column's residual ‖·‖².
+///
+/// # Errors
+/// Fewer rows than columns; [`FdidError::Singular`] when R has a diagonal below
+/// 10³·ε times its largest (the columns are numerically dependent, e.g. two equal poles).
+pub(crate) fn shared_least_squares<T: Real>(
+    mut a: DMatrix<T>,
+    b: DMatrix<T>,
+) -> Result<(DMatrix<T>, Vec<T>)> {
+    let (rows, p) = a.shape();
+    if rows < p {
+        return Err(FdidError::TooFewFrequencies {
+            lines: rows / 2,
+            equations: rows,
+            parameters: p,
+        });
+    }
+    let mut scale = vec![T::one(); p];
+    for (j, s) in scale.iter_mut().enumerate() {
+        let n = a.column(j).norm();
+        if n > T::zero() {
+            *s = n;
+            a.column_mut(j).unscale_mut(n);
+        }
+    }
+    let qr = a.qr();
+    let mut qtb = b;
+    qr.q_tr_mul(&mut qtb);
+    let r = qr.r();
+    let diag: Vec<T> = (0..p).map(|i| Float::abs(r[(i, i)])).collect();
+    let big = diag.iter().copied().fold(T::zero(), Float::max);
+    let small = diag.iter().copied().fold(T::infinity(), Float::min);
+    if !(small > big * T::default_epsilon() * T::lit(1e3)) {
+        return Err(FdidError::Singular {
+            what: "residue least squares (numerically dependent basis columns)",
+            condition: (big / small).to_f64_lossless(),
+        });
+    }
+    let top = qtb.rows(0, p).into_owned();
+    let mut x = r
+        .solve_upper_triangular(&top)
+        .ok_or_else(|| FdidError::Numerical {
+            what: "triangular solve of the residue least squares".into(),
+        })?;
+    for (j, s) in scale.iter().enumerate() {
+        x.row_mut(j).unscale_mut(*s);
+    }
+    let costs = (0..qtb.ncols())
+        .map(|c| qtb.view((p, c), (rows - p, 1)).norm_squared())
+        .collect();
+    Ok((x, costs))
+}
+
+/// The model in physical units from the poles and linear parameters in the fitting
+/// variable: p = ω_s p', R = ω_s R' in s (x = iω/ω_s), unchanged in z.
+pub(crate) fn model_of<T: Real>(
+    data: &Weighted<T>,
+    domain: Domain<T>,
+    poles: &PoleSet<T>,
+    coeffs: &[DVector<T>],
+) -> CommonPoleModel<T> {
+    let (ny, nu) = (data.ny, data.nu);
+    let nr = poles.real.len();
+    let n = poles.order();
+    let slots = nr + poles.pairs.len();
+    let zero = Complex::new(T::zero(), T::zero());
+    let mut residues = vec![DMatrix::from_element(ny, nu, zero); slots];
+    let mut direct = data.direct.then(|| DMatrix::zeros(ny, nu));
+    for (e, c) in coeffs.iter().enumerate() {
+        let (i, j) = (e % ny, e / ny);
+        for (t, r) in residues.iter_mut().enumerate().take(nr) {
+            r[(i, j)] = Complex::new(c[t] * data.scale, T::zero());
+        }
+        for m in 0..poles.pairs.len() {
+            let (c1, c2) = (c[nr + 2 * m], c[nr + 2 * m + 1]);
+            residues[nr + m][(i, j)] = Complex::new(c1, c2) * data.scale;
+        }
+        if let Some(d) = direct.as_mut() {
+            d[(i, j)] = c[n];
+        }
+    }
+    CommonPoleModel {
+        domain,
+        poles: poles.scaled(data.scale),
+        residues,
+        direct,
+    }
+}
+
+/// The relocation loop of [`super::fit_common_poles`]: from the starting poles, relocate
+/// (reflecting unstable poles when `stable`) until the weighted cost changes by less than
+/// `tolerance` relatively or `iterations` relocations; returns the poles of lowest cost
+/// (in the fitting variable), their linear parameters, cost and the relocations made.
+pub(crate) fn relocation_loop<T: Real>(
+    data: &Weighted<T>,
+    domain: Domain<T>,
+    order: usize,
+    stable: bool,
+    iterations: usize,
+) -> Result<(PoleSet<T>, Vec<DVector<T>>, T, usize)> {
+    let omega_min = data
+        .x
+        .iter()
+        .map(|x| fitting_frequency(*x, domain))
+        .fold(T::infinity(), Float::min);
+    let omega_max = data
+        .x
+        .iter()
+        .map(|x| fitting_frequency(*x, domain))
+        .fold(T::zero(), Float::max);
+    let mut poles = starting_poles(order, omega_min, omega_max, unit_domain(domain))?;
+    let (mut coeffs, mut cost) = data.linear_fit(&poles)?;
+    let mut best = (poles.clone(), coeffs.clone(), cost);
+    let tolerance = Float::sqrt(T::default_epsilon()) * T::lit(0.1);
+    let work = crate::solver::work::solve_cost(2 * data.lines(), 2 * order + 2)
+        * T::from_usize_lossy(data.h.len()).to_f64_lossless();
+    let mut done = 0;
+    for _ in 0..iterations {
+        if !crate::solver::work::charge(work) {
+            break;
+        }
+        let mut next = data.relocate(&poles)?;
+        if stable {
+            next = next.reflected(domain);
+        }
+        let previous = cost;
+        done += 1;
+        match data.linear_fit(&next) {
+            Ok((c, v)) => {
+                poles = next;
+                coeffs = c;
+                cost = v;
+            }
+            // two relocated poles met: keep the best model found so far
+            Err(FdidError::Singular { .. }) => break,
+            Err(e) => return Err(e),
+        }
+        if cost < best.2 {
+            best = (poles.clone(), coeffs.clone(), cost);
+        }
+        if Float::abs(previous - cost) <= tolerance * Float::max(cost, T::min_positive_value()) {
+            break;
+        }
+    }
+    Ok((best.0, best.1, best.2, done))
+}
+
+/// The frequency in the fitting variable of a point: Im x in s (x = iω/ω_s), ωTs in z.
+fn fitting_frequency<T: Real>(x: Complex<T>, domain: Domain<T>) -> T {
+    match domain {
+        Domain::Continuous => x.im,
+        Domain::Discrete { .. } => x.arg(),
+    }
+}
+
+/// The domain in the fitting variable: z with unit sample time (angles ωTs), s as is.
+fn unit_domain<T: Real>(domain: Domain<T>) -> Domain<T> {
+    match domain {
+        Domain::Continuous => Domain::Continuous,
+        Domain::Discrete { .. } => Domain::Discrete { ts: T::one() },
+    }
+}
