@@ -19,7 +19,7 @@ Examples:
   fdid eval rlc.json --freq 1e6:1e7:20
   fdid ltv record.csv --na 2 --nb 0 --np 1 --band :1
 
-Run `fdid fit --help` for the data file formats (CSV, Touchstone .s1p/.s2p/.ts) and every
+Run `fdid fit --help` for the data file formats (CSV, Touchstone .sNp/.ts) and every
 option, `fdid diagnose --help` for the discrepancy workflow, `fdid eval --help` for saved
 models, `fdid ltv --help` for time-varying systems.";
 
@@ -30,16 +30,18 @@ Data files (CSV, header names the columns, any order, case-insensitive; `#` line
   f,u_re,u_im,y_re,y_im[,var_u,var_y]   input and output spectra U(f), Y(f), f in Hz
   t,u,y                                 time record, uniform t in s (sets Ts)
 Frequencies must be non-negative and strictly increasing; every value finite.
-Touchstone files (by extension): .s1p (1 port) and .s2p (2 ports), version 1 or 2.0, and
-.ts (version 2.0); option line `# Hz|kHz|MHz|GHz S|Y|Z|H|G RI|MA|DB R <ohms>`, `!`
-comments; --port IJ picks the entry X_IJ fitted as an FRF (default 11 for 1 port, 21 for
-2 ports). Version 1: 2-port columns S11 S21 S12 S22; Y, Z, H, G values are de-normalised
-by R. Version 2.0: [Version] 2.0, the option line, [Number of Ports] 1|2, then
+Touchstone files (by extension): .sNp (N ports, 1 to 64), version 1 or 2.0, and .ts
+(version 2.0); option line `# Hz|kHz|MHz|GHz S|Y|Z|H|G RI|MA|DB R <ohms>`, `!`
+comments; --port IJ picks the entry X_IJ fitted as an FRF; without it a file of 2 or
+more ports has every entry fitted with common poles (partial fractions, --nb na-1 or
+na; modes, residue matrices, state space, per-entry errors, passivity of S). Version 1:
+2-port columns S11 S21 S12 S22, 3 or more ports row by row; Y, Z, H, G values are
+de-normalised by R. Version 2.0: [Version] 2.0, the option line, [Number of Ports] N, then
 [Two-Port Data Order] 12_21|21_12 (2 ports), [Number of Frequencies] N (checked),
 [Reference] r1 r2, [Matrix Format] Full|Lower|Upper, [Number of Noise Frequencies],
 [Begin Information]..[End Information], then [Network Data], rows, [Noise Data]
 (skipped), [End]; values are not normalised (as the specification says).
-[Mixed-Mode Order] and more than 2 ports are rejected.
+[Mixed-Mode Order] and more than 64 ports are rejected.
 
 Time records are transformed by the DFT (or averaged over --periods P periods, which
 also estimates per-line noise variances when P >= 2; --skip-periods K drops the first K
@@ -270,10 +272,10 @@ pub enum Command {
 
 /// The data file, how it is prepared, and the model structure: the options `fdid fit` and
 /// `fdid diagnose` share.
-#[derive(Debug, Args)]
+#[derive(Debug, Clone, Args)]
 pub struct CommonArgs {
     /// Data file: CSV (a frequency response, input/output spectra or a time record) or
-    /// Touchstone .s1p/.s2p (version 1 or 2.0) or .ts (version 2.0) (the formats are in
+    /// Touchstone .sNp (version 1 or 2.0) or .ts (version 2.0) (the formats are in
     /// `fdid fit --help`)
     #[arg(value_name = "DATA")]
     pub data: PathBuf,
@@ -319,9 +321,10 @@ pub struct CommonArgs {
     #[arg(long)]
     pub transient: bool,
 
-    /// Touchstone files (.s1p, .s2p, .ts): the entry X_ij to fit, output port i and input
-    /// port j, written `ij` (`21` is S21). Default 11 for 1 port, 21 (forward
-    /// transmission) for 2 ports
+    /// Touchstone files (.sNp, .ts): the entry X_ij to fit, output port i and input port j,
+    /// written `ij` (`21` is S21). Without it `fit` fits every entry of a file of 2 or
+    /// more ports with common poles (--nb na-1 or na), and `diagnose` takes 21; a 1-port
+    /// file has 11
     #[arg(long, value_name = "IJ")]
     pub port: Option<String>,
 
@@ -349,8 +352,10 @@ pub struct CommonArgs {
     #[arg(long, value_name = "NAME|INDEX")]
     pub input: Option<String>,
 
-    /// Raw tables of several channels: the output column, by header name or 1-based index
-    #[arg(long, value_name = "NAME|INDEX")]
+    /// Raw tables of several channels: the output column, by header name or 1-based index;
+    /// for `fit`, a comma-separated list (`Acceleration1,Acceleration2`) fits every output
+    /// with common poles, each output's FRF prepared as one would be alone
+    #[arg(long, value_name = "NAME|INDEX[,...]")]
     pub output: Option<String>,
 }
 

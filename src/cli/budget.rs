@@ -85,3 +85,20 @@ fn refuse(what: &str, seconds: f64) -> Result<(), Failure> {
          the orders, or pass --allow-long to run anyway"
     )))
 }
+
+/// A common-pole fit of every entry of `data`, within the work budget of [`MAX_SECONDS`]
+/// unless `allow_long`, with a note when the budget stopped its iterations.
+pub(super) fn fit_common_poles(
+    data: &fdid::data::FrfMatrix<f64>,
+    order: usize,
+    options: &fdid::mimo::CommonPoleOptions<f64>,
+    allow_long: bool,
+) -> Result<(fdid::mimo::CommonPoleFit<f64>, Option<&'static str>), Failure> {
+    if allow_long {
+        return Ok((fdid::mimo::fit_common_poles(data, order, options)?, None));
+    }
+    let (fit, stopped) = fdid::solver::work::within(MAX_SECONDS * WORK_PER_SECOND, || {
+        fdid::mimo::fit_common_poles(data, order, options)
+    });
+    Ok((fit?, stopped.then_some(STOPPED_NOTE)))
+}

@@ -4,12 +4,12 @@ use super::Failure;
 use super::args::{CommonArgs, DomainArg, LinesArg, parse_band, parse_port};
 use fdid::criterion::interior_lines;
 use fdid::data::{
-    EXCITATION_FRACTION, ExcitationRule, Normalisation, PERIODICITY_TOLERANCE, RealisationBla,
-    UNEXCITED_NEIGHBOURS,
+    EXCITATION_FRACTION, ExcitationRule, FrfMatrix, Normalisation, PERIODICITY_TOLERANCE,
+    RealisationBla, UNEXCITED_NEIGHBOURS,
 };
 use fdid::io::{
-    ChannelSelection, Column, Measurement, TouchstoneVersion, is_touchstone, read_channels,
-    read_csv, read_touchstone,
+    ChannelSelection, Column, Measurement, TouchstoneVersion, is_frf_matrix_csv, is_touchstone,
+    read_channels, read_csv, read_touchstone,
 };
 use fdid::prelude::*;
 use std::result::Result;
@@ -90,6 +90,7 @@ pub fn prepare(args: &CommonArgs, noise_model: bool, normalise: bool) -> Result<
     let mut unexcited_noise = None;
     let (data, ts, source) = match measurement {
         Measurement::Frequency(data) => frequency_lines(args, data, entry.as_deref())?,
+        Measurement::Matrix(_) => return unreachable_matrix(args),
         Measurement::Time(rec) => {
             let lines = time_lines(args, &rec, noise_model, channels, &mut notes)?;
             record = Some(lines.record);
@@ -160,6 +161,7 @@ fn normalise_extremes(
     let n = match &m {
         Measurement::Frequency(d) => Normalisation::of(d),
         Measurement::Time(r) => Normalisation::of_samples(r.y(), r.u()),
+        Measurement::Matrix(_) => return Ok(m),
     };
     if n.exponent() <= EXTREME_EXPONENT {
         return Ok(m);
@@ -173,6 +175,7 @@ fn normalise_extremes(
     ));
     Ok(match m {
         Measurement::Frequency(d) => Measurement::Frequency(n.apply(&d)),
+        Measurement::Matrix(x) => Measurement::Matrix(x),
         Measurement::Time(r) => {
             let scale = |x: &[f64], c: f64| x.iter().map(|v| v * c).collect();
             Measurement::Time(TimeData::new(
@@ -181,6 +184,83 @@ fn normalise_extremes(
                 r.ts(),
             )?)
         }
+    })
+}
+
+/// The entries fitted with common poles: those of a Touchstone file of two or more ports
+/// read without `--port`, or the outputs of a table of channels that `--output` lists
+/// (each output's FRF prepared as [`prepare`] prepares one); `None` for one entry.
+pub(super) fn read_entries(args: &CommonArgs) -> Result<Option<super::mimo::Entries>, Failure> {
+    if let Some(list) = args.output.as_deref().filter(|o| o.contains(',')) {
+        return output_entries(args, list).map(Some);
+    }
+    if let Some(list) = args.input.as_deref().filter(|i| i.contains(',')) {
+        return Err(Failure::usage(format!(
+            "--input {list}: several inputs measured in one record are not read yet (a \
+             frequency response matrix needs one experiment per input); give one input \
+             and list the outputs"
+        )));
+    }
+    if args.port.is_some() || args.input.is_some() || args.output.is_some() {
+        return Ok(None);
+    }
+    if is_frf_matrix_csv(&args.data) {
+        return match read_csv::<f64>(&args.data).map_err(|e| name_file(args, e))? {
+            Measurement::Matrix(matrix) if matrix.ny() * matrix.nu() > 1 => {
+                Ok(Some(super::mimo::Entries {
+                    matrix,
+                    parameter: None,
+                }))
+            }
+            _ => Ok(None),
+        };
+    }
+    if !is_touchstone(&args.data) {
+        return Ok(None);
+    }
+    let file = read_touchstone(&args.data)?;
+    if file.ports < 2 {
+        return Ok(None);
+    }
+    Ok(Some(super::mimo::Entries {
+        matrix: file.frf_matrix::<f64>()?,
+        parameter: Some(file.parameter),
+    }))
+}
+
+/// The outputs of `list` (comma-separated) of a table of channels as one column of FRFs,
+/// each prepared alone with the same options; they must share their lines.
+fn output_entries(args: &CommonArgs, list: &str) -> Result<super::mimo::Entries, Failure> {
+    let names: Vec<&str> = list.split(',').map(str::trim).collect();
+    if let Some(empty) = names.iter().position(|n| n.is_empty()) {
+        return Err(Failure::usage(format!(
+            "--output {list}: output {} of the list is empty",
+            empty + 1
+        )));
+    }
+    let mut data = Vec::with_capacity(names.len());
+    for name in &names {
+        let mut one = args.clone();
+        one.output = Some((*name).to_string());
+        let prepared = prepare(&one, false, false)?;
+        if !prepared.time_record {
+            return Err(Failure::usage(format!(
+                "--output {list} lists the outputs of a table of channels, but {} holds \
+                 frequency data",
+                args.data.display()
+            )));
+        }
+        data.push(prepared.data);
+    }
+    let ny = data.len();
+    let matrix = FrfMatrix::from_data(ny, 1, data).map_err(|e| {
+        Failure::runtime(format!(
+            "--output {list}: the outputs' FRFs are not on the same lines ({e})"
+        ))
+    })?;
+    Ok(super::mimo::Entries {
+        matrix,
+        parameter: None,
     })
 }
 
@@ -200,9 +280,24 @@ fn read(args: &CommonArgs) -> Result<(Measurement<f64>, Option<String>, bool), F
         return Ok((Measurement::Frequency(data), Some(entry), false));
     }
     if let Some(p) = &args.port {
+        if is_frf_matrix_csv(&args.data) {
+            let (data, entry) = matrix_entry(args, p)?;
+            return Ok((Measurement::Frequency(data), Some(entry), false));
+        }
         return Err(Failure::usage(format!(
-            "--port {p} applies to Touchstone files (.s1p, .s2p, .ts), but {} is not one",
+            "--port {p} applies to Touchstone files (.sNp, .ts) and frequency response \
+             matrix CSV files (re_IJ, im_IJ), but {} is neither",
             args.data.display()
+        )));
+    }
+    if let Some(list) = [&args.input, &args.output]
+        .into_iter()
+        .flatten()
+        .find(|c| c.contains(','))
+    {
+        return Err(Failure::usage(format!(
+            "the column list `{list}` selects several channels: only `fdid fit --output` \
+             takes a list (every output fitted with common poles); pick one column here"
         )));
     }
     match (&args.input, &args.output) {
@@ -223,12 +318,52 @@ fn read(args: &CommonArgs) -> Result<(Measurement<f64>, Option<String>, bool), F
              header name or 1-based index)"
                 .into(),
         )),
-        (None, None) => Ok((
-            read_csv::<f64>(&args.data).map_err(|e| name_file(args, e))?,
-            None,
-            false,
-        )),
+        (None, None) => match read_csv::<f64>(&args.data).map_err(|e| name_file(args, e))? {
+            Measurement::Matrix(m) if m.ny() * m.nu() == 1 => {
+                Ok((Measurement::Frequency(m.entry(0, 0).clone()), None, false))
+            }
+            Measurement::Matrix(m) => Err(Failure::usage(format!(
+                "{} holds a {} x {} frequency response matrix: pick one entry with --port IJ \
+                 (`fdid fit` without --port fits every entry with common poles)",
+                args.data.display(),
+                m.ny(),
+                m.nu()
+            ))),
+            m => Ok((m, None, false)),
+        },
     }
+}
+
+/// The entry `--port IJ` of a frequency response matrix CSV file, and its description.
+fn matrix_entry(args: &CommonArgs, port: &str) -> Result<(FrequencyData<f64>, String), Failure> {
+    let (i, j) = parse_port(port).map_err(Failure::usage)?;
+    let matrix = match read_csv::<f64>(&args.data).map_err(|e| name_file(args, e))? {
+        Measurement::Matrix(m) => m,
+        _ => unreachable_matrix(args)?,
+    };
+    if i == 0 || j == 0 || i > matrix.ny() || j > matrix.nu() {
+        return Err(Failure::usage(format!(
+            "invalid --port {i}{j}: {} holds a {} x {} matrix (outputs 1..{}, inputs 1..{})",
+            args.data.display(),
+            matrix.ny(),
+            matrix.nu(),
+            matrix.ny(),
+            matrix.nu()
+        )));
+    }
+    Ok((
+        matrix.entry(i - 1, j - 1).clone(),
+        format!("entry {i}{j} (output {i}, input {j})"),
+    ))
+}
+
+/// The error for a frequency response matrix where one entry was expected (`read` turns
+/// a matrix into one entry or refuses it, so the preparation never sees one).
+fn unreachable_matrix<T>(args: &CommonArgs) -> Result<T, Failure> {
+    Err(Failure::runtime(format!(
+        "{}: the header names a frequency response matrix but the file did not read as one",
+        args.data.display()
+    )))
 }
 
 /// A read error that names the file.

@@ -138,7 +138,7 @@ fn read_record(path: &Path) -> Result<(TimeData<f64>, f64), Failure> {
     }
     let record = match read_csv::<f64>(path) {
         Ok(Measurement::Time(r)) => r,
-        Ok(Measurement::Frequency(_)) => {
+        Ok(Measurement::Frequency(_) | Measurement::Matrix(_)) => {
             return Err(Failure::usage(format!(
                 "fdid ltv needs a time record (t,u,y), but {file} holds frequency data"
             )));

@@ -6,6 +6,7 @@ mod data;
 mod diagnose;
 mod ltv;
 pub mod message;
+mod mimo;
 pub mod progress;
 mod report;
 mod saved;
@@ -104,6 +105,9 @@ fn fit(args: &FitArgs) -> Result<String, Failure> {
         if let Some(out) = out {
             refuse_overwrite(&c.data, out, flag)?;
         }
+    }
+    if let Some(entries) = data::read_entries(c)? {
+        return mimo::fit(args, entries);
     }
     let prepared = data::prepare(c, args.noise_order.is_some(), false)?;
     let file = c.data.display().to_string();

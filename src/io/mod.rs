@@ -4,9 +4,10 @@
 //! spectra) or a uniformly sampled time record. See [`parse_csv`] for the format. A raw
 //! table of several channels (a benchmark file, a DaISy `.dat` file) gives a time record
 //! of one input and one output column: [`read_channels`]. A
-//! Touchstone `.s1p`/`.s2p` (version 1 or 2.0) or `.ts` (version 2.0) file holds the
-//! network parameters of a 1- or 2-port; see
-//! [`parse_touchstone`], and [`Touchstone::frequency_data`] for one entry as an FRF.
+//! Touchstone `.sNp` (version 1 or 2.0) or `.ts` (version 2.0) file holds the
+//! network parameters of an n-port; see [`parse_touchstone`],
+//! [`Touchstone::frequency_data`] for one entry as an FRF and [`Touchstone::frf_matrix`]
+//! for all of them.
 
 mod csv;
 mod lines;
@@ -14,13 +15,18 @@ mod touchstone;
 
 pub use self::lines::{MAX_LINE_BYTES, printable};
 
-pub use self::csv::{ChannelSelection, Column, parse_channels, parse_csv, read_channels, read_csv};
+/// The most ports of a Touchstone file that are read (`.s1p` … `.s64p`).
+pub const MAX_PORTS: usize = 64;
+
+pub use self::csv::{
+    ChannelSelection, Column, is_frf_matrix_csv, parse_channels, parse_csv, read_channels, read_csv,
+};
 pub use self::touchstone::{
     NetworkParameter, NumberFormat, Touchstone, TouchstoneVersion, is_touchstone, parse_touchstone,
     parse_touchstone_v2, read_touchstone, touchstone_ports,
 };
 
-use crate::data::{FrequencyData, TimeData};
+use crate::data::{FrequencyData, FrfMatrix, TimeData};
 use crate::scalar::Real;
 
 /// The content of a data file.
@@ -31,16 +37,30 @@ pub enum Measurement<T: Real> {
     Frequency(FrequencyData<T>),
     /// A uniformly sampled time record `u(t)`, `y(t)` with sample time `Ts`.
     Time(TimeData<T>),
+    /// A frequency response matrix (ny × nu FRF per line) without a sample time.
+    Matrix(FrfMatrix<T>),
 }
 
 impl<T: Real> Measurement<T> {
     /// The frequency-domain form: frequency data unchanged, a time record through its DFT
     /// `X(ω_k) = (1/√N) Σ_t x(t Ts) e^{−i 2π k t / N}` on `ω_k = 2πk/(N Ts)`,
-    /// `k = 0, …, ⌊N/2⌋` (see [`TimeData::dft`]).
-    pub fn into_frequency_data(self) -> FrequencyData<T> {
+    /// `k = 0, …, ⌊N/2⌋` (see [`TimeData::dft`]), a 1 × 1 matrix its entry.
+    ///
+    /// # Errors
+    /// A frequency response matrix of more than one entry: pick one with
+    /// [`FrfMatrix::entry`], or fit them all with [`crate::mimo::fit_common_poles`].
+    pub fn into_frequency_data(self) -> crate::error::Result<FrequencyData<T>> {
         match self {
-            Self::Frequency(d) => d,
-            Self::Time(t) => t.dft(),
+            Self::Frequency(d) => Ok(d),
+            Self::Time(t) => Ok(t.dft()),
+            Self::Matrix(m) if m.ny() * m.nu() == 1 => Ok(m.entry(0, 0).clone()),
+            Self::Matrix(m) => Err(crate::error::FdidError::InvalidArgument {
+                name: "measurement",
+                value: format!("a {} x {} frequency response matrix", m.ny(), m.nu()),
+                reason: "one entry is needed: pick it (FrfMatrix::entry) or fit every \
+                         entry with common poles (fdid::mimo)"
+                    .into(),
+            }),
         }
     }
 

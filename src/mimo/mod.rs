@@ -42,7 +42,7 @@ mod varpro;
 mod vector_fit;
 
 pub use model::{CommonPoleModel, Mode};
-pub use passivity::{Passivity, passivity};
+pub use passivity::{PASSIVITY_TOLERANCE, Passivity, passivity};
 pub use poles::PoleSet;
 pub use state_space::StateSpace;
 
@@ -105,8 +105,9 @@ pub struct CommonPoleFit<T: Real> {
     pub ml: MlOutcome,
     /// Covariance of the pole parameters [real poles…, Re p, Im p of each pair…] in
     /// physical units (rad/s in s), from the variable-projection Jacobian (McKelvey
-    /// eq. 32) scaled by the residual variance: 1/2 per real residual with the entries'
-    /// variances, the estimate V/(M − P) without them.
+    /// eq. 32) scaled by the residual variance estimated as V/(M − P) (M real residuals,
+    /// P parameters; 1/2 when the entries' variances weight the fit and the model fits to
+    /// the noise level, larger when it does not, so a misfit widens the bounds).
     pub pole_covariance: Option<DMatrix<T>>,
     /// Lines and entries fitted.
     pub lines: usize,
@@ -140,7 +141,7 @@ impl<T: Real> CommonPoleFit<T> {
         for (e, entry) in data.entries().iter().enumerate() {
             let (i, j) = data.position(e);
             for (k, h) in entry.y().iter().enumerate() {
-                sum = sum + (*h - g[k][(i, j)]).norm_sqr();
+                sum += (*h - g[k][(i, j)]).norm_sqr();
             }
         }
         Float::sqrt(sum / T::from_usize_lossy(data.len() * data.entries().len()))
@@ -171,7 +172,7 @@ impl<T: Real> CommonPoleFit<T> {
                 let mut v = T::zero();
                 for a in 0..2 {
                     for b in 0..2 {
-                        v = v + g[a] * cov[(t + a, t + b)] * g[b];
+                        v += g[a] * cov[(t + a, t + b)] * g[b];
                     }
                 }
                 Float::sqrt(Float::abs(v))
@@ -227,7 +228,12 @@ pub fn fit_common_poles<T: Real>(
         });
     }
     let weighted = Weighted::new(data, options.domain, options.direct)?;
-    let (poles, coeffs, relocation_cost, relocations) = relocation_loop(
+    let vector_fit::Relocated {
+        poles,
+        coeffs,
+        cost: relocation_cost,
+        relocations,
+    } = relocation_loop(
         &weighted,
         options.domain,
         order,
@@ -304,13 +310,12 @@ fn covariance<T: Real>(
         return None;
     }
     let params = problem.order + fit.entries * (problem.order + usize::from(data.direct));
-    let s2 = if data.w.is_some() {
-        T::lit(0.5)
-    } else if m > params {
-        fit.cost / T::from_usize_lossy(m - params)
-    } else {
+    // V/(M − P): 1/2 when weighted by the true variances and the model fits to the noise
+    // level, larger (and honest) when it does not
+    if m <= params {
         return None;
-    };
+    }
+    let s2 = fit.cost / T::from_usize_lossy(m - params);
     let inverse = gram.try_inverse()?;
     let scale2 = data.scale * data.scale;
     let cov = inverse * (s2 * scale2);

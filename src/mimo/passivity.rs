@@ -4,6 +4,11 @@ use super::model::CommonPoleModel;
 use crate::scalar::Real;
 use num_traits::Float;
 
+/// How far above 1 the largest singular value may be before a grid point counts as a
+/// violation: rounding and the fit error of a lossless port (|S₁₁(0)| = 1 for a series
+/// capacitor) reach 10⁻⁷, far below any physical gain.
+pub const PASSIVITY_TOLERANCE: f64 = 1e-6;
+
 /// The largest singular value of a scattering model's S over a dense grid.
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
@@ -12,14 +17,14 @@ pub struct Passivity<T: Real> {
     pub max_singular_value: T,
     /// Where it is reached (Hz).
     pub at_hz: T,
-    /// Grid points where σ_max(S) > 1.
+    /// Grid points where σ_max(S) > 1 + [`PASSIVITY_TOLERANCE`].
     pub violations: usize,
     /// Grid points checked.
     pub points: usize,
 }
 
 impl<T: Real> Passivity<T> {
-    /// True when no grid point violates σ_max(S) ≤ 1.
+    /// True when no grid point violates σ_max(S) ≤ 1 + [`PASSIVITY_TOLERANCE`].
     pub fn passive(&self) -> bool {
         self.violations == 0
     }
@@ -53,7 +58,7 @@ pub fn passivity<T: Real>(model: &CommonPoleModel<T>, f_max_hz: T, points: usize
                     .fold(T::zero(), Float::max)
             })
             .unwrap_or(T::infinity());
-        if s > T::one() {
+        if s > T::one() + T::lit(PASSIVITY_TOLERANCE) {
             violations += 1;
         }
         if !(s <= worst.0) {

@@ -156,7 +156,7 @@ pub(crate) fn basis<T: Real>(x: &[Complex<T>], poles: &PoleSet<T>) -> DMatrix<Co
             let p = poles.pairs[(col - nr) / 2];
             let a = crate::scalar::recip(xk - p);
             let b = crate::scalar::recip(xk - p.conj());
-            if (col - nr) % 2 == 0 {
+            if (col - nr).is_multiple_of(2) {
                 a + b
             } else {
                 i * (a - b)

@@ -80,7 +80,7 @@ impl<T: Real> VarPro<'_, T> {
                         return false;
                     };
                     for (j, s) in scale.iter().enumerate() {
-                        c[j] = c[j] / *s;
+                        c[j] /= *s;
                     }
                     let d = basis_derivative(&self.data.x, &poles, &c.as_slice()[..self.order]);
                     let wts = self.data.w.as_ref().map(|w| w[e].as_slice());

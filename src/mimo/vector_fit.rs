@@ -95,15 +95,14 @@ impl<T: Real> Weighted<T> {
             Some(w) => {
                 let mut coeffs = Vec::with_capacity(ne);
                 let mut cost = T::zero();
-                for e in 0..ne {
+                for (h, w) in self.h.iter().zip(w) {
                     let b = DMatrix::from_fn(2 * self.lines(), 1, |r, _| {
-                        let v = self.h[e][r / 2] * w[e][r / 2];
+                        let v = h[r / 2] * w[r / 2];
                         if r % 2 == 0 { v.re } else { v.im }
                     });
-                    let (x, c) =
-                        shared_least_squares(crate::linalg::stack_rows(&a, Some(&w[e])), b)?;
+                    let (x, c) = shared_least_squares(crate::linalg::stack_rows(&a, Some(w)), b)?;
                     coeffs.push(x.column(0).into_owned());
-                    cost = cost + c[0];
+                    cost += c[0];
                 }
                 Ok((coeffs, cost))
             }
@@ -148,7 +147,7 @@ impl<T: Real> Weighted<T> {
             for k in 0..l {
                 let w = self.weight(e, k);
                 let h = self.h[e][k] * w;
-                norm = norm + h.norm_sqr();
+                norm += h.norm_sqr();
                 for c in 0..n {
                     let v = phi[(k, c)] * w;
                     a[(2 * k, c)] = v.re;
@@ -310,6 +309,15 @@ pub(crate) fn model_of<T: Real>(
     }
 }
 
+/// The outcome of [`relocation_loop`]: the poles of lowest cost (in the fitting
+/// variable), their linear parameters per entry, the cost and the relocations made.
+pub(crate) struct Relocated<T: Real> {
+    pub poles: PoleSet<T>,
+    pub coeffs: Vec<DVector<T>>,
+    pub cost: T,
+    pub relocations: usize,
+}
+
 /// The relocation loop of [`super::fit_common_poles`]: from the starting poles, relocate
 /// (reflecting unstable poles when `stable`) until the weighted cost changes by less than
 /// `tolerance` relatively or `iterations` relocations; returns the poles of lowest cost
@@ -320,7 +328,7 @@ pub(crate) fn relocation_loop<T: Real>(
     order: usize,
     stable: bool,
     iterations: usize,
-) -> Result<(PoleSet<T>, Vec<DVector<T>>, T, usize)> {
+) -> Result<Relocated<T>> {
     let omega_min = data
         .x
         .iter()
@@ -365,7 +373,12 @@ pub(crate) fn relocation_loop<T: Real>(
             break;
         }
     }
-    Ok((best.0, best.1, best.2, done))
+    Ok(Relocated {
+        poles: best.0,
+        coeffs: best.1,
+        cost: best.2,
+        relocations: done,
+    })
 }
 
 /// The frequency in the fitting variable of a point: Im x in s (x = iω/ω_s), ωTs in z.

@@ -14,14 +14,14 @@ fn parse<T: Real>(text: &str) -> fdid::Result<Measurement<T>> {
 fn freq<T: Real>(text: &str) -> FrequencyData<T> {
     match parse::<T>(text).unwrap() {
         Measurement::Frequency(d) => d,
-        Measurement::Time(_) => panic!("expected frequency data"),
+        other => panic!("expected frequency data, got {other:?}"),
     }
 }
 
 fn time<T: Real>(text: &str) -> TimeData<T> {
     match parse::<T>(text).unwrap() {
         Measurement::Time(d) => d,
-        Measurement::Frequency(_) => panic!("expected a time record"),
+        other => panic!("expected a time record, got {other:?}"),
     }
 }
 
@@ -173,12 +173,12 @@ fn quoted_fields_are_accepted() {
 fn measurement_helpers() {
     let m = parse::<f64>("t,u,y\n0,1,0\n1,0,0\n2,0,0\n3,0,0\n").unwrap();
     assert!(m.is_time());
-    let d = m.into_frequency_data();
+    let d = m.into_frequency_data().unwrap();
     assert_eq!(d.len(), 3);
     assert_eq!(d.ts(), Some(1.0));
     let m = parse::<f64>("f,re,im\n1,2,3\n").unwrap();
     assert!(!m.is_time());
-    assert_eq!(m.into_frequency_data().len(), 1);
+    assert_eq!(m.into_frequency_data().unwrap().len(), 1);
 }
 
 // ---------------------------------------------------------------- errors
@@ -481,7 +481,7 @@ fn bundled_eis_battery_parses() {
     let capacitive = d.y().iter().filter(|z| z.im < 0.0).count();
     assert_eq!(capacitive, 57);
     let d32 = read_csv::<f32>(&bundled("eis_battery.csv")).unwrap();
-    assert_eq!(d32.into_frequency_data().len(), 66);
+    assert_eq!(d32.into_frequency_data().unwrap().len(), 66);
 }
 
 #[test]

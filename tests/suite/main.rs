@@ -24,6 +24,7 @@ mod batch;
 mod cli;
 mod cli_diagnose;
 mod cli_ltv;
+mod cli_mimo;
 mod cli_raw;
 mod cli_stable;
 mod cli_unresolved;

@@ -312,7 +312,7 @@ fn shared_poles_spread_as_predicted() {
     let runs = 200;
     let mut d = Draw(0x9e37_79b9_7f4a_7c15);
     let mut samples: Vec<Vec<f64>> = Vec::new();
-    let mut predicted = vec![0.0; 4];
+    let mut predicted = [0.0; 4];
     for _ in 0..runs {
         let entries: Vec<Vec<Complex<f64>>> = (0..2)
             .map(|e| {

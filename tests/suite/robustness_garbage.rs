@@ -611,11 +611,11 @@ fn csv_entries(x: CsvInput) -> TestResult {
         vec![
             entry!("parse_csv f64", a, {
                 parse_csv::<f64, _>(a.as_slice(), "garbage")
-                    .map(fdid::io::Measurement::into_frequency_data)
+                    .and_then(fdid::io::Measurement::into_frequency_data)
             }),
             entry!("parse_csv f32", b, {
                 parse_csv::<f32, _>(b.as_slice(), "garbage")
-                    .map(fdid::io::Measurement::into_frequency_data)
+                    .and_then(fdid::io::Measurement::into_frequency_data)
             }),
             entry!("read_csv", c, {
                 std::fs::write(&path, &c).unwrap();

@@ -31,7 +31,7 @@ fn path() -> std::path::PathBuf {
 fn record<T: Real>() -> TimeData<T> {
     match read_csv::<T>(&path()).expect("data/silverbox.csv parses") {
         Measurement::Time(d) => d,
-        Measurement::Frequency(_) => panic!("expected a time record"),
+        other => panic!("expected a time record, got {other:?}"),
     }
 }
 

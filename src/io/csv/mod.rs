@@ -11,7 +11,7 @@ use self::checks::{check_frequencies, check_time_grid};
 use self::header::{Kind, Layout};
 use self::records::Lines;
 use super::Measurement;
-use crate::data::{FrequencyData, NoiseVariances, TimeData};
+use crate::data::{FrequencyData, FrfMatrix, NoiseVariances, TimeData};
 use crate::error::{FdidError, Result};
 use crate::io::lines::echo;
 use crate::scalar::{Complex, Real};
@@ -26,6 +26,20 @@ pub fn read_csv<T: Real>(path: &Path) -> Result<Measurement<T>> {
     let file =
         std::fs::File::open(path).map_err(|e| FdidError::Io(format!("{}: {e}", path.display())))?;
     parse_csv(file, &path.display().to_string())
+}
+
+/// True when the header of the CSV file at `path` names the columns of a frequency response
+/// matrix (`re_IJ`, `im_IJ`); false for any other header or a file that cannot be read
+/// (whose error [`read_csv`] reports).
+pub fn is_frf_matrix_csv(path: &Path) -> bool {
+    let Ok(file) = std::fs::File::open(path) else {
+        return false;
+    };
+    let mut lines = Lines::new(file);
+    match read_header(&mut lines, &path.display().to_string()) {
+        Ok((_, names)) => Kind::of_header(&names).is_ok_and(|k| k == Kind::Matrix),
+        Err(_) => false,
+    }
 }
 
 /// Parses a data file from `reader`; `name` is used in error messages.
@@ -43,6 +57,7 @@ pub fn read_csv<T: Real>(path: &Path) -> Result<Measurement<T>> {
 /// | layout | required columns | optional columns |
 /// | --- | --- | --- |
 /// | frequency response | `f`, `re`, `im` | `var` |
+/// | frequency response matrix | `f`, `re_IJ`, `im_IJ` per entry | `var_IJ` per entry |
 /// | spectra | `f`, `u_re`, `u_im`, `y_re`, `y_im` | `var_u`, `var_y` |
 /// | time record | `t`, `u`, `y` | — |
 ///
@@ -50,6 +65,12 @@ pub fn read_csv<T: Real>(path: &Path) -> Result<Measurement<T>> {
 ///   and strictly increasing. Frequency data carry no sample time.
 /// - FRF rows give `G = re + i·im`, stored as `Y = G`, `U = 1`. `var` is the FRF noise
 ///   variance `E|N_G|²` (stored as `var_y`, with `var_u = 0`, `cov_yu = 0`).
+/// - A frequency response matrix holds the ny × nu FRF G_IJ (output I, input J, 1-based)
+///   in `re_IJ`, `im_IJ`, with one digit each (`re_21`), or `re_I_J` for indices beyond 9;
+///   ny and nu are the largest indices, and every entry needs both columns. `var_IJ` is the
+///   variance E|N|² of entry IJ, for every entry or none. The conventional order is column
+///   by column, `f,re_11,im_11,re_21,im_21,…,re_12,…`, but any order is read. The result
+///   is [`Measurement::Matrix`].
 /// - Spectra rows give `U = u_re + i·u_im` and `Y = y_re + i·y_im`; `var_u = E|N_U|²`,
 ///   `var_y = E|N_Y|²` (a missing one of the two is zero; `cov_yu = 0`).
 /// - Time rows give samples `u(t)`, `y(t)` at times `t` (s) that must increase strictly
@@ -74,6 +95,7 @@ pub fn parse_csv<T: Real, R: Read>(reader: R, name: &str) -> Result<Measurement<
     match table.layout.kind {
         Kind::Time => table.time_record(name),
         Kind::Frf | Kind::Spectra => table.frequency_data(name),
+        Kind::Matrix => table.frf_matrix(name),
     }
 }
 
@@ -213,6 +235,57 @@ impl Table {
             to_real(y),
             ts_t,
         )?))
+    }
+
+    /// A frequency response matrix: entry (i, j) from `re_ij`, `im_ij` (and `var_ij`).
+    fn frf_matrix<T: Real>(&self, name: &str) -> Result<Measurement<T>> {
+        let f = self.required("f");
+        if f.is_empty() {
+            return Err(FdidError::TooShort {
+                what: "data rows",
+                needed: 1,
+                got: 0,
+            });
+        }
+        check_frequencies(f, &self.lines).map_err(|(line, m)| parse_error(name, line, m))?;
+        let omega = self.omega::<T>(f, name)?;
+        let (ny, nu, with_var) = self.layout.matrix.unwrap_or((1, 1, false));
+        let column = |part: &str, i: usize, j: usize| -> &[f64] {
+            let index = self
+                .layout
+                .names
+                .iter()
+                .position(|n| header::matrix_column(n) == Some((part, i + 1, j + 1)));
+            index.map_or(&[][..], |k| self.columns[k].as_slice())
+        };
+        let mut entries = Vec::with_capacity(ny * nu);
+        let mut variances = Vec::with_capacity(ny * nu);
+        for j in 0..nu {
+            for i in 0..ny {
+                entries.push(complex(column("re", i, j), column("im", i, j)));
+                if with_var {
+                    let v = column("var", i, j);
+                    if let Some(k) = v.iter().position(|x| *x < 0.0) {
+                        return Err(parse_error(
+                            name,
+                            self.lines[k],
+                            format!(
+                                "column `var_{}{}`: negative variance {}",
+                                i + 1,
+                                j + 1,
+                                v[k]
+                            ),
+                        ));
+                    }
+                    variances.push(to_real(v));
+                }
+            }
+        }
+        let mut m = FrfMatrix::from_entries(omega, ny, nu, entries, None)?;
+        if with_var {
+            m = m.with_variances(variances)?;
+        }
+        Ok(Measurement::Matrix(m))
     }
 
     /// Frequency data: an FRF or spectra, with their variances if given.

@@ -21,8 +21,13 @@ impl Options {
     pub(super) fn matrix(&self, pairs: &[f64], ports: usize) -> Vec<Complex<f64>> {
         let mut m = vec![Complex::new(0.0, 0.0); ports * ports];
         for (k, p) in pairs.chunks_exact(2).enumerate() {
-            // version 1 writes the 2-port matrix column by column: X11 X21 X12 X22
-            let (i, j) = if ports == 2 { (k % 2, k / 2) } else { (0, 0) };
+            // version 1 writes the 2-port matrix column by column (X11 X21 X12 X22) and
+            // every other one row by row
+            let (i, j) = if ports == 2 {
+                (k % 2, k / 2)
+            } else {
+                (k / ports, k % ports)
+            };
             m[i * ports + j] = self.value(p) * self.scale(i, j);
         }
         m
@@ -38,12 +43,12 @@ impl Options {
         format: MatrixFormat,
         order_12_21: bool,
     ) -> Vec<Complex<f64>> {
-        let cells: Vec<(usize, usize)> = match (ports, format) {
-            (1, _) => vec![(0, 0)],
-            (_, MatrixFormat::Full) if order_12_21 => vec![(0, 0), (0, 1), (1, 0), (1, 1)],
-            (_, MatrixFormat::Full) => vec![(0, 0), (1, 0), (0, 1), (1, 1)],
-            (_, MatrixFormat::Lower) => vec![(0, 0), (1, 0), (1, 1)],
-            (_, MatrixFormat::Upper) => vec![(0, 0), (0, 1), (1, 1)],
+        let n = ports;
+        let cells: Vec<(usize, usize)> = match format {
+            MatrixFormat::Full if n == 2 && !order_12_21 => vec![(0, 0), (1, 0), (0, 1), (1, 1)],
+            MatrixFormat::Full => (0..n * n).map(|k| (k / n, k % n)).collect(),
+            MatrixFormat::Lower => (0..n).flat_map(|i| (0..=i).map(move |j| (i, j))).collect(),
+            MatrixFormat::Upper => (0..n).flat_map(|i| (i..n).map(move |j| (i, j))).collect(),
         };
         let mut m = vec![Complex::new(0.0, 0.0); ports * ports];
         for (p, (i, j)) in pairs.chunks_exact(2).zip(cells) {

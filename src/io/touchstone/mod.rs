@@ -1,5 +1,5 @@
-//! Touchstone network-parameter files: `.s1p` and `.s2p` (version 1 or 2.0) and `.ts`
-//! (version 2.0), of 1 or 2 ports.
+//! Touchstone network-parameter files: `.sNp` (version 1 or 2.0) and `.ts` (version 2.0),
+//! of 1 to [`crate::io::MAX_PORTS`] ports.
 
 mod matrix;
 mod options;
@@ -14,7 +14,7 @@ mod tests;
 use self::text::{content, keyword};
 use self::v1::parse_v1;
 use self::v2::parse_v2;
-use crate::data::FrequencyData;
+use crate::data::{FrequencyData, FrfMatrix};
 use crate::error::{FdidError, Result};
 use crate::io::lines::read_text;
 use crate::scalar::{Complex, Real};
@@ -78,7 +78,7 @@ pub enum TouchstoneVersion {
 #[derive(Debug, Clone, PartialEq)]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct Touchstone {
-    /// Number of ports, 1 or 2.
+    /// Number of ports.
     pub ports: usize,
     /// The kind of parameters.
     pub parameter: NetworkParameter,
@@ -115,10 +115,11 @@ impl Touchstone {
             return Err(FdidError::InvalidArgument {
                 name: "port",
                 value: format!("{i}{j}"),
-                reason: format!(
-                    "a {n}-port file has the ports 1{}",
-                    if n == 1 { "" } else { " and 2" }
-                ),
+                reason: if n == 1 {
+                    "a 1-port file has the port 1".into()
+                } else {
+                    format!("a {n}-port file has the ports 1 to {n}")
+                },
             });
         }
         let k = (i - 1) * n + (j - 1);
@@ -136,14 +137,43 @@ impl Touchstone {
     }
 }
 
-/// Reads a Touchstone file: `.s1p` and `.s2p` (version 1 or 2.0; the number of ports
+impl Touchstone {
+    /// Every entry X_ij as a frequency response matrix (output port i, input port j),
+    /// stored column by column as [`FrfMatrix`] does, without a sample time.
+    ///
+    /// # Errors
+    /// As [`FrfMatrix::from_entries`].
+    pub fn frf_matrix<T: Real>(&self) -> Result<FrfMatrix<T>> {
+        let n = self.ports;
+        let omega: Vec<T> = self
+            .freq_hz
+            .iter()
+            .map(|f| T::lit(std::f64::consts::TAU * f))
+            .collect();
+        let entries = (0..n * n)
+            .map(|e| {
+                let (i, j) = (e % n, e / n);
+                self.values
+                    .iter()
+                    .map(|m| {
+                        let v = m[i * n + j];
+                        Complex::new(T::lit(v.re), T::lit(v.im))
+                    })
+                    .collect()
+            })
+            .collect();
+        FrfMatrix::from_entries(omega, n, n, entries, None)
+    }
+}
+
+/// Reads a Touchstone file: `.sNp` (version 1 or 2.0; the number of ports
 /// comes from the extension) or `.ts` (version 2.0, whose `[Number of Ports]` gives it);
 /// extensions are case-insensitive. See [`parse_touchstone`] for the format. Errors name
 /// the file.
 ///
 /// # Errors
 /// [`FdidError::Io`] when the file cannot be opened or read; [`FdidError::Parse`] for an
-/// extension other than `.s1p`/`.s2p`/`.ts`; otherwise as [`parse_touchstone`].
+/// extension other than `.sNp`/`.ts`; otherwise as [`parse_touchstone`].
 pub fn read_touchstone(path: &Path) -> Result<Touchstone> {
     let name = path.display().to_string();
     let ports = touchstone_ports(path);
@@ -151,8 +181,8 @@ pub fn read_touchstone(path: &Path) -> Result<Touchstone> {
         return Err(parse_error(
             &name,
             0,
-            "a Touchstone file needs the extension .s1p (1 port), .s2p (2 ports) or .ts \
-             (version 2.0)"
+            "a Touchstone file needs the extension .sNp (N ports: .s1p, .s2p, .s4p, …) or \
+             .ts (version 2.0)"
                 .into(),
         ));
     }
@@ -163,19 +193,21 @@ pub fn read_touchstone(path: &Path) -> Result<Touchstone> {
     }
 }
 
-/// The number of ports a `.s1p`/`.s2p` extension names (case-insensitive), `None` for any
-/// other file name (also `.ts`, whose number of ports is in the file).
+/// The number of ports a `.sNp` extension names (case-insensitive, N from 1 to
+/// [`crate::io::MAX_PORTS`]), `None` for any other file name (also `.ts`, whose number of
+/// ports is in the file).
 pub fn touchstone_ports(path: &Path) -> Option<usize> {
     let ext = path.extension()?.to_str()?.to_ascii_lowercase();
-    match ext.as_str() {
-        "s1p" => Some(1),
-        "s2p" => Some(2),
-        _ => None,
+    let digits = ext.strip_prefix('s')?.strip_suffix('p')?;
+    if digits.is_empty() || digits.len() > 2 || !digits.bytes().all(|b| b.is_ascii_digit()) {
+        return None;
     }
+    let n: usize = digits.parse().ok()?;
+    (1..=crate::io::MAX_PORTS).contains(&n).then_some(n)
 }
 
-/// Whether the extension is that of a Touchstone file [`read_touchstone`] reads: `.s1p`,
-/// `.s2p` or `.ts` (case-insensitive).
+/// Whether the extension is that of a Touchstone file [`read_touchstone`] reads: `.sNp`
+/// or `.ts` (case-insensitive).
 pub fn is_touchstone(path: &Path) -> bool {
     touchstone_ports(path).is_some()
         || path
@@ -184,7 +216,7 @@ pub fn is_touchstone(path: &Path) -> bool {
             .is_some_and(|e| e.eq_ignore_ascii_case("ts"))
 }
 
-/// Parses a Touchstone file of `ports` ports (1 or 2, from the extension) from `reader`:
+/// Parses a Touchstone file of `ports` ports (from the extension) from `reader`:
 /// version 1, or version 2.0 when its first line (after comments) is `[Version] 2.0`.
 /// `name` is used in error messages.
 ///
@@ -200,7 +232,8 @@ pub fn is_touchstone(path: &Path) -> bool {
 ///   after data rows that were read with the defaults is an error.
 /// - Data: per frequency the frequency, then the pairs of the `ports × ports` matrix. A
 ///   1-port row is `f X11`; a 2-port row is `f X11 X21 X12 X22` (this column order is
-///   that of version 1). Fields are separated by spaces, tabs or commas; a row may be
+///   that of version 1); a row of 3 or more ports writes the matrix row by row,
+///   `f X11 X12 … X1n X21 … Xnn`. Fields are separated by spaces, tabs or commas; a row may be
 ///   continued on the next lines.
 /// - Frequencies must be non-negative and strictly increasing. In a 2-port file a row
 ///   whose frequency is not above the previous one starts the noise-parameter section,
@@ -215,10 +248,11 @@ pub fn is_touchstone(path: &Path) -> bool {
 /// version 1; keywords in brackets structure the file, each on its own line:
 ///
 /// - `[Version] 2.0` first, then the option line (exactly one), then
-///   `[Number of Ports] n` (1 or 2, and the number the extension names);
+///   `[Number of Ports] n` (the number the extension names, if any);
 /// - before `[Network Data]`, in any order, each at most once:
-///   `[Two-Port Data Order] 12_21|21_12` (required for 2 ports, not allowed for 1:
-///   `12_21` writes `f X11 X12 X21 X22`, `21_12` the version 1 order `f X11 X21 X12 X22`),
+///   `[Two-Port Data Order] 12_21|21_12` (required for 2 ports, not allowed for others:
+///   `12_21` writes `f X11 X12 X21 X22`, `21_12` the version 1 order `f X11 X21 X12 X22`;
+///   other numbers of ports write the matrix row by row),
 ///   `[Number of Frequencies] N` (required; the data must hold exactly N frequencies),
 ///   `[Reference] r1 … rn` (the reference impedance of each port in Ω, positive; the
 ///   values may continue on the next lines; default R of the option line),
@@ -233,25 +267,29 @@ pub fn is_touchstone(path: &Path) -> bool {
 /// - Version 2 values are not normalised: Y, Z, H and G are returned as written, and
 ///   `[Reference]` (in [`Touchstone::references`]) is the reference of S parameters only.
 ///
-/// `[Mixed-Mode Order]`, other versions and more than 2 ports are not supported.
+/// `[Mixed-Mode Order]`, other versions and more than [`crate::io::MAX_PORTS`] ports are
+/// not supported.
 ///
 /// # Errors
 /// [`FdidError::Parse`] with the 1-based line number (0 for the file as a whole) for: an
 /// unknown or repeated option field, an option line after the data, a missing or bad
 /// reference resistance, a field that is not a number or is not finite, a negative or
 /// non-increasing frequency, a row cut short, no data rows, invalid UTF-8, a port count
-/// other than 1 or 2; in version 1 any keyword; in version 2 an unknown, repeated,
+/// outside 1 to [`crate::io::MAX_PORTS`]; H or G parameters of other than 2 ports; in version 1 any keyword; in version 2 an unknown, repeated,
 /// misplaced or unsupported keyword, a bad keyword argument, a missing required keyword
 /// (`[Number of Ports]`, `[Two-Port Data Order]`, `[Number of Frequencies]`,
 /// `[Network Data]`, `[Noise Data]`, `[End]`), a number of ports other than the
 /// extension's, a number of frequencies other than declared, content after `[End]`;
 /// [`FdidError::Io`] when reading fails.
 pub fn parse_touchstone<R: Read>(reader: R, ports: usize, name: &str) -> Result<Touchstone> {
-    if !(1..=2).contains(&ports) {
+    if !(1..=crate::io::MAX_PORTS).contains(&ports) {
         return Err(parse_error(
             name,
             0,
-            format!("{ports}-port files are not supported (only .s1p and .s2p)"),
+            format!(
+                "{ports}-port files are not supported (1 to {} ports)",
+                crate::io::MAX_PORTS
+            ),
         ));
     }
     let text = read_text(reader, name)?;
@@ -296,7 +334,7 @@ fn parse_text(text: &str, ports: Option<usize>, name: &str) -> Result<Touchstone
             name,
             first.map_or(0, |(i, _)| i + 1),
             "a .ts file must be a Touchstone 2.0 file starting with `[Version] 2.0` (a \
-             version 1 file needs the extension .s1p or .s2p)"
+             version 1 file needs the extension .sNp, e.g. .s2p)"
                 .into(),
         )),
     }

@@ -61,7 +61,7 @@ impl Reader<'_> {
                 line,
                 format!(
                     "`[{written}]`: mixed-mode network data are not supported (only \
-                     single-ended 1- and 2-port data)"
+                     single-ended data)"
                 ),
             )),
             "begin information" => self.begin_information(line, written),
@@ -135,14 +135,18 @@ impl Reader<'_> {
         }
     }
 
-    /// `[Number of Ports] n`: 1 or 2, as the extension names, right after the option line.
+    /// `[Number of Ports] n`: 1 to [`crate::io::MAX_PORTS`], as the extension names, right
+    /// after the option line.
     fn number_of_ports(&mut self, line: usize, written: &str, arg: &str) -> Result<()> {
         self.once(line, written, self.h.ports.map(|p| p.1))?;
         let n = self.count(line, written, arg)?;
-        if n > 2 {
+        if n > crate::io::MAX_PORTS {
             return Err(self.error(
                 line,
-                format!("`[{written}] {n}`: files of more than 2 ports are not supported (1 or 2)"),
+                format!(
+                    "`[{written}] {n}`: files of more than {} ports are not supported",
+                    crate::io::MAX_PORTS
+                ),
             ));
         }
         if let Some(e) = self.expected_ports.filter(|e| *e != n) {
@@ -154,7 +158,7 @@ impl Reader<'_> {
                 ),
             ));
         }
-        if n == 1
+        if n != 2
             && matches!(
                 self.opts.parameter,
                 NetworkParameter::H | NetworkParameter::G
@@ -163,7 +167,7 @@ impl Reader<'_> {
             return Err(self.error(
                 line,
                 format!(
-                    "`[{written}] 1`: {} parameters are defined for 2 ports only",
+                    "`[{written}] {n}`: {} parameters are defined for 2 ports only",
                     self.opts.parameter.letter()
                 ),
             ));
