@@ -165,16 +165,15 @@ pub(crate) fn basis<T: Real>(x: &[Complex<T>], poles: &PoleSet<T>) -> DMatrix<Co
     })
 }
 
-/// ∂φ/∂θ of the basis columns against the real pole parameters θ of
-/// [`PoleSet::theta`], applied to the coefficients `c` (length n): column t of the result
-/// is Σ_col c_col ∂φ_col/∂θ_t (L × n). With q = 1/(x − p)²:
-/// real pole ∂φ/∂p = q; for a pair θ = (a, b), p = a + ib,
-/// ∂φ₁/∂a = q + q̄', ∂φ₁/∂b = i(q − q̄'), ∂φ₂/∂a = i(q − q̄'), ∂φ₂/∂b = −(q + q̄'),
-/// where q̄' = 1/(x − p̄)².
-pub(crate) fn basis_derivative<T: Real>(
+/// The derivatives of the basis functions against the pole parameters θ of
+/// [`PoleSet::theta`] (L × n, complex): with q = 1/(x − p)² and q̄' = 1/(x − p̄)², the
+/// column of a real pole is ∂φ/∂p = q; a pair a ± ib has the two columns
+/// P = q + q̄' and M = i(q − q̄'), from which
+/// ∂φ₁/∂a = P, ∂φ₁/∂b = M, ∂φ₂/∂a = M, ∂φ₂/∂b = −P.
+/// The derivative of Σ c_col φ_col against θ is Ψ C(c) ([`coefficient_matrix`]).
+pub(crate) fn derivative_basis<T: Real>(
     x: &[Complex<T>],
     poles: &PoleSet<T>,
-    c: &[T],
 ) -> DMatrix<Complex<T>> {
     let n = poles.order();
     let nr = poles.real.len();
@@ -183,20 +182,38 @@ pub(crate) fn basis_derivative<T: Real>(
     for (k, xk) in x.iter().enumerate() {
         for (t, p) in poles.real.iter().enumerate() {
             let q = crate::scalar::recip(*xk - Complex::new(*p, T::zero()));
-            d[(k, t)] = q * q * c[t];
+            d[(k, t)] = q * q;
         }
         for (m, p) in poles.pairs.iter().enumerate() {
             let a = crate::scalar::recip(*xk - *p);
             let b = crate::scalar::recip(*xk - p.conj());
             let (qa, qb) = (a * a, b * b);
-            let (c1, c2) = (c[nr + 2 * m], c[nr + 2 * m + 1]);
-            let plus = qa + qb;
-            let minus = i * (qa - qb);
-            d[(k, nr + 2 * m)] = plus * c1 + minus * c2;
-            d[(k, nr + 2 * m + 1)] = minus * c1 - plus * c2;
+            d[(k, nr + 2 * m)] = qa + qb;
+            d[(k, nr + 2 * m + 1)] = i * (qa - qb);
         }
     }
     d
+}
+
+/// The n × n block-diagonal matrix C(c) with Ψ C(c) = ∂(Σ c_col φ_col)/∂θ for the basis
+/// coefficients `c` (length n): c_t for a real pole; [[c₁, −c₂], [c₂, c₁]] for a pair
+/// (rows P, M of [`derivative_basis`]; columns a, b).
+pub(crate) fn coefficient_matrix<T: Real>(poles: &PoleSet<T>, c: &[T]) -> DMatrix<T> {
+    let n = poles.order();
+    let nr = poles.real.len();
+    let mut m = DMatrix::zeros(n, n);
+    for t in 0..nr {
+        m[(t, t)] = c[t];
+    }
+    for k in 0..poles.pairs.len() {
+        let t = nr + 2 * k;
+        let (c1, c2) = (c[t], c[t + 1]);
+        m[(t, t)] = c1;
+        m[(t, t + 1)] = -c2;
+        m[(t + 1, t)] = c2;
+        m[(t + 1, t + 1)] = c1;
+    }
+    m
 }
 
 /// The evaluation points of a model in `domain` at `omega` (rad/s): iω/`scale` in s,
@@ -270,7 +287,8 @@ mod tests {
         };
         let x: Vec<Complex<f64>> = (1..6).map(|k| Complex::new(0.0, 0.3 * k as f64)).collect();
         let c = [0.7, -1.2, 0.4];
-        let d = basis_derivative(&x, &poles, &c);
+        let d = derivative_basis(&x, &poles)
+            * coefficient_matrix(&poles, &c).map(|v| Complex::new(v, 0.0));
         let theta = poles.theta();
         for t in 0..3 {
             let h = 1e-7;

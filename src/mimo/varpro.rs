@@ -2,8 +2,8 @@
 //! linearly and are eliminated entry by entry, so the nonlinear search runs over the n
 //! pole parameters only.
 
-use super::poles::{PoleSet, basis_derivative};
-use super::vector_fit::Weighted;
+use super::poles::{PoleSet, coefficient_matrix, derivative_basis};
+use super::vector_fit::{Weighted, at_b};
 use crate::problem::NonlinearProblem;
 use crate::scalar::Real;
 use nalgebra::{DMatrix, DVector};
@@ -20,74 +20,120 @@ use num_traits::Float;
 /// diag 1/σ_e,k; unit weights without them). The Jacobian is Kaufman's,
 /// J_e = −P⊥_e (∂A_e/∂θ) c_e(θ), whose Gram matrix is the Schur complement of the full
 /// problem's in the pole block: the asymptotic covariance of the poles (McKelvey eq. 32)
-/// comes from it directly. Without weights one QR of A serves every entry.
+/// comes from it directly.
+///
+/// The derivative of the basis applied to c_e factors as (∂A/∂θ) c_e = Ψ C_e, with Ψ the
+/// derivatives of the basis functions (one or two per pole, L × n) and C_e small and
+/// block diagonal (the coefficients of entry e). Without weights every entry shares A, so
+/// one QR of A and one projection Ψ⊥ = P⊥Ψ serve all of them: J_e = −Ψ⊥C_e,
+/// JᵀJ = Σ_e C_eᵀ(Ψ⊥ᵀΨ⊥)C_e and Jᵀr = −Σ_e C_eᵀΨᵀr_e, so an evaluation costs one QR and
+/// O(L(m + n)) per entry instead of O(L m n).
 pub(crate) struct VarPro<'a, T: Real> {
     pub data: &'a Weighted<T>,
     pub n_real: usize,
     pub order: usize,
 }
 
-/// Per entry: its rows' offset in r, its residual and its Jacobian block.
-type Sink<'s, T> = dyn FnMut(usize, &DVector<T>, &DMatrix<T>) + 's;
+/// What [`VarPro::evaluate`] hands on per entry: its index, projection, residual and
+/// coefficient matrix C_e.
+type EntrySink<'s, T> = dyn FnMut(usize, &Projection<T>, &DVector<T>, &DMatrix<T>) + 's;
+
+/// The projection of one group of entries sharing their weights: the thin Q of the
+/// equilibrated regressor, its R, the column scales, and the projected derivative basis.
+struct Projection<T: Real> {
+    q: DMatrix<T>,
+    r: DMatrix<T>,
+    scale: Vec<T>,
+    psi_perp: DMatrix<T>,
+    psi: DMatrix<T>,
+}
 
 impl<T: Real> VarPro<'_, T> {
     fn rows(&self) -> usize {
         2 * self.data.lines()
     }
 
-    /// Evaluates every entry's residual (and Jacobian block when `sink` is given) at θ;
-    /// false when the basis is numerically singular or a value is not finite.
-    fn evaluate(&self, theta: &[T], r: &mut [T], mut sink: Option<&mut Sink<'_, T>>) -> bool {
+    /// The projection for the weights `w` (none: unit weights); `None` when the
+    /// regressor is numerically singular.
+    fn projection(&self, poles: &PoleSet<T>, w: Option<&[T]>) -> Option<Projection<T>> {
+        let mut a = crate::linalg::stack_rows(&self.data.regressor(poles), w);
+        let p = a.ncols();
+        let mut scale = vec![T::one(); p];
+        for (j, s) in scale.iter_mut().enumerate() {
+            let n = a.column(j).norm();
+            if !(n > T::zero()) {
+                return None;
+            }
+            *s = n;
+            a.column_mut(j).unscale_mut(n);
+        }
+        let qr = a.qr();
+        let r = qr.r();
+        if !(0..p).all(|i| Float::abs(r[(i, i)]) > T::default_epsilon() * T::lit(1e3)) {
+            return None;
+        }
+        let q = qr.q();
+        let psi = crate::linalg::stack_rows(&derivative_basis(&self.data.x, poles), w);
+        let psi_perp = &psi - &q * at_b(&q, &psi);
+        Some(Projection {
+            q,
+            r,
+            scale,
+            psi_perp,
+            psi,
+        })
+    }
+
+    /// Entry e's weighted data, real-stacked.
+    fn target(&self, e: usize) -> DVector<T> {
+        DVector::from_fn(self.rows(), |row, _| {
+            let v = self.data.h[e][row / 2] * self.data.weight(e, row / 2);
+            if row % 2 == 0 { v.re } else { v.im }
+        })
+    }
+
+    /// Evaluates every entry's residual at θ into `r` and hands each entry's projection,
+    /// residual and coefficient matrix C_e to `sink`; false when the basis is numerically
+    /// singular or a value is not finite.
+    fn evaluate(&self, theta: &[T], r: &mut [T], mut sink: Option<&mut EntrySink<'_, T>>) -> bool {
         let poles = PoleSet::from_theta(self.n_real, theta);
-        let a = self.data.regressor(&poles);
         let ne = self.data.h.len();
         let rows = self.rows();
-        let groups: Vec<Vec<usize>> = match &self.data.w {
-            None => vec![(0..ne).collect()],
-            Some(_) => (0..ne).map(|e| vec![e]).collect(),
+        let shared = match &self.data.w {
+            None => match self.projection(&poles, None) {
+                Some(p) => Some(p),
+                None => return false,
+            },
+            Some(_) => None,
         };
-        for group in groups {
-            let wts = self.data.w.as_ref().map(|w| w[group[0]].as_slice());
-            let mut aw = crate::linalg::stack_rows(&a, wts);
-            let p = aw.ncols();
-            let mut scale = vec![T::one(); p];
-            for (j, s) in scale.iter_mut().enumerate() {
-                let n = aw.column(j).norm();
-                if !(n > T::zero()) {
-                    return false;
-                }
-                *s = n;
-                aw.column_mut(j).unscale_mut(n);
-            }
-            let qr = aw.qr();
-            let rr = qr.r();
-            let diag_ok =
-                (0..p).all(|i| Float::abs(rr[(i, i)]) > T::default_epsilon() * T::lit(1e3));
-            if !diag_ok {
-                return false;
-            }
-            let q = qr.q();
-            for e in group {
-                let b = DVector::from_fn(rows, |row, _| {
-                    let v = self.data.h[e][row / 2] * self.data.weight(e, row / 2);
-                    if row % 2 == 0 { v.re } else { v.im }
-                });
-                let qtb = q.tr_mul(&b);
-                let res = &b - &q * &qtb;
-                r[e * rows..(e + 1) * rows].copy_from_slice(res.as_slice());
-                if let Some(sink) = sink.as_mut() {
-                    let Some(mut c) = rr.solve_upper_triangular(&qtb) else {
-                        return false;
-                    };
-                    for (j, s) in scale.iter().enumerate() {
-                        c[j] /= *s;
+        for e in 0..ne {
+            let own;
+            let proj = match &shared {
+                Some(p) => p,
+                None => {
+                    let w = self.data.w.as_ref().map(|w| w[e].as_slice());
+                    match self.projection(&poles, w) {
+                        Some(p) => {
+                            own = p;
+                            &own
+                        }
+                        None => return false,
                     }
-                    let d = basis_derivative(&self.data.x, &poles, &c.as_slice()[..self.order]);
-                    let wts = self.data.w.as_ref().map(|w| w[e].as_slice());
-                    let dw = crate::linalg::stack_rows(&d, wts);
-                    let jac = -(&dw - &q * q.tr_mul(&dw));
-                    sink(e, &res, &jac);
                 }
+            };
+            let b = self.target(e);
+            let qtb = proj.q.tr_mul(&b);
+            let res = &b - &proj.q * &qtb;
+            r[e * rows..(e + 1) * rows].copy_from_slice(res.as_slice());
+            if let Some(sink) = sink.as_mut() {
+                let Some(mut c) = proj.r.solve_upper_triangular(&qtb) else {
+                    return false;
+                };
+                for (j, s) in proj.scale.iter().enumerate() {
+                    c[j] /= *s;
+                }
+                let ce = coefficient_matrix(&poles, &c.as_slice()[..self.order]);
+                sink(e, proj, &res, &ce);
             }
         }
         r.iter().all(|v| Float::is_finite(*v))
@@ -109,12 +155,11 @@ impl<T: Real> NonlinearProblem<T> for VarPro<'_, T> {
 
     fn jacobian_into(&self, theta: &[T], r: &mut [T], jac: &mut DMatrix<T>) -> bool {
         let rows = self.rows();
-        let mut finite = true;
-        let mut sink = |e: usize, _: &DVector<T>, j: &DMatrix<T>| {
-            finite &= j.iter().all(|v| Float::is_finite(*v));
-            jac.view_mut((e * rows, 0), (rows, j.ncols())).copy_from(j);
+        let mut sink = |e: usize, p: &Projection<T>, _: &DVector<T>, ce: &DMatrix<T>| {
+            let j = -(&p.psi_perp * ce);
+            jac.view_mut((e * rows, 0), (rows, j.ncols())).copy_from(&j);
         };
-        self.evaluate(theta, r, Some(&mut sink)) && finite
+        self.evaluate(theta, r, Some(&mut sink)) && jac.iter().all(|v| Float::is_finite(*v))
     }
 
     fn normal_equations_into(
@@ -128,12 +173,24 @@ impl<T: Real> NonlinearProblem<T> for VarPro<'_, T> {
         let p = self.order;
         *gram = DMatrix::zeros(p, p);
         *grad = DVector::zeros(p);
-        let mut finite = true;
-        let mut sink = |_: usize, res: &DVector<T>, j: &DMatrix<T>| {
-            finite &= j.iter().all(|v| Float::is_finite(*v));
-            *gram += j.tr_mul(j);
-            *grad += j.tr_mul(res);
+        // Ψ⊥ᵀΨ⊥ once per projection: once in all without weights
+        let mut psi_gram: Option<DMatrix<T>> = None;
+        let shared = self.data.w.is_none();
+        let mut sink = |_: usize, proj: &Projection<T>, res: &DVector<T>, ce: &DMatrix<T>| {
+            let g = match (&psi_gram, shared) {
+                (Some(g), true) => g.clone(),
+                _ => {
+                    let g = at_b(&proj.psi_perp, &proj.psi_perp);
+                    psi_gram = Some(g.clone());
+                    g
+                }
+            };
+            *gram += ce.tr_mul(&(&g * ce));
+            // Jᵀr = −C_eᵀΨ⊥ᵀr_e = −C_eᵀΨᵀr_e (r_e is orthogonal to the range of Q)
+            *grad -= ce.tr_mul(&proj.psi.tr_mul(res));
         };
-        self.evaluate(theta, r, Some(&mut sink)) && finite
+        self.evaluate(theta, r, Some(&mut sink))
+            && gram.iter().all(|v| Float::is_finite(*v))
+            && grad.iter().all(|v| Float::is_finite(*v))
     }
 }

@@ -140,7 +140,7 @@ fn matrix_shape(names: &[String]) -> std::result::Result<(usize, usize, bool), S
     }
     let ny = cells.iter().map(|c| c.1).max().unwrap_or(0);
     let nu = cells.iter().map(|c| c.2).max().unwrap_or(0);
-    let has = |part: &str, i: usize, j: usize| cells.iter().any(|c| *c == (part, i, j));
+    let has = |part: &'static str, i: usize, j: usize| cells.contains(&(part, i, j));
     let with_var = cells.iter().any(|c| c.0 == "var");
     for j in 1..=nu {
         for i in 1..=ny {
