@@ -40,6 +40,21 @@ pub(crate) fn check_shape<T: Real>(a: &DMatrix<T>, what: &'static str) -> Result
     Ok(())
 }
 
+/// Divides every nonzero column of `a` by its norm and returns the norms (1 for a zero
+/// column): the column equilibration before a QR, whose solution in the scaled columns is
+/// divided by them.
+pub(crate) fn equilibrate_columns<T: Real>(a: &mut DMatrix<T>) -> Vec<T> {
+    let mut scale = vec![T::one(); a.ncols()];
+    for (j, s) in scale.iter_mut().enumerate() {
+        let n = a.column(j).norm();
+        if n > T::zero() {
+            *s = n;
+            a.column_mut(j).unscale_mut(n);
+        }
+    }
+    scale
+}
+
 /// Solves min ‖Aθ − b‖² (see [`crate::solver::LinearLeastSquares`]); returns θ and the residual norm².
 ///
 /// # Errors
@@ -51,15 +66,7 @@ pub fn least_squares<T: Real>(
 ) -> Result<(DVector<T>, T)> {
     check_shape(&a, "least squares")?;
     let p = a.ncols();
-    // equilibrate columns
-    let mut scale = vec![T::one(); p];
-    for (j, s) in scale.iter_mut().enumerate() {
-        let n = a.column(j).norm();
-        if n > T::zero() {
-            *s = n;
-            a.column_mut(j).unscale_mut(n);
-        }
-    }
+    let scale = equilibrate_columns(&mut a);
     let a_copy_norm = b.norm_squared();
     let qr = a.qr();
     qr.q_tr_mul(&mut b);

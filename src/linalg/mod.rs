@@ -7,7 +7,7 @@ pub(crate) mod householder;
 mod lstsq;
 
 pub use lstsq::least_squares;
-pub(crate) use lstsq::{check_shape, svd_of_r};
+pub(crate) use lstsq::{check_shape, equilibrate_columns, svd_of_r};
 
 use crate::scalar::{Complex, Real};
 use nalgebra::{DMatrix, DVector};

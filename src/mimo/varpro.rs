@@ -58,15 +58,10 @@ impl<T: Real> VarPro<'_, T> {
     fn projection(&self, poles: &PoleSet<T>, w: Option<&[T]>) -> Option<Projection<T>> {
         let mut a = crate::linalg::stack_rows(&self.data.regressor(poles), w);
         let p = a.ncols();
-        let mut scale = vec![T::one(); p];
-        for (j, s) in scale.iter_mut().enumerate() {
-            let n = a.column(j).norm();
-            if !(n > T::zero()) {
-                return None;
-            }
-            *s = n;
-            a.column_mut(j).unscale_mut(n);
+        if (0..p).any(|j| !(a.column(j).norm() > T::zero())) {
+            return None;
         }
+        let scale = crate::linalg::equilibrate_columns(&mut a);
         let qr = a.qr();
         let r = qr.r();
         if !(0..p).all(|i| Float::abs(r[(i, i)]) > T::default_epsilon() * T::lit(1e3)) {

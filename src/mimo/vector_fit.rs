@@ -285,14 +285,7 @@ pub(crate) fn shared_least_squares<T: Real>(
             parameters: p,
         });
     }
-    let mut scale = vec![T::one(); p];
-    for (j, s) in scale.iter_mut().enumerate() {
-        let n = a.column(j).norm();
-        if n > T::zero() {
-            *s = n;
-            a.column_mut(j).unscale_mut(n);
-        }
-    }
+    let scale = crate::linalg::equilibrate_columns(&mut a);
     let qr = a.qr();
     let mut qtb = b;
     qr.q_tr_mul(&mut qtb);

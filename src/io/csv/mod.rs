@@ -239,16 +239,7 @@ impl Table {
 
     /// A frequency response matrix: entry (i, j) from `re_ij`, `im_ij` (and `var_ij`).
     fn frf_matrix<T: Real>(&self, name: &str) -> Result<Measurement<T>> {
-        let f = self.required("f");
-        if f.is_empty() {
-            return Err(FdidError::TooShort {
-                what: "data rows",
-                needed: 1,
-                got: 0,
-            });
-        }
-        check_frequencies(f, &self.lines).map_err(|(line, m)| parse_error(name, line, m))?;
-        let omega = self.omega::<T>(f, name)?;
+        let omega = self.frequencies::<T>(name)?;
         let (ny, nu, with_var) = self.layout.matrix.unwrap_or((1, 1, false));
         let column = |part: &str, i: usize, j: usize| -> &[f64] {
             let index = self
@@ -290,6 +281,19 @@ impl Table {
 
     /// Frequency data: an FRF or spectra, with their variances if given.
     fn frequency_data<T: Real>(&self, name: &str) -> Result<Measurement<T>> {
+        let omega = self.frequencies::<T>(name)?;
+        self.check_variances(name)?;
+        let data = if self.layout.kind == Kind::Frf {
+            self.frf(omega)?
+        } else {
+            self.spectra(omega)?
+        };
+        Ok(Measurement::Frequency(data))
+    }
+
+    /// The angular frequencies of the `f` column: at least one row, non-negative and
+    /// strictly increasing.
+    fn frequencies<T: Real>(&self, name: &str) -> Result<Vec<T>> {
         let f = self.required("f");
         if f.is_empty() {
             return Err(FdidError::TooShort {
@@ -299,14 +303,7 @@ impl Table {
             });
         }
         check_frequencies(f, &self.lines).map_err(|(line, m)| parse_error(name, line, m))?;
-        let omega = self.omega::<T>(f, name)?;
-        self.check_variances(name)?;
-        let data = if self.layout.kind == Kind::Frf {
-            self.frf(omega)?
-        } else {
-            self.spectra(omega)?
-        };
-        Ok(Measurement::Frequency(data))
+        self.omega::<T>(f, name)
     }
 
     /// `ω = 2πf` in `T` of the frequencies `f` (Hz).
