@@ -9,7 +9,7 @@
 //! 1. **Pole relocation** (Sanathanan–Koerner as vector fitting, McKelvey eq. 41):
 //!    relaxed vector fitting with the fast block solution — one QR per entry, then one
 //!    small least squares for the shared denominator — so the cost grows linearly with
-//!    the number of entries ([`vector_fit`]).
+//!    the number of entries.
 //! 2. **Maximum likelihood** (McKelvey eq. 23, output error, weighted by the entries'
 //!    variances): Levenberg–Marquardt over the poles alone with the residues eliminated
 //!    by variable projection, with the poles' asymptotic covariance (eq. 32).
