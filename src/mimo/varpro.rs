@@ -172,15 +172,11 @@ impl<T: Real> NonlinearProblem<T> for VarPro<'_, T> {
         let mut psi_gram: Option<DMatrix<T>> = None;
         let shared = self.data.w.is_none();
         let mut sink = |_: usize, proj: &Projection<T>, res: &DVector<T>, ce: &DMatrix<T>| {
-            let g = match (&psi_gram, shared) {
-                (Some(g), true) => g.clone(),
-                _ => {
-                    let g = at_b(&proj.psi_perp, &proj.psi_perp);
-                    psi_gram = Some(g.clone());
-                    g
-                }
-            };
-            *gram += ce.tr_mul(&(&g * ce));
+            if !shared || psi_gram.is_none() {
+                psi_gram = Some(at_b(&proj.psi_perp, &proj.psi_perp));
+            }
+            let Some(g) = psi_gram.as_ref() else { return };
+            *gram += ce.tr_mul(&(g * ce));
             // Jᵀr = −C_eᵀΨ⊥ᵀr_e = −C_eᵀΨᵀr_e (r_e is orthogonal to the range of Q)
             *grad -= ce.tr_mul(&proj.psi.tr_mul(res));
         };
