@@ -348,8 +348,10 @@ pub struct CommonArgs {
     pub realisations: Option<usize>,
 
     /// Raw tables of several channels (a benchmark CSV with a header, a whitespace-separated
-    /// file without one): the input column, by header name or 1-based index
-    #[arg(long, value_name = "NAME|INDEX")]
+    /// file without one): the input column, by header name or 1-based index; for `fit`, a
+    /// comma-separated list (`u1,u2`) reads a record in which the inputs act together and
+    /// fits every --output on every input with common poles (add --transient)
+    #[arg(long, value_name = "NAME|INDEX[,...]")]
     pub input: Option<String>,
 
     /// Raw tables of several channels: the output column, by header name or 1-based index;

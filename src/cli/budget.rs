@@ -92,20 +92,16 @@ fn refuse(what: &str, seconds: f64) -> Result<(), Failure> {
 /// `bench/multiport.py` (64 entries, 5 000 lines, 40 poles: 7.3·10¹⁰ units in 22 s).
 const COMMON_POLE_WORK_PER_SECOND: f64 = 3.3e9;
 
-/// A common-pole fit of every entry of `data`, within the work budget of [`MAX_SECONDS`]
-/// unless `allow_long`, with a note when the budget stopped its iterations.
+/// A common-pole fit (`fit`, of an FRF matrix or of a record's spectra), within the work
+/// budget of [`MAX_SECONDS`] unless `allow_long`, with a note when the budget stopped its
+/// iterations.
 pub(super) fn fit_common_poles(
-    data: &fdid::data::FrfMatrix<f64>,
-    order: usize,
-    options: &fdid::mimo::CommonPoleOptions<f64>,
     allow_long: bool,
+    fit: impl FnOnce() -> fdid::Result<fdid::mimo::CommonPoleFit<f64>>,
 ) -> Result<(fdid::mimo::CommonPoleFit<f64>, Option<&'static str>), Failure> {
     if allow_long {
-        return Ok((fdid::mimo::fit_common_poles(data, order, options)?, None));
+        return Ok((fit()?, None));
     }
-    let (fit, stopped) =
-        fdid::solver::work::within(MAX_SECONDS * COMMON_POLE_WORK_PER_SECOND, || {
-            fdid::mimo::fit_common_poles(data, order, options)
-        });
+    let (fit, stopped) = fdid::solver::work::within(MAX_SECONDS * COMMON_POLE_WORK_PER_SECOND, fit);
     Ok((fit?, stopped.then_some(STOPPED_NOTE)))
 }

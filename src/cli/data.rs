@@ -8,8 +8,8 @@ use fdid::data::{
     RealisationBla, UNEXCITED_NEIGHBOURS,
 };
 use fdid::io::{
-    ChannelSelection, Column, Measurement, TouchstoneVersion, is_frf_matrix_csv, is_touchstone,
-    read_channels, read_csv, read_touchstone,
+    ChannelSelection, Column, Measurement, MultiChannelSelection, TouchstoneVersion,
+    is_frf_matrix_csv, is_touchstone, read_channels, read_csv, read_multichannel, read_touchstone,
 };
 use fdid::prelude::*;
 use std::result::Result;
@@ -191,15 +191,11 @@ fn normalise_extremes(
 /// read without `--port`, or the outputs of a table of channels that `--output` lists
 /// (each output's FRF prepared as [`prepare`] prepares one); `None` for one entry.
 pub(super) fn read_entries(args: &CommonArgs) -> Result<Option<super::mimo::Entries>, Failure> {
+    if let Some(list) = args.input.as_deref().filter(|i| i.contains(',')) {
+        return input_spectra(args, list).map(Some);
+    }
     if let Some(list) = args.output.as_deref().filter(|o| o.contains(',')) {
         return output_entries(args, list).map(Some);
-    }
-    if let Some(list) = args.input.as_deref().filter(|i| i.contains(',')) {
-        return Err(Failure::usage(format!(
-            "--input {list}: several inputs measured in one record are not read yet (a \
-             frequency response matrix needs one experiment per input); give one input \
-             and list the outputs"
-        )));
     }
     if args.port.is_some() || args.input.is_some() || args.output.is_some() {
         return Ok(None);
@@ -207,7 +203,7 @@ pub(super) fn read_entries(args: &CommonArgs) -> Result<Option<super::mimo::Entr
     if is_frf_matrix_csv(&args.data) {
         return match read_csv::<f64>(&args.data).map_err(|e| name_file(args, e))? {
             Measurement::Matrix(matrix) if matrix.ny() * matrix.nu() > 1 => {
-                Ok(Some(super::mimo::Entries {
+                Ok(Some(super::mimo::Entries::Matrix {
                     matrix,
                     parameter: None,
                 }))
@@ -222,7 +218,7 @@ pub(super) fn read_entries(args: &CommonArgs) -> Result<Option<super::mimo::Entr
     if file.ports < 2 {
         return Ok(None);
     }
-    Ok(Some(super::mimo::Entries {
+    Ok(Some(super::mimo::Entries::Matrix {
         matrix: file.frf_matrix::<f64>()?,
         parameter: Some(file.parameter),
     }))
@@ -231,13 +227,7 @@ pub(super) fn read_entries(args: &CommonArgs) -> Result<Option<super::mimo::Entr
 /// The outputs of `list` (comma-separated) of a table of channels as one column of FRFs,
 /// each prepared alone with the same options; they must share their lines.
 fn output_entries(args: &CommonArgs, list: &str) -> Result<super::mimo::Entries, Failure> {
-    let names: Vec<&str> = list.split(',').map(str::trim).collect();
-    if let Some(empty) = names.iter().position(|n| n.is_empty()) {
-        return Err(Failure::usage(format!(
-            "--output {list}: output {} of the list is empty",
-            empty + 1
-        )));
-    }
+    let names = column_list("--output", list)?;
     let mut data = Vec::with_capacity(names.len());
     for name in &names {
         let mut one = args.clone();
@@ -258,10 +248,70 @@ fn output_entries(args: &CommonArgs, list: &str) -> Result<super::mimo::Entries,
             "--output {list}: the outputs' FRFs are not on the same lines ({e})"
         ))
     })?;
-    Ok(super::mimo::Entries {
+    Ok(super::mimo::Entries::Matrix {
         matrix,
         parameter: None,
     })
+}
+
+/// The column names of a comma-separated list, refusing an empty name.
+fn column_list<'a>(flag: &str, list: &'a str) -> Result<Vec<&'a str>, Failure> {
+    let names: Vec<&str> = list.split(',').map(str::trim).collect();
+    if let Some(empty) = names.iter().position(|n| n.is_empty()) {
+        return Err(Failure::usage(format!(
+            "{flag} {list}: entry {} of the list is empty",
+            empty + 1
+        )));
+    }
+    Ok(names)
+}
+
+/// The spectra of a table's input columns `list` (comma-separated) and its `--output`
+/// columns (one or a list), all read as one record whose inputs act together: the DFT of
+/// the whole record without the DC line (a record's offsets), for a common-pole fit of
+/// every output on every input.
+fn input_spectra(args: &CommonArgs, list: &str) -> Result<super::mimo::Entries, Failure> {
+    let Some(outputs) = args.output.as_deref() else {
+        return Err(Failure::usage(format!(
+            "--input {list} needs --output: name the output columns (one or a comma-separated \
+             list)"
+        )));
+    };
+    if is_touchstone(&args.data) || args.port.is_some() {
+        return Err(Failure::usage(format!(
+            "--input {list} selects columns of a table of channels, not a Touchstone file or \
+             an entry (--port)"
+        )));
+    }
+    let refused = [
+        (args.periods.is_some(), "--periods"),
+        (args.realisations.is_some(), "--realisations"),
+        (args.skip_periods > 0, "--skip-periods"),
+    ];
+    if let Some((_, flag)) = refused.iter().find(|(on, _)| *on) {
+        return Err(Failure::usage(format!(
+            "{flag} is not available with several inputs in one record (--input {list}): the \
+             record is fitted as one non-periodic record (add --transient)"
+        )));
+    }
+    let selection = MultiChannelSelection {
+        inputs: column_list("--input", list)?
+            .into_iter()
+            .map(Column::parse)
+            .collect(),
+        outputs: column_list("--output", outputs)?
+            .into_iter()
+            .map(Column::parse)
+            .collect(),
+        ts: args.ts,
+    };
+    let spectra = read_multichannel::<f64>(&args.data, &selection).map_err(|e| match e {
+        FdidError::Parse { .. } | FdidError::Io(_) => Failure::from(e),
+        e => Failure::runtime(format!("{}: {e}", args.data.display())),
+    })?;
+    let keep: Vec<bool> = spectra.omega().iter().map(|w| *w > 0.0).collect();
+    let spectra = spectra.select_lines(&keep).map_err(Failure::from)?;
+    Ok(super::mimo::Entries::Spectra(spectra))
 }
 
 /// Reads the data file: a Touchstone file (by extension) as the entry `--port` picks,
@@ -296,8 +346,9 @@ fn read(args: &CommonArgs) -> Result<(Measurement<f64>, Option<String>, bool), F
         .find(|c| c.contains(','))
     {
         return Err(Failure::usage(format!(
-            "the column list `{list}` selects several channels: only `fdid fit --output` \
-             takes a list (every output fitted with common poles); pick one column here"
+            "the column list `{list}` selects several channels: only `fdid fit` takes lists \
+             (--output A,B: every output fitted with common poles; --input U1,U2 --output \
+             Y1,Y2: a record with several inputs); pick one column here"
         )));
     }
     match (&args.input, &args.output) {

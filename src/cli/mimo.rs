@@ -3,7 +3,7 @@
 
 use super::args::{CriterionArg, DomainArg, FitArgs, parse_band};
 use super::{Failure, budget};
-use fdid::data::FrfMatrix;
+use fdid::data::{FrfMatrix, MimoSpectra};
 use fdid::io::NetworkParameter;
 use fdid::mimo::{CommonPoleFit, CommonPoleOptions, MlOutcome, passivity};
 use fdid::prelude::*;
@@ -14,36 +14,65 @@ use std::result::Result;
 /// Grid points of the passivity check of scattering data.
 const PASSIVITY_POINTS: usize = 4000;
 
-/// A multi-entry data set: the matrix, and the network parameter for Touchstone data.
-pub(super) struct Entries {
-    pub matrix: FrfMatrix<f64>,
-    pub parameter: Option<NetworkParameter>,
+/// A multi-entry data set: an FRF matrix (with the network parameter of Touchstone
+/// data), or the spectra of a record with several inputs.
+pub(super) enum Entries {
+    /// One FRF per entry.
+    Matrix {
+        matrix: FrfMatrix<f64>,
+        parameter: Option<NetworkParameter>,
+    },
+    /// The DFT of a record whose inputs act together.
+    Spectra(MimoSpectra<f64>),
 }
 
 /// Fits the common-pole model the flags name to every entry and reports it.
 pub(super) fn fit(args: &FitArgs, entries: Entries) -> Result<String, Failure> {
     let c = &args.common;
-    check_flags(args)?;
-    let mut matrix = entries.matrix;
-    if let Some(band) = &c.band {
-        let (lo, hi) = parse_band(band).map_err(Failure::usage)?;
-        matrix = matrix
-            .band_hz(lo.unwrap_or(0.0), hi.unwrap_or(f64::INFINITY))
-            .map_err(Failure::from)?;
-    }
-    let domain = super::domain(c.domain, c.ts.or(matrix.ts()))?;
-    let options = CommonPoleOptions {
-        domain,
-        direct: c.nb == c.na,
-        stable: args.stable,
-        ..CommonPoleOptions::default()
+    let spectra = matches!(entries, Entries::Spectra(_));
+    check_flags(args, spectra)?;
+    let band = c
+        .band
+        .as_deref()
+        .map(parse_band)
+        .transpose()
+        .map_err(Failure::usage)?
+        .map(|(lo, hi)| (lo.unwrap_or(0.0), hi.unwrap_or(f64::INFINITY)));
+    let options = |ts: Option<f64>| -> Result<CommonPoleOptions<f64>, Failure> {
+        Ok(CommonPoleOptions {
+            domain: super::domain(c.domain, c.ts.or(ts))?,
+            direct: c.nb == c.na,
+            stable: args.stable,
+            transient: c.transient,
+            ..CommonPoleOptions::default()
+        })
     };
-    let (fit, stopped) = budget::fit_common_poles(&matrix, c.na, &options, args.allow_long)?;
+    let (data, parameter) = match entries {
+        Entries::Matrix { matrix, parameter } => {
+            let matrix = match band {
+                Some((lo, hi)) => matrix.band_hz(lo, hi).map_err(Failure::from)?,
+                None => matrix,
+            };
+            (Fitted::Matrix(matrix), parameter)
+        }
+        Entries::Spectra(spectra) => {
+            let spectra = match band {
+                Some((lo, hi)) => spectra.band_hz(lo, hi).map_err(Failure::from)?,
+                None => spectra,
+            };
+            (Fitted::Spectra(spectra), None)
+        }
+    };
+    let options = options(data.ts())?;
+    let (fit, stopped) = budget::fit_common_poles(args.allow_long, || match &data {
+        Fitted::Matrix(m) => fdid::mimo::fit_common_poles(m, c.na, &options),
+        Fitted::Spectra(s) => fdid::mimo::fit_common_poles_spectra(s, c.na, &options),
+    })?;
     let report = Report {
         file: c.data.display().to_string(),
-        matrix: &matrix,
+        data: &data,
         fit: &fit,
-        parameter: entries.parameter,
+        parameter,
         stopped,
     };
     Ok(if args.json {
@@ -53,13 +82,39 @@ pub(super) fn fit(args: &FitArgs, entries: Entries) -> Result<String, Failure> {
     })
 }
 
+/// The data a common-pole model was fitted to.
+enum Fitted {
+    Matrix(FrfMatrix<f64>),
+    Spectra(MimoSpectra<f64>),
+}
+
+impl Fitted {
+    fn omega(&self) -> &[f64] {
+        match self {
+            Self::Matrix(m) => m.omega(),
+            Self::Spectra(s) => s.omega(),
+        }
+    }
+
+    fn ts(&self) -> Option<f64> {
+        match self {
+            Self::Matrix(m) => m.ts(),
+            Self::Spectra(s) => s.ts(),
+        }
+    }
+}
+
 /// The flags a common-pole fit does not take, each refused with what to do instead.
-fn check_flags(args: &FitArgs) -> Result<(), Failure> {
+fn check_flags(args: &FitArgs, spectra: bool) -> Result<(), Failure> {
     let c = &args.common;
-    let one_entry = "pick one entry with --port IJ for it";
+    let one_entry = if spectra {
+        "select one input and one output for it"
+    } else {
+        "pick one entry with --port IJ for it"
+    };
     let refused = [
         (c.delay, "--delay"),
-        (c.transient, "--transient"),
+        (c.transient && !spectra, "--transient"),
         (args.noise_order.is_some(), "--noise-order"),
         (
             args.criterion != CriterionArg::Ml,
@@ -83,7 +138,7 @@ fn check_flags(args: &FitArgs) -> Result<(), Failure> {
             c.na
         )));
     }
-    if c.domain == DomainArg::Z && c.ts.is_none() {
+    if c.domain == DomainArg::Z && c.ts.is_none() && !spectra {
         return Err(Failure::usage(
             "--domain z needs a sample time: pass --ts SECONDS".into(),
         ));
@@ -93,13 +148,13 @@ fn check_flags(args: &FitArgs) -> Result<(), Failure> {
 
 struct Report<'a> {
     file: String,
-    matrix: &'a FrfMatrix<f64>,
+    data: &'a Fitted,
     fit: &'a CommonPoleFit<f64>,
     parameter: Option<NetworkParameter>,
     stopped: Option<&'static str>,
 }
 
-/// Per entry: (output, input) 1-based, RMS error and RMS of the data.
+/// Per entry of an FRF matrix: (output, input) 1-based, RMS error and RMS of the data.
 fn entry_errors(
     matrix: &FrfMatrix<f64>,
     fit: &CommonPoleFit<f64>,
@@ -122,6 +177,28 @@ fn entry_errors(
             (i + 1, j + 1, (err / n).sqrt(), (size / n).sqrt())
         })
         .collect()
+}
+
+/// Per output of a record's spectra: output 1-based, RMS error of Y − Ŷ (Ŷ with the
+/// transient) and RMS of Y over the lines, from the fit's per-output costs.
+fn output_errors(spectra: &MimoSpectra<f64>, fit: &CommonPoleFit<f64>) -> Vec<(usize, f64, f64)> {
+    let n = spectra.len() as f64;
+    fit.costs
+        .iter()
+        .enumerate()
+        .map(|(i, cost)| {
+            let size = spectra.y(i).iter().map(|y| y.norm_sqr()).sum::<f64>();
+            (i + 1, (cost / n).sqrt(), (size / n).sqrt())
+        })
+        .collect()
+}
+
+/// The RMS error over every entry and line (FRF matrix) or output and line (spectra).
+fn rms_error(data: &Fitted, fit: &CommonPoleFit<f64>) -> f64 {
+    match data {
+        Fitted::Matrix(m) => fit.rms(m),
+        Fitted::Spectra(s) => (fit.cost / (s.len() * s.ny()) as f64).sqrt(),
+    }
 }
 
 fn ml_text(ml: MlOutcome) -> &'static str {
@@ -154,7 +231,7 @@ impl Report<'_> {
     fn passivity(&self) -> Option<fdid::mimo::Passivity<f64>> {
         (self.parameter == Some(NetworkParameter::S)).then(|| {
             let f_max =
-                self.matrix.omega().iter().copied().fold(0.0, f64::max) / std::f64::consts::TAU;
+                self.data.omega().iter().copied().fold(0.0, f64::max) / std::f64::consts::TAU;
             passivity(&self.fit.model, f_max, PASSIVITY_POINTS)
         })
     }
@@ -198,7 +275,7 @@ impl Report<'_> {
             } else {
                 "unweighted"
             },
-            fit.rms(self.matrix)
+            rms_error(self.data, fit)
         );
         let modes = model.modes().map_err(Failure::from)?;
         let std = fit.mode_std();
@@ -225,9 +302,26 @@ impl Report<'_> {
             let shape: Vec<String> = m.shape.iter().map(|u| format!("{:.3}", u.norm())).collect();
             let _ = writeln!(w, "  {f}   [{}]", shape.join(", "));
         }
-        let _ = writeln!(w, "entries      output input  rms error      rms of data");
-        for (i, j, err, size) in entry_errors(self.matrix, fit) {
-            let _ = writeln!(w, "  {i:>6} {j:>5}  {err:.6e}   {size:.6e}");
+        match self.data {
+            Fitted::Matrix(m) => {
+                let _ = writeln!(w, "entries      output input  rms error      rms of data");
+                for (i, j, err, size) in entry_errors(m, fit) {
+                    let _ = writeln!(w, "  {i:>6} {j:>5}  {err:.6e}   {size:.6e}");
+                }
+            }
+            Fitted::Spectra(s) => {
+                let _ = writeln!(
+                    w,
+                    "outputs      output  rms error      rms of data    explained (1 - error/data)"
+                );
+                for (i, err, size) in output_errors(s, fit) {
+                    let _ = writeln!(
+                        w,
+                        "  {i:>6}  {err:.6e}   {size:.6e}   {:.1} %",
+                        100.0 * (1.0 - err / size)
+                    );
+                }
+            }
         }
         let _ = writeln!(
             w,
@@ -268,28 +362,49 @@ impl Report<'_> {
         let model = &fit.model;
         let modes = model.modes().map_err(Failure::from)?;
         let ss = model.state_space();
-        let g = model.response(self.matrix.omega());
-        let f_hz = self
-            .matrix
+        let g = model.response(self.data.omega());
+        let f_hz: Vec<f64> = self
+            .data
             .omega()
             .iter()
-            .map(|w| w / std::f64::consts::TAU);
-        let f_hz: Vec<f64> = f_hz.collect();
-        let errors = entry_errors(self.matrix, fit);
-        let entries: Vec<Value> = errors
-            .iter()
-            .map(|(i, j, err, size)| {
-                let frf: Vec<Value> = f_hz
-                    .iter()
-                    .zip(&g)
-                    .map(|(f, m)| {
-                        let v = m[(i - 1, j - 1)];
-                        json!([f, v.re, v.im])
-                    })
-                    .collect();
-                json!({"output": i, "input": j, "rms_error": err, "rms_data": size, "frf": frf})
-            })
+            .map(|w| w / std::f64::consts::TAU)
             .collect();
+        let frf = |i: usize, j: usize| -> Vec<Value> {
+            f_hz.iter()
+                .zip(&g)
+                .map(|(f, m)| {
+                    let v = m[(i - 1, j - 1)];
+                    json!([f, v.re, v.im])
+                })
+                .collect()
+        };
+        let (entries, output_errors_json): (Vec<Value>, Value) = match self.data {
+            Fitted::Matrix(m) => (
+                entry_errors(m, fit)
+                    .iter()
+                    .map(|(i, j, err, size)| {
+                        json!({"output": i, "input": j, "rms_error": err, "rms_data": size,
+                               "frf": frf(*i, *j)})
+                    })
+                    .collect(),
+                Value::Null,
+            ),
+            Fitted::Spectra(s) => (
+                (1..=s.nu())
+                    .flat_map(|j| (1..=s.ny()).map(move |i| (i, j)))
+                    .map(|(i, j)| json!({"output": i, "input": j, "frf": frf(i, j)}))
+                    .collect(),
+                Value::Array(
+                    output_errors(s, fit)
+                        .iter()
+                        .map(|(i, err, size)| {
+                            json!({"output": i, "rms_error": err, "rms_data": size,
+                                   "explained": 1.0 - err / size})
+                        })
+                        .collect(),
+                ),
+            ),
+        };
         let residues: Vec<Value> = model
             .residues
             .iter()
@@ -355,11 +470,12 @@ impl Report<'_> {
             },
             "cost": fit.cost,
             "weighted": fit.weighted,
-            "rms_error": fit.rms(self.matrix),
+            "rms_error": rms_error(self.data, fit),
             "relocations": fit.relocations,
             "ml": ml_text(fit.ml),
             "passivity": passivity,
             "entries": entries,
+            "output_errors": output_errors_json,
             "notes": self.stopped.map(|n| vec![n]).unwrap_or_default(),
         });
         serde_json::to_string_pretty(&v)

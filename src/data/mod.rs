@@ -11,6 +11,7 @@ mod matrix;
 mod merge;
 mod normalise;
 mod periodic;
+mod spectra;
 mod time;
 mod weighting;
 
@@ -31,6 +32,7 @@ pub use merge::merge;
 pub use normalise::Normalisation;
 pub(crate) use normalise::power_of_two_factor;
 pub use periodic::PeriodicAverage;
+pub use spectra::MimoSpectra;
 pub(crate) use time::check_ts;
 pub use time::{TimeData, dft_lines};
 pub use weighting::NoiseWeighting;

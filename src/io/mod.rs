@@ -3,7 +3,8 @@
 //! A CSV file holds one [`Measurement`]: frequency-domain data (an FRF or input/output
 //! spectra) or a uniformly sampled time record. See [`parse_csv`] for the format. A raw
 //! table of several channels (a benchmark file, a DaISy `.dat` file) gives a time record
-//! of one input and one output column: [`read_channels`]. A
+//! of one input and one output column: [`read_channels`]; several input and output
+//! columns of one record give their spectra: [`read_multichannel`]. A
 //! Touchstone `.sNp` (version 1 or 2.0) or `.ts` (version 2.0) file holds the
 //! network parameters of an n-port; see [`parse_touchstone`],
 //! [`Touchstone::frequency_data`] for one entry as an FRF and [`Touchstone::frf_matrix`]
@@ -19,7 +20,8 @@ pub use self::lines::{MAX_LINE_BYTES, printable};
 pub const MAX_PORTS: usize = 64;
 
 pub use self::csv::{
-    ChannelSelection, Column, is_frf_matrix_csv, parse_channels, parse_csv, read_channels, read_csv,
+    ChannelSelection, Column, MultiChannelSelection, is_frf_matrix_csv, parse_channels, parse_csv,
+    parse_multichannel, read_channels, read_csv, read_multichannel,
 };
 pub use self::touchstone::{
     NetworkParameter, NumberFormat, Touchstone, TouchstoneVersion, is_touchstone, parse_touchstone,

@@ -46,7 +46,7 @@ pub use passivity::{PASSIVITY_TOLERANCE, Passivity, passivity};
 pub use poles::PoleSet;
 pub use state_space::StateSpace;
 
-use crate::data::FrfMatrix;
+use crate::data::{FrfMatrix, MimoSpectra};
 use crate::error::{FdidError, Result};
 use crate::model::Domain;
 use crate::scalar::Real;
@@ -64,6 +64,7 @@ use vector_fit::{Weighted, model_of, relocation_loop};
 /// | `stable` | false | reflect unstable poles at every relocation and keep the ML step only when it stays stable |
 /// | `relocations` | 30 | cap on the pole relocations |
 /// | `ml` | true | refine by maximum likelihood (variable projection) |
+/// | `transient` | true | estimate the transient of a finite record ([`fit_common_poles_spectra`] only: an FRF matrix has none) |
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct CommonPoleOptions<T: Real> {
     /// s or z.
@@ -76,6 +77,8 @@ pub struct CommonPoleOptions<T: Real> {
     pub relocations: usize,
     /// Refine the relocated poles by maximum likelihood.
     pub ml: bool,
+    /// Estimate the transient term of a finite record (spectra only).
+    pub transient: bool,
 }
 
 impl<T: Real> Default for CommonPoleOptions<T> {
@@ -86,6 +89,7 @@ impl<T: Real> Default for CommonPoleOptions<T> {
             stable: false,
             relocations: 30,
             ml: true,
+            transient: true,
         }
     }
 }
@@ -95,8 +99,12 @@ impl<T: Real> Default for CommonPoleOptions<T> {
 pub struct CommonPoleFit<T: Real> {
     /// The fitted model.
     pub model: CommonPoleModel<T>,
-    /// The weighted cost Σ_e Σ_k w²_e,k |G_e,k − Ĝ_e,k|² of the model.
+    /// The weighted cost Σ_e Σ_k w²_e,k |G_e,k − Ĝ_e,k|² of the model (for spectra
+    /// Σ_i Σ_k |Y_i,k − Ŷ_i,k|², Ŷ with the transient).
     pub cost: T,
+    /// Each fitted block's part of the cost: per entry (column by column) for an FRF
+    /// matrix, per output for spectra.
+    pub costs: Vec<T>,
     /// The cost after pole relocation, before maximum likelihood.
     pub relocation_cost: T,
     /// Relocations made.
@@ -111,7 +119,7 @@ pub struct CommonPoleFit<T: Real> {
     pub pole_covariance: Option<DMatrix<T>>,
     /// Lines and entries fitted.
     pub lines: usize,
-    /// Entries fitted (ny·nu).
+    /// Entries of the model (ny·nu).
     pub entries: usize,
     /// True when the entries' variances weighted the fit.
     pub weighted: bool,
@@ -196,6 +204,67 @@ pub fn fit_common_poles<T: Real>(
     order: usize,
     options: &CommonPoleOptions<T>,
 ) -> Result<CommonPoleFit<T>> {
+    check_order_and_grid(data.omega(), order, options)?;
+    let weighted = Weighted::new(data, options.domain, options.direct)?;
+    fit_weighted(&weighted, order, options)
+}
+
+/// Fits a common-pole model of `order` poles to the spectra of a record with several
+/// inputs and outputs: every output explained by every input through the same poles,
+///
+/// ```text
+/// Y_i(ω_k) = Σ_j G_ij(x_k) U_j(ω_k) + T_i(x_k) + V_i(ω_k),
+/// G_ij(x) = Σ_m R_m,ij/(x − p_m) (+ D_ij),   T_i(x) = Σ_m t_m,i x_T/(x − p_m),
+/// ```
+///
+/// (McKelvey eq. 4 per output, with the transient T of the finite record, x_T = z in z
+/// and 1 in s, when `options.transient`), by pole relocation on Y_i σ ≈ Σ_j N_ij U_j + T_i
+/// (eq. 41) and output-error maximum likelihood (eq. 23) with the residues and
+/// transients eliminated by variable projection. The inputs need not be separated by
+/// experiment: this is how a record in which several actuators act at once (the CD
+/// player arm) is identified without a frequency response matrix. The outputs are
+/// weighted equally (no noise variances: scale the outputs to comparable noise first).
+///
+/// ```
+/// use fdid::data::MimoSpectra;
+/// use fdid::mimo::{CommonPoleOptions, fit_common_poles_spectra};
+/// use fdid::prelude::*;
+///
+/// // y(t) = 0.8 y(t−1) + u1(t−1) − 0.5 u2(t−1): one pole at 0.8 shared by both inputs
+/// let n = 256;
+/// let u1: Vec<f64> = (0..n).map(|t| ((t * 7919 % 101) as f64 / 50.0) - 1.0).collect();
+/// let u2: Vec<f64> = (0..n).map(|t| ((t * 104729 % 97) as f64 / 48.0) - 1.0).collect();
+/// let mut y = vec![0.0; n];
+/// for t in 1..n {
+///     y[t] = 0.8 * y[t - 1] + u1[t - 1] - 0.5 * u2[t - 1];
+/// }
+/// let data = MimoSpectra::from_time(vec![u1, u2], vec![y], 1.0).unwrap();
+/// let options = CommonPoleOptions { domain: Domain::Discrete { ts: 1.0 }, ..Default::default() };
+/// let fit = fit_common_poles_spectra(&data, 1, &options).unwrap();
+/// assert!((fit.model.poles.real[0] - 0.8).abs() < 1e-9);
+/// let r = &fit.model.residues[0];
+/// assert!((r[(0, 0)].re - 1.0).abs() < 1e-8 && (r[(0, 1)].re + 0.5).abs() < 1e-8);
+/// ```
+///
+/// # Errors
+/// As [`fit_common_poles`], with too few lines counted against every block's linear
+/// parameters (2L ≥ nu(n + D) + n + n + 1 with a transient).
+pub fn fit_common_poles_spectra<T: Real>(
+    data: &MimoSpectra<T>,
+    order: usize,
+    options: &CommonPoleOptions<T>,
+) -> Result<CommonPoleFit<T>> {
+    check_order_and_grid(data.omega(), order, options)?;
+    let weighted = Weighted::from_spectra(data, options.domain, options.direct, options.transient)?;
+    fit_weighted(&weighted, order, options)
+}
+
+/// Checks the order (at least one pole) and, in z, that no line lies beyond Nyquist.
+fn check_order_and_grid<T: Real>(
+    omega: &[T],
+    order: usize,
+    options: &CommonPoleOptions<T>,
+) -> Result<()> {
     if order == 0 {
         return Err(FdidError::InvalidArgument {
             name: "order",
@@ -205,7 +274,7 @@ pub fn fit_common_poles<T: Real>(
     }
     if let Domain::Discrete { ts } = options.domain {
         let nyquist = T::pi() / ts;
-        let top = data.omega().iter().copied().fold(T::zero(), Float::max);
+        let top = omega.iter().copied().fold(T::zero(), Float::max);
         if top > nyquist * (T::one() + T::lit(1e-9)) {
             return Err(FdidError::InvalidArgument {
                 name: "ts",
@@ -218,43 +287,53 @@ pub fn fit_common_poles<T: Real>(
             });
         }
     }
-    let direct = usize::from(options.direct);
-    let lines = data.len();
-    if 2 * lines < 2 * order + 1 + direct {
+    Ok(())
+}
+
+/// Relocation and maximum likelihood on the weighted blocks.
+fn fit_weighted<T: Real>(
+    weighted: &Weighted<T>,
+    order: usize,
+    options: &CommonPoleOptions<T>,
+) -> Result<CommonPoleFit<T>> {
+    let lines = weighted.lines();
+    let needed = weighted.linear_parameters(order) + order + 1;
+    if 2 * lines < needed {
         return Err(FdidError::TooFewFrequencies {
             lines,
             equations: 2 * lines,
-            parameters: 2 * order + 1 + direct,
+            parameters: needed,
         });
     }
-    let weighted = Weighted::new(data, options.domain, options.direct)?;
     let vector_fit::Relocated {
         poles,
         coeffs,
-        cost: relocation_cost,
+        costs,
         relocations,
     } = relocation_loop(
-        &weighted,
+        weighted,
         options.domain,
         order,
         options.stable,
         options.relocations,
     )?;
+    let relocation_cost = vector_fit::total(&costs);
     let mut fit = CommonPoleFit {
-        model: model_of(&weighted, options.domain, &poles, &coeffs),
+        model: model_of(weighted, options.domain, &poles, &coeffs),
         cost: relocation_cost,
+        costs,
         relocation_cost,
         relocations,
         ml: MlOutcome::Skipped,
         pole_covariance: None,
         lines,
-        entries: data.entries().len(),
+        entries: weighted.ny * weighted.nu,
         weighted: weighted.w.is_some(),
     };
     let mut final_poles = poles.clone();
     if options.ml {
         let problem = varpro::VarPro {
-            data: &weighted,
+            data: weighted,
             n_real: poles.real.len(),
             order,
         };
@@ -267,18 +346,19 @@ pub fn fit_common_poles<T: Real>(
             let candidate = PoleSet::from_theta(poles.real.len(), &solution.theta);
             if options.stable && !candidate.is_stable(unit(options.domain)) {
                 fit.ml = MlOutcome::Unstable;
-            } else if let Ok((c, cost)) = weighted.linear_fit(&candidate)
-                && cost <= relocation_cost
+            } else if let Ok((c, costs)) = weighted.linear_fit(&candidate)
+                && vector_fit::total(&costs) <= relocation_cost
             {
-                fit.model = model_of(&weighted, options.domain, &candidate, &c);
-                fit.cost = cost;
+                fit.model = model_of(weighted, options.domain, &candidate, &c);
+                fit.cost = vector_fit::total(&costs);
+                fit.costs = costs;
                 fit.ml = MlOutcome::Kept {
                     converged: solution.converged(),
                 };
                 final_poles = candidate;
             }
         }
-        fit.pole_covariance = covariance(&problem, &final_poles, &fit, &weighted);
+        fit.pole_covariance = covariance(&problem, &final_poles, &fit, weighted);
     }
     fit.model.check()?;
     Ok(fit)
@@ -309,7 +389,7 @@ fn covariance<T: Real>(
     if !problem.normal_equations_into(&theta, &mut r, &mut jac, &mut gram, &mut grad) {
         return None;
     }
-    let params = problem.order + fit.entries * (problem.order + usize::from(data.direct));
+    let params = problem.order + data.h.len() * data.linear_parameters(problem.order);
     // V/(M − P): 1/2 when weighted by the true variances and the model fits to the noise
     // level, larger (and honest) when it does not
     if m <= params {

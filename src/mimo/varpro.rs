@@ -2,7 +2,7 @@
 //! linearly and are eliminated entry by entry, so the nonlinear search runs over the n
 //! pole parameters only.
 
-use super::poles::{PoleSet, coefficient_matrix, derivative_basis};
+use super::poles::PoleSet;
 use super::vector_fit::{Weighted, at_b};
 use crate::problem::NonlinearProblem;
 use crate::scalar::Real;
@@ -28,6 +28,11 @@ use num_traits::Float;
 /// one QR of A and one projection Ψ⊥ = P⊥Ψ serve all of them: J_e = −Ψ⊥C_e,
 /// JᵀJ = Σ_e C_eᵀ(Ψ⊥ᵀΨ⊥)C_e and Jᵀr = −Σ_e C_eᵀΨᵀr_e, so an evaluation costs one QR and
 /// O(L(m + n)) per entry instead of O(L m n).
+///
+/// For the outputs of a multi-input record the regressor is [φU_1 | U_1 | … | φx_T]
+/// ([`Weighted::regressor`]), and the same factorisation holds with Ψ the derivative
+/// columns of every group, [ΨU_1 | … | Ψx_T], and C_e the stacked coefficient matrices
+/// of the groups.
 pub(crate) struct VarPro<'a, T: Real> {
     pub data: &'a Weighted<T>,
     pub n_real: usize,
@@ -68,7 +73,7 @@ impl<T: Real> VarPro<'_, T> {
             return None;
         }
         let q = qr.q();
-        let psi = crate::linalg::stack_rows(&derivative_basis(&self.data.x, poles), w);
+        let psi = crate::linalg::stack_rows(&self.data.derivative_regressor(poles), w);
         let psi_perp = &psi - &q * at_b(&q, &psi);
         Some(Projection {
             q,
@@ -127,7 +132,7 @@ impl<T: Real> VarPro<'_, T> {
                 for (j, s) in proj.scale.iter().enumerate() {
                     c[j] /= *s;
                 }
-                let ce = coefficient_matrix(&poles, &c.as_slice()[..self.order]);
+                let ce = self.data.coefficient_stack(&poles, c.as_slice());
                 sink(e, proj, &res, &ce);
             }
         }

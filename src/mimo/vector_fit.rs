@@ -2,8 +2,8 @@
 //! with the fast block solution, and the residue matrices by linear least squares.
 
 use super::model::CommonPoleModel;
-use super::poles::{PoleSet, basis, points, starting_poles};
-use crate::data::FrfMatrix;
+use super::poles::{PoleSet, basis, coefficient_matrix, derivative_basis, points, starting_poles};
+use crate::data::{FrfMatrix, MimoSpectra};
 use crate::error::{FdidError, Result};
 use crate::model::Domain;
 use crate::scalar::{Complex, Real};
@@ -11,7 +11,15 @@ use nalgebra::{DMatrix, DVector};
 use num_traits::Float;
 
 /// The weighted data of a common-pole fit in the fitting variable: the points x_k (iω/ω_s
-/// in s, e^{iωTs} in z), each entry's FRF and its weights 1/σ (none: unit weights).
+/// in s, e^{iωTs} in z), the fitted blocks — each entry's FRF of a frequency response
+/// matrix, or each output's spectrum of a multi-input record — and their weights 1/σ
+/// (none: unit weights).
+///
+/// A block is explained by the regressor A(x) c: for an FRF entry A = [φ(x) | 1] (the
+/// partial fractions and the direct term); for an output of a record with inputs U_j,
+/// A = [φ(x)U_1 | U_1 | … | φ(x)U_nu | U_nu | φ(x)x_T] — every input through the same
+/// poles, and the transient of the finite record (McKelvey eq. 4), T(x) = Σ t_m φ_m(x)
+/// x_T with x_T = z in z (I(z⁻¹)/A(z⁻¹) with deg I < n) and 1 in s.
 pub(crate) struct Weighted<T: Real> {
     pub x: Vec<Complex<T>>,
     /// ω_s, the largest line's frequency (s), or 1 (z): poles and residues in the fitting
@@ -22,22 +30,16 @@ pub(crate) struct Weighted<T: Real> {
     pub direct: bool,
     pub ny: usize,
     pub nu: usize,
+    /// The input spectra U_j(x_k) of a multi-input record (`None`: FRF entries).
+    pub inputs: Option<Vec<Vec<Complex<T>>>>,
+    /// The factor x_T of the transient basis (`None`: no transient).
+    pub transient: Option<Vec<Complex<T>>>,
 }
 
 impl<T: Real> Weighted<T> {
     pub(crate) fn new(data: &FrfMatrix<T>, domain: Domain<T>, direct: bool) -> Result<Self> {
         let omega = data.omega();
-        let scale = match domain {
-            Domain::Continuous => omega.iter().copied().fold(T::zero(), Float::max),
-            Domain::Discrete { .. } => T::one(),
-        };
-        if !(scale > T::zero()) {
-            return Err(FdidError::InvalidArgument {
-                name: "frequencies",
-                value: "0 Hz only".into(),
-                reason: "a continuous-time fit needs lines above 0 Hz".into(),
-            });
-        }
+        let scale = fitting_scale(omega, domain)?;
         let w = if data.has_variances() {
             let mut all = Vec::with_capacity(data.entries().len());
             for (e, entry) in data.entries().iter().enumerate() {
@@ -64,6 +66,35 @@ impl<T: Real> Weighted<T> {
             direct,
             ny: data.ny(),
             nu: data.nu(),
+            inputs: None,
+            transient: None,
+        })
+    }
+
+    /// The blocks of a multi-input record: one per output, unweighted, with the input
+    /// spectra and (when `transient`) the transient term.
+    pub(crate) fn from_spectra(
+        data: &MimoSpectra<T>,
+        domain: Domain<T>,
+        direct: bool,
+        transient: bool,
+    ) -> Result<Self> {
+        let scale = fitting_scale(data.omega(), domain)?;
+        let x = points(data.omega(), domain, scale);
+        let transient = transient.then(|| match domain {
+            Domain::Continuous => vec![Complex::new(T::one(), T::zero()); x.len()],
+            Domain::Discrete { .. } => x.clone(),
+        });
+        Ok(Self {
+            x,
+            scale,
+            h: (0..data.ny()).map(|i| data.y(i).to_vec()).collect(),
+            w: None,
+            direct,
+            ny: data.ny(),
+            nu: data.nu(),
+            inputs: Some((0..data.nu()).map(|j| data.u(j).to_vec()).collect()),
+            transient,
         })
     }
 
@@ -75,11 +106,26 @@ impl<T: Real> Weighted<T> {
         self.w.as_ref().map_or(T::one(), |w| w[e][k])
     }
 
-    /// The linear parameters of every entry for the poles (in the fitting variable): the
-    /// coefficients of the real basis and the direct term, by least squares (one QR shared
-    /// by all entries without weights, one per entry with them), and the weighted cost
-    /// Σ_e Σ_k w²|h − ĥ|².
-    pub(crate) fn linear_fit(&self, poles: &PoleSet<T>) -> Result<(Vec<DVector<T>>, T)> {
+    /// The input groups of the regressor: one per input of a record, one for FRF entries.
+    fn groups(&self) -> usize {
+        self.inputs.as_ref().map_or(1, Vec::len)
+    }
+
+    /// The width n + D of one input group's columns for `order` poles.
+    fn group_width(&self, order: usize) -> usize {
+        order + usize::from(self.direct)
+    }
+
+    /// The linear parameters of one block for `order` poles: the groups' and the
+    /// transient's.
+    pub(crate) fn linear_parameters(&self, order: usize) -> usize {
+        self.groups() * self.group_width(order) + self.transient.as_ref().map_or(0, |_| order)
+    }
+
+    /// The linear parameters of every block for the poles (in the fitting variable), by
+    /// least squares (one QR shared by all blocks without weights, one per block with
+    /// them), and each block's weighted cost Σ_k w²|h − ĥ|².
+    pub(crate) fn linear_fit(&self, poles: &PoleSet<T>) -> Result<(Vec<DVector<T>>, Vec<T>)> {
         let a = self.regressor(poles);
         let ne = self.h.len();
         match &self.w {
@@ -89,12 +135,11 @@ impl<T: Real> Weighted<T> {
                     if r % 2 == 0 { v.re } else { v.im }
                 });
                 let (x, costs) = shared_least_squares(crate::linalg::stack_rows(&a, None), b)?;
-                let cost = costs.iter().fold(T::zero(), |s, c| s + *c);
-                Ok(((0..ne).map(|e| x.column(e).into_owned()).collect(), cost))
+                Ok(((0..ne).map(|e| x.column(e).into_owned()).collect(), costs))
             }
             Some(w) => {
                 let mut coeffs = Vec::with_capacity(ne);
-                let mut cost = T::zero();
+                let mut costs = Vec::with_capacity(ne);
                 for (h, w) in self.h.iter().zip(w) {
                     let b = DMatrix::from_fn(2 * self.lines(), 1, |r, _| {
                         let v = h[r / 2] * w[r / 2];
@@ -102,23 +147,80 @@ impl<T: Real> Weighted<T> {
                     });
                     let (x, c) = shared_least_squares(crate::linalg::stack_rows(&a, Some(w)), b)?;
                     coeffs.push(x.column(0).into_owned());
-                    cost += c[0];
+                    costs.push(c[0]);
                 }
-                Ok((coeffs, cost))
+                Ok((coeffs, costs))
             }
         }
     }
 
-    /// The complex regressor [φ(x) | 1] (L × (n + direct)).
+    /// The complex regressor (L × [`Weighted::linear_parameters`]): [φ(x) | 1] for FRF
+    /// entries, [φU_1 | U_1 | … | φU_nu | U_nu | φx_T] for a record's outputs (the direct
+    /// columns only with a direct term, the last block only with a transient).
     pub(crate) fn regressor(&self, poles: &PoleSet<T>) -> DMatrix<Complex<T>> {
         let phi = basis(&self.x, poles);
-        if !self.direct {
-            return phi;
+        let (l, n) = phi.shape();
+        let width = self.group_width(n);
+        let one = Complex::new(T::one(), T::zero());
+        let mut a = DMatrix::zeros(l, self.linear_parameters(n));
+        for g in 0..self.groups() {
+            let u = self.inputs.as_ref().map(|u| u[g].as_slice());
+            for k in 0..l {
+                let uk = u.map_or(one, |u| u[k]);
+                for c in 0..n {
+                    a[(k, g * width + c)] = phi[(k, c)] * uk;
+                }
+                if self.direct {
+                    a[(k, g * width + n)] = uk;
+                }
+            }
         }
-        let n = phi.ncols();
-        let mut a = phi.resize_horizontally(n + 1, Complex::new(T::zero(), T::zero()));
-        a.column_mut(n).fill(Complex::new(T::one(), T::zero()));
+        if let Some(xt) = &self.transient {
+            let offset = self.groups() * width;
+            for k in 0..l {
+                for c in 0..n {
+                    a[(k, offset + c)] = phi[(k, c)] * xt[k];
+                }
+            }
+        }
         a
+    }
+
+    /// The derivative of the regressor's basis columns against the pole parameters,
+    /// [ΨU_1 | … | ΨU_nu | Ψx_T] (Ψ of [`derivative_basis`]; Ψ alone for FRF entries), so
+    /// that ∂(A c)/∂θ = this · [`Weighted::coefficient_stack`].
+    pub(crate) fn derivative_regressor(&self, poles: &PoleSet<T>) -> DMatrix<Complex<T>> {
+        let psi = derivative_basis(&self.x, poles);
+        let Some(inputs) = &self.inputs else {
+            return psi;
+        };
+        let (l, n) = psi.shape();
+        let factors: Vec<&[Complex<T>]> = inputs
+            .iter()
+            .map(Vec::as_slice)
+            .chain(self.transient.as_deref())
+            .collect();
+        DMatrix::from_fn(l, n * factors.len(), |k, c| {
+            psi[(k, c % n)] * factors[c / n][k]
+        })
+    }
+
+    /// The stacked coefficient matrices [C(c_1); …; C(c_nu); C(t)] of one block's linear
+    /// parameters `c` (C of [`coefficient_matrix`]; C(c) alone for FRF entries).
+    pub(crate) fn coefficient_stack(&self, poles: &PoleSet<T>, c: &[T]) -> DMatrix<T> {
+        let n = poles.order();
+        let width = self.group_width(n);
+        let mut offsets: Vec<usize> = (0..self.groups()).map(|g| g * width).collect();
+        if self.transient.is_some() && self.inputs.is_some() {
+            offsets.push(self.groups() * width);
+        }
+        let mut stack = DMatrix::zeros(n * offsets.len(), n);
+        for (b, offset) in offsets.iter().enumerate() {
+            stack
+                .view_mut((b * n, 0), (n, n))
+                .copy_from(&coefficient_matrix(poles, &c[*offset..*offset + n]));
+        }
+        stack
     }
 
     /// One pole relocation (relaxed vector fitting, Gustavsen 2006): for every entry e the
@@ -137,42 +239,37 @@ impl<T: Real> Weighted<T> {
     pub(crate) fn relocate(&self, poles: &PoleSet<T>) -> Result<PoleSet<T>> {
         let phi = basis(&self.x, poles);
         let (l, n) = phi.shape();
-        let m = n + usize::from(self.direct);
-        let cols = m + n + 1;
+        let regressor = self.regressor(poles);
+        let m = regressor.ncols();
         let ne = self.h.len();
         let mut stack = DMatrix::<T>::zeros(ne * (n + 1) + 1, n + 1);
         let mut norm = T::zero();
-        // without weights every entry shares A = [φ | 1]: one QR of it, then each entry's
-        // R₂₂ is the R of its σ-columns projected off the range of A (the same R₂₂ as the
-        // QR of [A | B_e], at the cost of two products and a QR of half the width)
+        // without weights every block shares A: one QR of it, then each block's R₂₂ is the
+        // R of its σ-columns projected off the range of A (the same R₂₂ as the QR of
+        // [A | B_e], at the cost of two products and a QR of half the width)
         let shared_q = match self.w {
-            None => Some(
-                crate::linalg::stack_rows(&self.regressor(poles), None)
-                    .qr()
-                    .q(),
-            ),
+            None => Some(crate::linalg::stack_rows(&regressor, None).qr().q()),
             Some(_) => None,
         };
         for e in 0..ne {
-            let width = if shared_q.is_some() { n + 1 } else { cols };
+            let width = if shared_q.is_some() { n + 1 } else { m + n + 1 };
             let offset = width - (n + 1);
             let mut a = DMatrix::<T>::zeros(2 * l, width);
             for k in 0..l {
                 let w = self.weight(e, k);
                 let h = self.h[e][k] * w;
                 norm += h.norm_sqr();
-                for c in 0..n {
-                    if shared_q.is_none() {
-                        let v = phi[(k, c)] * w;
+                if shared_q.is_none() {
+                    for c in 0..m {
+                        let v = regressor[(k, c)] * w;
                         a[(2 * k, c)] = v.re;
                         a[(2 * k + 1, c)] = v.im;
                     }
+                }
+                for c in 0..n {
                     let g = -(phi[(k, c)] * h);
                     a[(2 * k, offset + c)] = g.re;
                     a[(2 * k + 1, offset + c)] = g.im;
-                }
-                if self.direct && shared_q.is_none() {
-                    a[(2 * k, n)] = w;
                 }
                 a[(2 * k, offset + n)] = -h.re;
                 a[(2 * k + 1, offset + n)] = -h.im;
@@ -325,21 +422,30 @@ pub(crate) fn model_of<T: Real>(
     let (ny, nu) = (data.ny, data.nu);
     let nr = poles.real.len();
     let n = poles.order();
+    let width = data.group_width(n);
     let slots = nr + poles.pairs.len();
     let zero = Complex::new(T::zero(), T::zero());
     let mut residues = vec![DMatrix::from_element(ny, nu, zero); slots];
     let mut direct = data.direct.then(|| DMatrix::zeros(ny, nu));
     for (e, c) in coeffs.iter().enumerate() {
-        let (i, j) = (e % ny, e / ny);
-        for (t, r) in residues.iter_mut().enumerate().take(nr) {
-            r[(i, j)] = Complex::new(c[t] * data.scale, T::zero());
-        }
-        for m in 0..poles.pairs.len() {
-            let (c1, c2) = (c[nr + 2 * m], c[nr + 2 * m + 1]);
-            residues[nr + m][(i, j)] = Complex::new(c1, c2) * data.scale;
-        }
-        if let Some(d) = direct.as_mut() {
-            d[(i, j)] = c[n];
+        for g in 0..data.groups() {
+            // an FRF block is entry e (column by column); a record's block is output e,
+            // its groups the inputs
+            let (i, j) = match data.inputs {
+                None => (e % ny, e / ny),
+                Some(_) => (e, g),
+            };
+            let c = &c.as_slice()[g * width..(g + 1) * width];
+            for (t, r) in residues.iter_mut().enumerate().take(nr) {
+                r[(i, j)] = Complex::new(c[t] * data.scale, T::zero());
+            }
+            for m in 0..poles.pairs.len() {
+                let (c1, c2) = (c[nr + 2 * m], c[nr + 2 * m + 1]);
+                residues[nr + m][(i, j)] = Complex::new(c1, c2) * data.scale;
+            }
+            if let Some(d) = direct.as_mut() {
+                d[(i, j)] = c[n];
+            }
         }
     }
     CommonPoleModel {
@@ -355,8 +461,13 @@ pub(crate) fn model_of<T: Real>(
 pub(crate) struct Relocated<T: Real> {
     pub poles: PoleSet<T>,
     pub coeffs: Vec<DVector<T>>,
-    pub cost: T,
+    pub costs: Vec<T>,
     pub relocations: usize,
+}
+
+/// The sum of the blocks' costs.
+pub(crate) fn total<T: Real>(costs: &[T]) -> T {
+    costs.iter().fold(T::zero(), |s, c| s + *c)
 }
 
 /// The relocation loop of [`super::fit_common_poles`]: from the starting poles, relocate
@@ -381,11 +492,14 @@ pub(crate) fn relocation_loop<T: Real>(
         .map(|x| fitting_frequency(*x, domain))
         .fold(T::zero(), Float::max);
     let mut poles = starting_poles(order, omega_min, omega_max, unit_domain(domain))?;
-    let (mut coeffs, mut cost) = data.linear_fit(&poles)?;
-    let mut best = (poles.clone(), coeffs.clone(), cost);
+    let (mut coeffs, mut costs) = data.linear_fit(&poles)?;
+    let mut cost = total(&costs);
+    let mut best = (poles.clone(), coeffs.clone(), costs.clone(), cost);
     let tolerance = Float::sqrt(T::default_epsilon()) * T::lit(0.1);
-    let work = crate::solver::work::solve_cost(2 * data.lines(), 2 * order + 2)
-        * T::from_usize_lossy(data.h.len()).to_f64_lossless();
+    let work = crate::solver::work::solve_cost(
+        2 * data.lines(),
+        data.linear_parameters(order) + order + 1,
+    ) * T::from_usize_lossy(data.h.len()).to_f64_lossless();
     let mut done = 0;
     for _ in 0..iterations {
         if !crate::solver::work::charge(work) {
@@ -401,14 +515,15 @@ pub(crate) fn relocation_loop<T: Real>(
             Ok((c, v)) => {
                 poles = next;
                 coeffs = c;
-                cost = v;
+                cost = total(&v);
+                costs = v;
             }
             // two relocated poles met: keep the best model found so far
             Err(FdidError::Singular { .. }) => break,
             Err(e) => return Err(e),
         }
-        if cost < best.2 {
-            best = (poles.clone(), coeffs.clone(), cost);
+        if cost < best.3 {
+            best = (poles.clone(), coeffs.clone(), costs.clone(), cost);
         }
         if Float::abs(previous - cost) <= tolerance * Float::max(cost, T::min_positive_value()) {
             break;
@@ -417,9 +532,25 @@ pub(crate) fn relocation_loop<T: Real>(
     Ok(Relocated {
         poles: best.0,
         coeffs: best.1,
-        cost: best.2,
+        costs: best.2,
         relocations: done,
     })
+}
+
+/// ω_s of the fitting variable: the largest line's frequency in s, 1 in z.
+fn fitting_scale<T: Real>(omega: &[T], domain: Domain<T>) -> Result<T> {
+    let scale = match domain {
+        Domain::Continuous => omega.iter().copied().fold(T::zero(), Float::max),
+        Domain::Discrete { .. } => T::one(),
+    };
+    if !(scale > T::zero()) {
+        return Err(FdidError::InvalidArgument {
+            name: "frequencies",
+            value: "0 Hz only".into(),
+            reason: "a continuous-time fit needs lines above 0 Hz".into(),
+        });
+    }
+    Ok(scale)
 }
 
 /// The frequency in the fitting variable of a point: Im x in s (x = iω/ω_s), ωTs in z.

@@ -55,6 +55,7 @@ mod ltv_lti;
 mod ltv_paper;
 mod ltv_varying;
 mod mimo;
+mod mimo_records;
 mod model_delay;
 mod model_modal;
 mod model_rational;

@@ -12,16 +12,16 @@ use nalgebra::DMatrix;
 use quickcheck::{Arbitrary, Gen, TestResult};
 
 /// A small deterministic generator (xorshift) for the systems of a case.
-struct Draw(u64);
+pub(crate) struct Draw(pub u64);
 
 impl Draw {
-    fn unit(&mut self) -> f64 {
+    pub(crate) fn unit(&mut self) -> f64 {
         self.0 ^= self.0 << 13;
         self.0 ^= self.0 >> 7;
         self.0 ^= self.0 << 17;
         (self.0 >> 11) as f64 / (1u64 << 53) as f64
     }
-    fn signed(&mut self) -> f64 {
+    pub(crate) fn signed(&mut self) -> f64 {
         2.0 * self.unit() - 1.0
     }
 }
@@ -30,12 +30,12 @@ impl Draw {
 /// 0.1–10 rad/s (one per log-spaced slot, so they stay apart), damping 0.02–0.15, `real`
 /// real poles, and random complex residue matrices.
 #[derive(Debug, Clone, Copy)]
-struct Case {
-    seed: u64,
-    ny: usize,
-    nu: usize,
-    pairs: usize,
-    real: usize,
+pub(crate) struct Case {
+    pub seed: u64,
+    pub ny: usize,
+    pub nu: usize,
+    pub pairs: usize,
+    pub real: usize,
 }
 
 impl Arbitrary for Case {
@@ -53,7 +53,7 @@ impl Arbitrary for Case {
 }
 
 impl Case {
-    fn model(&self) -> CommonPoleModel<f64> {
+    pub(crate) fn model(&self) -> CommonPoleModel<f64> {
         let mut d = Draw(self.seed);
         let slots = self.pairs + self.real;
         let step = (100.0f64).ln() / slots as f64;
@@ -117,7 +117,7 @@ fn frf_matrix<T: Real>(model: &CommonPoleModel<f64>, omega: &[f64]) -> FrfMatrix
 }
 
 /// The largest distance from a true pole to the nearest fitted one, relative to |p|.
-fn pole_error<T: Real>(truth: &PoleSet<f64>, fitted: &PoleSet<T>) -> f64 {
+pub(crate) fn pole_error<T: Real>(truth: &PoleSet<f64>, fitted: &PoleSet<T>) -> f64 {
     let got: Vec<Complex<f64>> = fitted
         .all()
         .iter()

@@ -4,7 +4,7 @@
 
 use super::checks::check_time_grid;
 use super::parse_error;
-use crate::data::TimeData;
+use crate::data::{MimoSpectra, TimeData};
 use crate::error::{FdidError, Result};
 use crate::io::lines::{echo, read_text};
 use crate::scalar::Real;
@@ -101,23 +101,109 @@ pub fn parse_channels<T: Real, R: Read>(
     name: &str,
     selection: &ChannelSelection,
 ) -> Result<TimeData<T>> {
+    let (mut u, mut y, ts) = parse_columns::<T, R>(
+        reader,
+        name,
+        std::slice::from_ref(&selection.input),
+        std::slice::from_ref(&selection.output),
+        selection.ts,
+    )?;
+    let (Some(u), Some(y)) = (u.pop(), y.pop()) else {
+        unreachable!("one column of each was asked for")
+    };
+    TimeData::new(u, y, T::lit(ts))
+}
+
+/// Which columns of a table are the inputs and outputs of a multi-channel record, and its
+/// sample time (as [`ChannelSelection`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct MultiChannelSelection {
+    /// The input columns, in order.
+    pub inputs: Vec<Column>,
+    /// The output columns, in order.
+    pub outputs: Vec<Column>,
+    /// The sample time (s), as [`ChannelSelection::ts`].
+    pub ts: Option<f64>,
+}
+
+/// Reads the table `path` and returns the spectra (DFT) of the input and output columns
+/// `selection` picks; see [`parse_multichannel`].
+///
+/// # Errors
+/// [`FdidError::Io`] when the file cannot be opened or read, otherwise as
+/// [`parse_multichannel`].
+pub fn read_multichannel<T: Real>(
+    path: &Path,
+    selection: &MultiChannelSelection,
+) -> Result<MimoSpectra<T>> {
+    let file =
+        std::fs::File::open(path).map_err(|e| FdidError::Io(format!("{}: {e}", path.display())))?;
+    parse_multichannel(file, &path.display().to_string(), selection)
+}
+
+/// Parses a table of channels as [`parse_channels`] does, with several input and output
+/// columns, and returns their DFT spectra ([`MimoSpectra::from_time`]: lines k = 0, …,
+/// ⌊N/2⌋ of the whole record).
+///
+/// # Errors
+/// As [`parse_channels`] for each column; no input or no output column;
+/// [`MimoSpectra::from_time`]'s errors.
+pub fn parse_multichannel<T: Real, R: Read>(
+    reader: R,
+    name: &str,
+    selection: &MultiChannelSelection,
+) -> Result<MimoSpectra<T>> {
+    let (u, y, ts) = parse_columns::<T, R>(
+        reader,
+        name,
+        &selection.inputs,
+        &selection.outputs,
+        selection.ts,
+    )?;
+    MimoSpectra::from_time(u, y, T::lit(ts))
+}
+
+/// The selected input and output columns of a table (in `T`) and its sample time.
+type Columns<T> = (Vec<Vec<T>>, Vec<Vec<T>>, f64);
+
+/// Reads the `inputs` and `outputs` columns of the table in `reader` and its sample time.
+fn parse_columns<T: Real, R: Read>(
+    reader: R,
+    name: &str,
+    inputs: &[Column],
+    outputs: &[Column],
+    ts: Option<f64>,
+) -> Result<Columns<T>> {
+    if inputs.is_empty() || outputs.is_empty() {
+        return Err(parse_error(
+            name,
+            0,
+            "select at least one input and one output column".into(),
+        ));
+    }
     let text = read_text(reader, name)?;
     let table = Table::parse(&text, name)?;
-    let input = table.index(&selection.input, "--input", name)?;
-    let output = table.index(&selection.output, "--output", name)?;
-    let u = table.numbers::<T>(input, name)?;
-    let y = table.numbers::<T>(output, name)?;
-    if u.len() < 2 {
+    let read = |columns: &[Column], flag: &str| -> Result<Vec<Vec<T>>> {
+        columns
+            .iter()
+            .map(|c| {
+                let j = table.index(c, flag, name)?;
+                let x = table.numbers::<T>(j, name)?;
+                Ok(x.iter().map(|v| T::lit(*v)).collect())
+            })
+            .collect()
+    };
+    let u = read(inputs, "--input")?;
+    let y = read(outputs, "--output")?;
+    if u[0].len() < 2 {
         return Err(FdidError::TooShort {
             what: "data rows of a time record",
             needed: 2,
-            got: u.len(),
+            got: u[0].len(),
         });
     }
-    let ts = table.sample_time(selection.ts, name)?;
-    let u = u.iter().map(|v| T::lit(*v)).collect();
-    let y = y.iter().map(|v| T::lit(*v)).collect();
-    TimeData::new(u, y, T::lit(ts))
+    let ts = table.sample_time(ts, name)?;
+    Ok((u, y, ts))
 }
 
 /// The rows of a table split into fields, with the header names if any.

@@ -5,7 +5,10 @@ mod checks;
 mod header;
 mod records;
 
-pub use self::channels::{ChannelSelection, Column, parse_channels, read_channels};
+pub use self::channels::{
+    ChannelSelection, Column, MultiChannelSelection, parse_channels, parse_multichannel,
+    read_channels, read_multichannel,
+};
 
 use self::checks::{check_frequencies, check_time_grid};
 use self::header::{Kind, Layout};
