@@ -237,6 +237,39 @@ Examples:
   fdid ltv record.csv --na 2 --nb 1 --np 2 --ntr 5 --band 0.01:1 --json
   fdid ltv record.csv --na 1 --nb 0 --np 1 --basis monomial";
 
+const STABILIZE_HELP: &str = "\
+Every order N of --orders A:B[:STEP] (STEP 2 by default: one more pole pair per order) is
+fitted with poles common to every entry (as `fdid fit` without --port) by pole
+relocation (relaxed vector fitting); --ml refines every order by maximum likelihood
+(variable projection, several times slower). Each stable pole with its
+natural frequency inside the data's band is compared with the nearest pole (in
+frequency) of the previous order and marked
+  o  new (the first order, or no pole within the frequency tolerance)
+  f  frequency within 1 %          d  frequency and damping (within 5 %)
+  v  frequency and mode shape (MAC >= 0.95)
+  s  frequency, damping and mode shape: stable
+(--frequency-tol, --damping-tol, --mac). The stable poles (s) are sorted by frequency and
+split where neighbours differ by more than the frequency tolerance; a cluster stable at
+--min-orders orders or more (default 3) is a physical mode, reported with the mean and
+spread (standard deviation) of its natural frequency and damping over its orders. With a
+single output the mode shape is one number and every MAC is 1.
+
+Data: as `fdid fit` (Touchstone of any number of ports, a matrix CSV, a table's outputs
+--output A,B,C with one --input, a record with several inputs --input U1,U2 --output
+Y1,Y2 --transient, or any single-channel file).
+
+Output: the physical modes, then the diagram (for each order its poles' frequencies with
+their marks). --json: {\"orders\":[..], \"poles\":[{\"order\",\"f_n_hz\",\"damping\",
+\"pole\":[re,im],\"mark\"}..], \"modes\":[{\"f_n_hz\",\"f_n_spread_hz\",\"damping\",
+\"damping_spread\",\"orders\":[..]}..], \"failed\":[{\"order\",\"error\"}..]}. --plot FILE
+writes the classic diagram as SVG: the marks at (frequency, order) over the sum of the
+entries' magnitudes (dB, right axis).
+
+Examples:
+  fdid stabilize F16Data.csv --input Force --output Acceleration1,Acceleration2,Acceleration3 \\
+      --ts 0.0025 --periods 9 --skip-periods 1 --band 2:15 --domain s --orders 2:40 --stable
+  fdid stabilize data/rlc_bandpass.s2p --domain s --orders 1:6:1 --direct --json";
+
 /// Frequency-domain system identification: fit rational transfer functions in s or z to
 /// measured frequency responses (CSV or Touchstone), spectra or time records.
 #[derive(Debug, Parser)]
@@ -268,6 +301,11 @@ pub enum Command {
     /// instantaneous poles and FRF at 11 instants over the record.
     #[command(after_help = LTV_HELP)]
     Ltv(LtvArgs),
+    /// Stabilisation diagram: fit every entry with common poles at each order of a range,
+    /// mark each pole stable in frequency, damping and mode shape against the previous
+    /// order, and cluster the stable poles into physical modes.
+    #[command(after_help = STABILIZE_HELP)]
+    Stabilize(StabilizeArgs),
 }
 
 /// The data file, how it is prepared, and the model structure: the options `fdid fit` and
@@ -534,6 +572,96 @@ pub struct LtvArgs {
 
     /// Run a fit whose regressor (2 x lines rows, one column per parameter) is estimated
     /// to take more than about a minute (refused by default, with the estimate)
+    #[arg(long)]
+    pub allow_long: bool,
+}
+
+/// Options of `fdid stabilize`.
+#[derive(Debug, Args)]
+pub struct StabilizeArgs {
+    /// Data file, as for `fdid fit`
+    #[arg(value_name = "DATA")]
+    pub data: PathBuf,
+
+    /// Model domain: s or z (z needs a sample time)
+    #[arg(long, value_enum)]
+    pub domain: DomainArg,
+
+    /// The orders (numbers of poles) A:B or A:B:STEP, from A to B (at most 100) in steps
+    /// of STEP (default 2)
+    #[arg(long, value_name = "A:B[:STEP]")]
+    pub orders: String,
+
+    /// Estimate a direct term D in every fit
+    #[arg(long)]
+    pub direct: bool,
+
+    /// Sample time in seconds, as for `fdid fit`
+    #[arg(long, value_name = "S", allow_negative_numbers = true)]
+    pub ts: Option<f64>,
+
+    /// Frequency band FMIN:FMAX in Hz, as for `fdid fit`
+    #[arg(long, value_name = "FMIN:FMAX", allow_hyphen_values = true)]
+    pub band: Option<String>,
+
+    /// Time records: average P periods, as for `fdid fit`
+    #[arg(long, value_name = "P", value_parser = clap::builder::RangedU64ValueParser::<usize>::new().range(1..))]
+    pub periods: Option<usize>,
+
+    /// With --periods: drop the first K periods, as for `fdid fit`
+    #[arg(long, value_name = "K", default_value_t = 0)]
+    pub skip_periods: usize,
+
+    /// Touchstone or matrix CSV: one entry IJ only
+    #[arg(long, value_name = "IJ")]
+    pub port: Option<String>,
+
+    /// Tables of channels: the input column(s), as for `fdid fit`
+    #[arg(long, value_name = "NAME|INDEX[,...]")]
+    pub input: Option<String>,
+
+    /// Tables of channels: the output column(s), as for `fdid fit`
+    #[arg(long, value_name = "NAME|INDEX[,...]")]
+    pub output: Option<String>,
+
+    /// Records with several inputs: estimate the transient of the record
+    #[arg(long)]
+    pub transient: bool,
+
+    /// Fit stable models (unstable poles reflected at every relocation)
+    #[arg(long)]
+    pub stable: bool,
+
+    /// Refine every order by maximum likelihood (variable projection); without it each
+    /// order is fitted by pole relocation alone, several times faster
+    #[arg(long)]
+    pub ml: bool,
+
+    /// Relative frequency tolerance of a repeated pole
+    #[arg(long, value_name = "X", default_value_t = 0.01)]
+    pub frequency_tol: f64,
+
+    /// Relative damping tolerance of a repeated pole
+    #[arg(long, value_name = "X", default_value_t = 0.05)]
+    pub damping_tol: f64,
+
+    /// Least modal assurance criterion of a repeated mode shape
+    #[arg(long, value_name = "X", default_value_t = 0.95)]
+    pub mac: f64,
+
+    /// Least number of orders at which a physical mode is stable
+    #[arg(long, value_name = "K", default_value_t = 3)]
+    pub min_orders: usize,
+
+    /// Print one JSON object instead of text
+    #[arg(long)]
+    pub json: bool,
+
+    /// Write the diagram as SVG (feature `plot`)
+    #[arg(long, value_name = "FILE")]
+    pub plot: Option<PathBuf>,
+
+    /// Run even when the fits are estimated to take more than about a minute
     #[arg(long)]
     pub allow_long: bool,
 }

@@ -95,10 +95,10 @@ const COMMON_POLE_WORK_PER_SECOND: f64 = 3.3e9;
 /// A common-pole fit (`fit`, of an FRF matrix or of a record's spectra), within the work
 /// budget of [`MAX_SECONDS`] unless `allow_long`, with a note when the budget stopped its
 /// iterations.
-pub(super) fn fit_common_poles(
+pub(super) fn fit_common_poles<R>(
     allow_long: bool,
-    fit: impl FnOnce() -> fdid::Result<fdid::mimo::CommonPoleFit<f64>>,
-) -> Result<(fdid::mimo::CommonPoleFit<f64>, Option<&'static str>), Failure> {
+    fit: impl FnOnce() -> fdid::Result<R>,
+) -> Result<(R, Option<&'static str>), Failure> {
     if allow_long {
         return Ok((fit()?, None));
     }

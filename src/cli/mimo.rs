@@ -1,7 +1,7 @@
 //! `fdid fit` on every entry of a multi-port file: a common-pole model ([`fdid::mimo`]),
 //! its modes, residue matrices, state-space realisation and per-entry errors.
 
-use super::args::{CriterionArg, DomainArg, FitArgs, parse_band};
+use super::args::{CommonArgs, CriterionArg, DomainArg, FitArgs, parse_band};
 use super::{Failure, budget};
 use fdid::data::{FrfMatrix, MimoSpectra};
 use fdid::io::NetworkParameter;
@@ -31,43 +31,9 @@ pub(super) fn fit(args: &FitArgs, entries: Entries) -> Result<String, Failure> {
     let c = &args.common;
     let spectra = matches!(entries, Entries::Spectra(_));
     check_flags(args, spectra)?;
-    let band = c
-        .band
-        .as_deref()
-        .map(parse_band)
-        .transpose()
-        .map_err(Failure::usage)?
-        .map(|(lo, hi)| (lo.unwrap_or(0.0), hi.unwrap_or(f64::INFINITY)));
-    let options = |ts: Option<f64>| -> Result<CommonPoleOptions<f64>, Failure> {
-        Ok(CommonPoleOptions {
-            domain: super::domain(c.domain, c.ts.or(ts))?,
-            direct: c.nb == c.na,
-            stable: args.stable,
-            transient: c.transient,
-            ..CommonPoleOptions::default()
-        })
-    };
-    let (data, parameter) = match entries {
-        Entries::Matrix { matrix, parameter } => {
-            let matrix = match band {
-                Some((lo, hi)) => matrix.band_hz(lo, hi).map_err(Failure::from)?,
-                None => matrix,
-            };
-            (Fitted::Matrix(matrix), parameter)
-        }
-        Entries::Spectra(spectra) => {
-            let spectra = match band {
-                Some((lo, hi)) => spectra.band_hz(lo, hi).map_err(Failure::from)?,
-                None => spectra,
-            };
-            (Fitted::Spectra(spectra), None)
-        }
-    };
-    let options = options(data.ts())?;
-    let (fit, stopped) = budget::fit_common_poles(args.allow_long, || match &data {
-        Fitted::Matrix(m) => fdid::mimo::fit_common_poles(m, c.na, &options),
-        Fitted::Spectra(s) => fdid::mimo::fit_common_poles_spectra(s, c.na, &options),
-    })?;
+    let (data, parameter) = banded(c, entries)?;
+    let options = options(c, data.ts(), args.stable)?;
+    let (fit, stopped) = budget::fit_common_poles(args.allow_long, || data.fit(c.na, &options))?;
     let report = Report {
         file: c.data.display().to_string(),
         data: &data,
@@ -82,21 +48,99 @@ pub(super) fn fit(args: &FitArgs, entries: Entries) -> Result<String, Failure> {
     })
 }
 
-/// The data a common-pole model was fitted to.
-enum Fitted {
+/// The entries within `--band`, and the network parameter of Touchstone data.
+pub(super) fn banded(
+    c: &CommonArgs,
+    entries: Entries,
+) -> Result<(Fitted, Option<NetworkParameter>), Failure> {
+    let band = c
+        .band
+        .as_deref()
+        .map(parse_band)
+        .transpose()
+        .map_err(Failure::usage)?
+        .map(|(lo, hi)| (lo.unwrap_or(0.0), hi.unwrap_or(f64::INFINITY)));
+    Ok(match entries {
+        Entries::Matrix { matrix, parameter } => {
+            let matrix = match band {
+                Some((lo, hi)) => matrix.band_hz(lo, hi).map_err(Failure::from)?,
+                None => matrix,
+            };
+            (Fitted::Matrix(matrix), parameter)
+        }
+        Entries::Spectra(spectra) => {
+            let spectra = match band {
+                Some((lo, hi)) => spectra.band_hz(lo, hi).map_err(Failure::from)?,
+                None => spectra,
+            };
+            (Fitted::Spectra(spectra), None)
+        }
+    })
+}
+
+/// The options of a common-pole fit from the flags (`--nb` = `--na`: a direct term).
+pub(super) fn options(
+    c: &CommonArgs,
+    ts: Option<f64>,
+    stable: bool,
+) -> Result<CommonPoleOptions<f64>, Failure> {
+    Ok(CommonPoleOptions {
+        domain: super::domain(c.domain, c.ts.or(ts))?,
+        direct: c.nb == c.na,
+        stable,
+        transient: c.transient,
+        ..CommonPoleOptions::default()
+    })
+}
+
+/// The data a common-pole model is fitted to.
+pub(super) enum Fitted {
     Matrix(FrfMatrix<f64>),
     Spectra(MimoSpectra<f64>),
 }
 
 impl Fitted {
-    fn omega(&self) -> &[f64] {
+    /// The common-pole fit of `order` poles.
+    pub(super) fn fit(
+        &self,
+        order: usize,
+        options: &CommonPoleOptions<f64>,
+    ) -> fdid::Result<CommonPoleFit<f64>> {
+        match self {
+            Self::Matrix(m) => fdid::mimo::fit_common_poles(m, order, options),
+            Self::Spectra(s) => fdid::mimo::fit_common_poles_spectra(s, order, options),
+        }
+    }
+
+    /// Outputs and inputs.
+    pub(super) fn shape(&self) -> (usize, usize) {
+        match self {
+            Self::Matrix(m) => (m.ny(), m.nu()),
+            Self::Spectra(s) => (s.ny(), s.nu()),
+        }
+    }
+
+    /// The sum over the entries of |G_ij| per line (FRF matrix), or over the outputs of
+    /// |Y_i| (spectra).
+    pub(super) fn summed_magnitude(&self) -> Vec<f64> {
+        match self {
+            Self::Matrix(m) => (0..m.len())
+                .map(|k| m.entries().iter().map(|e| e.y()[k].norm()).sum())
+                .collect(),
+            Self::Spectra(s) => (0..s.len())
+                .map(|k| (0..s.ny()).map(|i| s.y(i)[k].norm()).sum())
+                .collect(),
+        }
+    }
+
+    pub(super) fn omega(&self) -> &[f64] {
         match self {
             Self::Matrix(m) => m.omega(),
             Self::Spectra(s) => s.omega(),
         }
     }
 
-    fn ts(&self) -> Option<f64> {
+    pub(super) fn ts(&self) -> Option<f64> {
         match self {
             Self::Matrix(m) => m.ts(),
             Self::Spectra(s) => s.ts(),

@@ -10,6 +10,7 @@ mod mimo;
 pub mod progress;
 mod report;
 mod saved;
+mod stabilize;
 #[cfg(feature = "plot")]
 mod svg;
 
@@ -54,6 +55,7 @@ pub fn run(cli: &Cli) -> Result<String, Failure> {
         Command::Diagnose(args) => diagnose::diagnose(args),
         Command::Eval(args) => saved::eval(args),
         Command::Ltv(args) => ltv::ltv(args),
+        Command::Stabilize(args) => stabilize::stabilize(args),
     }
 }
 

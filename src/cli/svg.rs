@@ -1,7 +1,7 @@
 //! The SVG figures (feature `plot`): for `fdid diagnose --report DIR` a Bode plot of the
 //! data and the initial and final models and the spectrum of the normalised residuals;
 //! for `fdid fit --plot FILE` a Bode plot of the data, the model with its uncertainty
-//! band and the residual.
+//! band and the residual; for `fdid stabilize --plot FILE` the stabilisation diagram.
 
 use fdid::prelude::*;
 use fdid::workflow::SpecFit;
@@ -555,6 +555,104 @@ fn draw_residuals(
         .border_style(BLACK)
         .draw()
         .map_err(text)
+}
+
+/// The stabilisation diagram: each pole of the diagram as a mark at (natural frequency,
+/// order) — o new (grey circle), f frequency (blue), d + damping (green), v + shape
+/// (orange), s stable (red, filled) — over the summed magnitude Σ|G_ij| of the data in dB
+/// (grey line, right axis), with the physical modes as vertical dashed lines.
+///
+/// # Errors
+/// The drawing backend's, as text.
+pub fn stabilisation(
+    diagram: &fdid::mimo::StabilisationDiagram<f64>,
+    f_hz: &[f64],
+    summed: &[f64],
+) -> Result<String, String> {
+    use fdid::mimo::PoleMark;
+    let freq = range(f_hz.iter().copied(), 0.0, (0.0, 1.0));
+    let top = diagram.orders.last().copied().unwrap_or(1) as f64;
+    let orders = (0.0, top + 1.0);
+    let level: Vec<f64> = summed.iter().map(|m| 20.0 * m.log10()).collect();
+    let db = range(level.iter().copied(), 0.05, (-1.0, 1.0));
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, SIZE).into_drawing_area();
+        root.fill(&WHITE).map_err(text)?;
+        let mut chart = ChartBuilder::on(&root)
+            .caption("Stabilisation diagram", ("sans-serif", 18))
+            .margin(10)
+            .x_label_area_size(35)
+            .y_label_area_size(50)
+            .right_y_label_area_size(60)
+            .build_cartesian_2d(freq.0..freq.1, orders.0..orders.1)
+            .map_err(text)?
+            .set_secondary_coord(freq.0..freq.1, db.0..db.1);
+        chart
+            .configure_mesh()
+            .x_desc("frequency (Hz)")
+            .y_desc("model order (poles)")
+            .draw()
+            .map_err(text)?;
+        chart
+            .configure_secondary_axes()
+            .y_desc("sum of |G_ij| (dB)")
+            .draw()
+            .map_err(text)?;
+        chart
+            .draw_secondary_series(LineSeries::new(
+                f_hz.iter().copied().zip(level.iter().copied()),
+                DATA.mix(0.6).stroke_width(1),
+            ))
+            .map_err(text)?
+            .label("sum of |G_ij| (right axis)")
+            .legend(|(x, y)| PathElement::new(vec![(x - 8, y), (x + 8, y)], DATA));
+        for m in &diagram.modes {
+            chart
+                .draw_series(DashedLineSeries::new(
+                    vec![(m.f_n_hz, orders.0), (m.f_n_hz, orders.1)],
+                    4,
+                    4,
+                    FINAL.mix(0.4).stroke_width(1),
+                ))
+                .map_err(text)?;
+        }
+        let marks = [
+            (PoleMark::New, "o  new", RGBColor(150, 150, 150)),
+            (PoleMark::Frequency, "f  frequency", INITIAL),
+            (PoleMark::Damping, "d  + damping", NOISE),
+            (PoleMark::Shape, "v  + mode shape", RGBColor(255, 127, 14)),
+            (PoleMark::Stable, "s  stable", FINAL),
+        ];
+        for (mark, name, colour) in marks {
+            let filled = mark == PoleMark::Stable;
+            let style = if filled {
+                colour.filled()
+            } else {
+                colour.stroke_width(1)
+            };
+            chart
+                .draw_series(
+                    diagram
+                        .poles
+                        .iter()
+                        .filter(|p| p.mark == mark)
+                        .map(|p| Circle::new((p.mode.f_n_hz, p.order as f64), 3, style)),
+                )
+                .map_err(text)?
+                .label(name)
+                .legend(move |(x, y)| Circle::new((x, y), 3, style));
+        }
+        chart
+            .configure_series_labels()
+            .position(SeriesLabelPosition::UpperLeft)
+            .background_style(WHITE.mix(0.8))
+            .border_style(BLACK)
+            .draw()
+            .map_err(text)?;
+        root.present().map_err(text)?;
+    }
+    Ok(svg)
 }
 
 #[cfg(test)]

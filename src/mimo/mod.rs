@@ -1,6 +1,7 @@
 //! Multi-input multi-output models with poles common to every entry: vector fitting's
 //! multiport form fitted to frequency response matrices ([`fit_common_poles`]), its real
-//! state-space realisation, the modes with their shapes, and a passivity check.
+//! state-space realisation, the modes with their shapes, a passivity check, and the
+//! stabilisation diagram over a range of orders ([`stabilisation_diagram`]).
 //!
 //! A structure tested with one shaker and many accelerometers, an n-port network or a
 //! process with several actuators has one set of poles (its modes); fitting the entries
@@ -37,6 +38,7 @@
 mod model;
 mod passivity;
 mod poles;
+mod stabilisation;
 mod state_space;
 mod varpro;
 mod vector_fit;
@@ -44,6 +46,10 @@ mod vector_fit;
 pub use model::{CommonPoleModel, Mode};
 pub use passivity::{PASSIVITY_TOLERANCE, Passivity, passivity};
 pub use poles::PoleSet;
+pub use stabilisation::{
+    DiagramPole, PhysicalMode, PoleMark, StabilisationDiagram, StabilityTolerances,
+    diagram_of_fits, mac, stabilisation_diagram,
+};
 pub use state_space::StateSpace;
 
 use crate::data::{FrfMatrix, MimoSpectra};

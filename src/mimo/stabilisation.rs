@@ -201,7 +201,7 @@ pub fn diagram_of_fits<T: Real>(
 }
 
 /// The frequency band of the lines (Hz).
-pub(crate) fn band_hz<T: Real>(omega: &[T]) -> (T, T) {
+fn band_hz<T: Real>(omega: &[T]) -> (T, T) {
     let lo = omega.iter().copied().fold(T::infinity(), Float::min);
     let hi = omega.iter().copied().fold(T::zero(), Float::max);
     (lo / T::two_pi(), hi / T::two_pi())
@@ -253,9 +253,14 @@ pub fn mac<T: Real>(a: &[Complex<T>], b: &[Complex<T>]) -> T {
 
 /// The physical modes: the stable poles sorted by frequency, split at relative gaps above
 /// the frequency tolerance, kept when stable at `min_orders` orders or more.
-fn clusters<T: Real>(poles: &[DiagramPole<T>], tol: &StabilityTolerances<T>) -> Vec<PhysicalMode<T>> {
-    let mut stable: Vec<&DiagramPole<T>> =
-        poles.iter().filter(|p| p.mark == PoleMark::Stable).collect();
+fn clusters<T: Real>(
+    poles: &[DiagramPole<T>],
+    tol: &StabilityTolerances<T>,
+) -> Vec<PhysicalMode<T>> {
+    let mut stable: Vec<&DiagramPole<T>> = poles
+        .iter()
+        .filter(|p| p.mark == PoleMark::Stable)
+        .collect();
     stable.sort_by(|a, b| {
         a.mode
             .f_n_hz
@@ -266,8 +271,7 @@ fn clusters<T: Real>(poles: &[DiagramPole<T>], tol: &StabilityTolerances<T>) -> 
     for p in stable {
         match groups.last_mut() {
             Some(g)
-                if p.mode.f_n_hz - g[g.len() - 1].mode.f_n_hz
-                    <= tol.frequency * p.mode.f_n_hz =>
+                if p.mode.f_n_hz - g[g.len() - 1].mode.f_n_hz <= tol.frequency * p.mode.f_n_hz =>
             {
                 g.push(p)
             }

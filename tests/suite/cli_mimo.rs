@@ -421,3 +421,76 @@ fn cd_player_arm_two_inputs_two_outputs() {
     assert_eq!(o.status.code(), Some(2));
     assert!(stderr(&o).contains("needs --output"), "{}", stderr(&o));
 }
+
+/// `fdid stabilize` on the F-16 ground vibration test (three outputs, --stable, orders
+/// 2–40): the README's modes near 5.2 Hz (wing bending) and at 7.32 Hz (wing torsion) are
+/// physical modes of the diagram, each stable over several orders with a small spread;
+/// every pole carries one of the marks o f d v s; --plot writes the diagram as SVG.
+#[test]
+fn f16_stabilisation_diagram_finds_the_reference_modes() {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../shared/data/f16-gvt/F16Data_FullMSine_Level1.csv");
+    let scratch = Scratch::new("stabilize_f16");
+    let svg = scratch.path("diagram.svg");
+    let o = fdid(&[
+        "stabilize",
+        path.to_str().unwrap(),
+        "--input",
+        "Force",
+        "--output",
+        "Acceleration1,Acceleration2,Acceleration3",
+        "--ts",
+        "0.0025",
+        "--periods",
+        "9",
+        "--skip-periods",
+        "1",
+        "--band",
+        "2:15",
+        "--domain",
+        "s",
+        "--orders",
+        "2:40",
+        "--stable",
+        "--json",
+        "--plot",
+        svg.to_str().unwrap(),
+    ]);
+    let v = json_of(&o);
+    assert_eq!(v["orders"].as_array().unwrap().len(), 20);
+    for p in v["poles"].as_array().unwrap() {
+        let mark = p["mark"].as_str().unwrap();
+        assert!(["o", "f", "d", "v", "s"].contains(&mark), "{mark}");
+        let f = p["f_n_hz"].as_f64().unwrap();
+        assert!((2.0..=15.0).contains(&f), "pole at {f} Hz outside the band");
+    }
+    let modes = v["modes"].as_array().unwrap();
+    for reference in [5.19, 7.32] {
+        let m = modes
+            .iter()
+            .find(|m| (m["f_n_hz"].as_f64().unwrap() - reference).abs() < 0.05)
+            .unwrap_or_else(|| panic!("{reference} Hz not among {modes:?}"));
+        assert!(m["orders"].as_array().unwrap().len() >= 5, "{m}");
+        assert!(m["f_n_spread_hz"].as_f64().unwrap() < 0.01, "{m}");
+    }
+    #[cfg(feature = "plot")]
+    {
+        let figure = std::fs::read_to_string(&svg).unwrap();
+        assert!(figure.contains("<svg") && figure.contains("Stabilisation diagram"));
+    }
+    // bad order ranges are usage errors naming the value
+    let o = fdid(&[
+        "stabilize",
+        &bundled("rlc_bandpass.s2p"),
+        "--domain",
+        "s",
+        "--orders",
+        "6:2",
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        stderr(&o).contains("invalid --orders 6:2"),
+        "{}",
+        stderr(&o)
+    );
+}

@@ -56,6 +56,7 @@ mod ltv_paper;
 mod ltv_varying;
 mod mimo;
 mod mimo_records;
+mod mimo_stabilisation;
 mod model_delay;
 mod model_modal;
 mod model_rational;

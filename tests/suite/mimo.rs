@@ -283,7 +283,7 @@ fn mode_shapes_of_rank_one_residues() {
 }
 
 /// Complex circular Gaussian noise of variance `var` (E|n|² = var).
-fn noise(d: &mut Draw, var: f64) -> Complex<f64> {
+pub(crate) fn noise(d: &mut Draw, var: f64) -> Complex<f64> {
     let g = |d: &mut Draw| {
         let (u1, u2) = (d.unit().max(1e-300), d.unit());
         (-2.0 * u1.ln()).sqrt() * (2.0 * std::f64::consts::PI * u2).cos()

@@ -104,7 +104,7 @@ fn options<T: Real>(direct: bool) -> CommonPoleOptions<T> {
 }
 
 fn recovers<T: Real>(case: Case, tolerance: f64) -> TestResult {
-    let direct = case.seed % 2 == 0;
+    let direct = case.seed.is_multiple_of(2);
     let (model, data) = record::<T>(&case, direct);
     let fit = match fit_common_poles_spectra(&data, model.order(), &options(direct)) {
         Ok(f) => f,
