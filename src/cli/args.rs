@@ -361,8 +361,8 @@ pub struct CommonArgs {
 
     /// Touchstone files (.sNp, .ts): the entry X_ij to fit, output port i and input port j,
     /// written `ij` (`21` is S21). Without it `fit` fits every entry of a file of 2 or
-    /// more ports with common poles (--nb na-1 or na), and `diagnose` takes 21; a 1-port
-    /// file has 11
+    /// more ports with common poles (--nb na-1 or na), and `diagnose` runs the workflow on
+    /// every entry; a 1-port file has 11
     #[arg(long, value_name = "IJ")]
     pub port: Option<String>,
 

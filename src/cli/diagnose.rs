@@ -177,6 +177,9 @@ struct Diagnosis {
 pub fn diagnose(args: &DiagnoseArgs) -> Result<String, Failure> {
     let c = &args.common;
     check_usage(args)?;
+    if let Some(entries) = data::read_entries(c)? {
+        return super::mimo_diagnose::diagnose(args, entries);
+    }
     let mut prepared = data::prepare(c, false, true)?;
     let lines = prepared.data.len();
     if lines > MAX_LINES && !args.allow_long {

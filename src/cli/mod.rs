@@ -7,6 +7,7 @@ mod diagnose;
 mod ltv;
 pub mod message;
 mod mimo;
+mod mimo_diagnose;
 pub mod progress;
 mod report;
 mod saved;

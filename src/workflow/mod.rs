@@ -63,6 +63,7 @@
 //! ```
 mod attempt;
 mod bands;
+mod common_poles;
 mod custom;
 pub mod detectors;
 mod eliminate;
@@ -77,6 +78,10 @@ mod spec;
 pub use crate::estimate::{DelayRange, Method, ModelSpec};
 pub use attempt::{Attempt, Elimination, Outcome};
 pub use bands::{Band, disagreement_bands};
+pub use common_poles::{
+    CommonPoleCheck, CommonPoleDiagnosis, CommonPoleStep, EXACT_FIT, EntryCheck, SharedResonance,
+    check_common_poles, diagnose_common_poles,
+};
 pub use custom::{Augmented, AugmentedFit, ModelReport};
 pub use detectors::TimeVarying;
 pub use finding::{Context, Detail, Detector, Effect, Finding, PeriodicRecord, Remedy};

@@ -261,7 +261,7 @@ fn a_frequency_response_matrix_csv_is_fitted_entry_by_entry_or_whole() {
     assert!(one["entries"].is_null());
     let poles = one["poles"].as_array().unwrap();
     assert_eq!(poles.len(), 3);
-    // errors: an entry beyond the matrix, a missing column, diagnose without --port
+    // errors: an entry beyond the matrix, a missing column
     let bad = fdid(&[
         "fit", file, "--domain", "s", "--na", "3", "--nb", "2", "--port", "31",
     ]);
@@ -284,13 +284,12 @@ fn a_frequency_response_matrix_csv_is_fitted_entry_by_entry_or_whole() {
         "{}",
         stderr(&o)
     );
-    let o = fdid(&["diagnose", file, "--domain", "s", "--na", "3", "--nb", "2"]);
-    assert_eq!(o.status.code(), Some(2));
-    assert!(
-        stderr(&o).contains("pick one entry with --port IJ"),
-        "{}",
-        stderr(&o)
-    );
+    // diagnose without --port runs the workflow on every entry of the matrix
+    let v = json_of(&fdid(&[
+        "diagnose", file, "--domain", "s", "--na", "3", "--nb", "2", "--json",
+    ]));
+    assert_eq!(v["outputs"], 2);
+    assert_eq!(v["result"]["check"]["entries"].as_array().unwrap().len(), 2);
 }
 
 /// The F-16 ground vibration test (../shared/data/f16-gvt): one shaker, three
@@ -492,5 +491,114 @@ fn f16_stabilisation_diagram_finds_the_reference_modes() {
         stderr(&o).contains("invalid --orders 6:2"),
         "{}",
         stderr(&o)
+    );
+}
+
+/// `fdid diagnose` on every entry: the computed RLC two-port at its true order (two
+/// poles) is left alone — the model reproduces the file to its printed precision — and a
+/// resonance is not added to rounding errors.
+#[test]
+fn diagnose_leaves_the_rlc_two_port_at_its_order() {
+    let v = json_of(&fdid(&[
+        "diagnose",
+        &bundled("rlc_bandpass.s2p"),
+        "--domain",
+        "s",
+        "--na",
+        "2",
+        "--nb",
+        "2",
+        "--json",
+    ]));
+    assert_eq!(v["result"]["order"], 2);
+    assert_eq!(v["steps"].as_array().unwrap().len(), 1);
+    assert!(
+        v["stop"].as_str().unwrap().contains("printed precision"),
+        "{}",
+        v["stop"]
+    );
+    let entries = v["result"]["check"]["entries"].as_array().unwrap();
+    assert_eq!(entries.len(), 4);
+    let o = fdid(&[
+        "diagnose",
+        &bundled("rlc_bandpass.s2p"),
+        "--domain",
+        "s",
+        "--na",
+        "2",
+        "--nb",
+        "2",
+        "--report",
+        "somewhere",
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        stderr(&o).contains("--report is not available"),
+        "{}",
+        stderr(&o)
+    );
+}
+
+/// `fdid diagnose` on the F-16's three outputs from a model of 10 common poles: the
+/// summed residual power names missing resonances, the pole pairs are added while the
+/// likelihood-ratio test accepts them, and the result has about the README's "about 10
+/// resonance modes" in 2–15 Hz (16 to 24 poles), stable, with the 5.2 Hz wing bending and
+/// 7.32 Hz wing torsion modes; one named resonance lies at the torsion mode (7.3 Hz, the
+/// README's most nonlinear one).
+#[test]
+fn diagnose_adds_the_f16_modes_across_outputs() {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../shared/data/f16-gvt/F16Data_FullMSine_Level1.csv");
+    let v = json_of(&fdid(&[
+        "diagnose",
+        path.to_str().unwrap(),
+        "--input",
+        "Force",
+        "--output",
+        "Acceleration1,Acceleration2,Acceleration3",
+        "--ts",
+        "0.0025",
+        "--periods",
+        "9",
+        "--skip-periods",
+        "1",
+        "--band",
+        "2:15",
+        "--domain",
+        "s",
+        "--na",
+        "10",
+        "--nb",
+        "10",
+        "--stable",
+        "--max-steps",
+        "12",
+        "--json",
+    ]));
+    let steps = v["steps"].as_array().unwrap();
+    assert!(steps[0]["check"]["resonance"]["found"].as_bool().unwrap());
+    for s in steps.iter().skip(1).filter(|s| s["accepted"] == true) {
+        assert!(s["lr"]["p_value"].as_f64().unwrap() < 0.05, "{s}");
+    }
+    let order = v["result"]["order"].as_u64().unwrap();
+    assert!((16..=24).contains(&order), "order {order}: {}", v["stop"]);
+    assert_eq!(v["result"]["stable"], true);
+    let modes: Vec<f64> = v["result"]["modes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|m| m["f_n_hz"].as_f64().unwrap())
+        .collect();
+    for reference in [5.19, 7.32] {
+        assert!(
+            modes.iter().any(|f| (f - reference).abs() < 0.05),
+            "{reference} Hz among {modes:?}"
+        );
+    }
+    assert!(
+        steps.iter().any(|s| s["check"]["resonance"]["peak_hz"]
+            .as_f64()
+            .is_some_and(|f| (f - 7.3).abs() < 0.2)),
+        "no step named the torsion mode"
     );
 }

@@ -75,6 +75,7 @@ mod simulate;
 mod stress_numerical;
 mod work_budget;
 mod workflow_combined;
+mod workflow_common_poles;
 mod workflow_detect;
 mod workflow_greybox;
 mod workflow_honesty;
