@@ -190,6 +190,11 @@ then a `# warning:` line for each unresolved pole), std the standard deviation o
 the covariance of theta (no column without one); with --json one object
 {\"frf\":[[f,re,im],..], \"frf_std\":[..]|null, \"unresolved_poles\":[[re,im],..]}.
 
+A common-pole model (`fdid fit` of every entry with --save; \"kind\":\"common_poles\",
+\"model\":{\"domain\", \"poles\", \"residues\", \"direct\"}) prints every entry in the
+matrix CSV layout f,re_11,im_11,re_21,im_21,.. (which `fdid fit` reads back); with --json
+{\"entries\":[{\"output\":i, \"input\":j, \"frf\":[[f,re,im],..]},..]}.
+
 Examples:
   fdid fit data/eis_battery.csv --domain s --na 6 --nb 6 --band :1000 --save eis.json
   fdid eval eis.json --freq 0.01:1000:50

@@ -34,6 +34,13 @@ pub(super) fn fit(args: &FitArgs, entries: Entries) -> Result<String, Failure> {
     let (data, parameter) = banded(c, entries)?;
     let options = options(c, data.ts(), args.stable)?;
     let (fit, stopped) = budget::fit_common_poles(args.allow_long, || data.fit(c.na, &options))?;
+    if let Some(path) = &args.plot {
+        write_plot(path, &data, &fit)?;
+    }
+    if let Some(path) = &args.save {
+        let source = c.data.display().to_string();
+        super::saved::write(path, &super::saved::common_poles(&fit.model, &source)?)?;
+    }
     let report = Report {
         file: c.data.display().to_string(),
         data: &data,
@@ -46,6 +53,41 @@ pub(super) fn fit(args: &FitArgs, entries: Entries) -> Result<String, Failure> {
     } else {
         report.text()?
     })
+}
+
+/// `--plot FILE`: one magnitude panel per entry, data and model.
+#[cfg(feature = "plot")]
+fn write_plot(
+    path: &std::path::Path,
+    data: &Fitted,
+    fit: &CommonPoleFit<f64>,
+) -> Result<(), Failure> {
+    let f_hz: Vec<f64> = data
+        .omega()
+        .iter()
+        .map(|w| w / std::f64::consts::TAU)
+        .collect();
+    let g = fit.model.response(data.omega());
+    let (ny, nu) = data.shape();
+    let entry = |e: usize| -> Vec<Complex<f64>> { g.iter().map(|m| m[(e % ny, e / ny)]).collect() };
+    let model: Vec<Vec<Complex<f64>>> = (0..ny * nu).map(entry).collect();
+    let measured: Option<Vec<Vec<Complex<f64>>>> = match data {
+        Fitted::Matrix(m) => Some(m.entries().iter().map(|e| e.y().to_vec()).collect()),
+        Fitted::Spectra(_) => None,
+    };
+    let figure = super::svg::bode_grid(&f_hz, measured.as_deref(), &model, (ny, nu))
+        .map_err(|e| Failure::runtime(format!("cannot draw the Bode grid: {e}")))?;
+    super::progress::write_atomic(path, figure.as_bytes())
+        .map_err(|e| Failure::runtime(format!("cannot write {}: {e}", path.display())))
+}
+
+/// Without the `plot` feature `--plot` is a usage error.
+#[cfg(not(feature = "plot"))]
+fn write_plot(path: &std::path::Path, _: &Fitted, _: &CommonPoleFit<f64>) -> Result<(), Failure> {
+    Err(Failure::usage(format!(
+        "--plot {} needs the `plot` feature (build with default features)",
+        path.display()
+    )))
 }
 
 /// The entries within `--band`, and the network parameter of Touchstone data.
@@ -122,6 +164,7 @@ impl Fitted {
 
     /// The sum over the entries of |G_ij| per line (FRF matrix), or over the outputs of
     /// |Y_i| (spectra).
+    #[cfg(feature = "plot")]
     pub(super) fn summed_magnitude(&self) -> Vec<f64> {
         match self {
             Self::Matrix(m) => (0..m.len())
@@ -164,8 +207,6 @@ fn check_flags(args: &FitArgs, spectra: bool) -> Result<(), Failure> {
             args.criterion != CriterionArg::Ml,
             "--criterion other than ml",
         ),
-        (args.save.is_some(), "--save"),
-        (args.plot.is_some(), "--plot"),
     ];
     if let Some((_, flag)) = refused.iter().find(|(on, _)| *on) {
         return Err(Failure::usage(format!(

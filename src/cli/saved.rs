@@ -5,6 +5,7 @@ use super::Failure;
 use super::args::EvalArgs;
 use fdid::estimate::RationalFit;
 use fdid::fitted::FittedModel;
+use fdid::mimo::CommonPoleModel;
 use fdid::model::{Delayed, WithNoiseModel};
 use fdid::prelude::*;
 use serde::de::DeserializeOwned;
@@ -66,6 +67,30 @@ pub fn saved(
     }))
 }
 
+/// The saved-model JSON object of a common-pole model fitted to every entry of the data in
+/// `source`: `{"format":"fdid-model","version":1,"kind":"common_poles","domain":"s"|"z",
+/// "ts":x|null,"source":FILE,"model":{domain,poles,residues,direct}}` (the fields of
+/// [`fdid::mimo::CommonPoleModel`]).
+pub fn common_poles(model: &CommonPoleModel<f64>, source: &str) -> Result<Value, Failure> {
+    let (domain, ts) = match model.domain {
+        Domain::Continuous => ("s", None),
+        Domain::Discrete { ts } => ("z", Some(ts)),
+    };
+    Ok(json!({
+        "format": FORMAT,
+        "version": VERSION,
+        "kind": COMMON_POLES,
+        "domain": domain,
+        "ts": ts,
+        "source": source,
+        "model": serde_json::to_value(model)
+            .map_err(|e| Failure::runtime(format!("cannot serialise the model: {e}")))?,
+    }))
+}
+
+/// The `kind` of a saved common-pole model.
+const COMMON_POLES: &str = "common_poles";
+
 /// The `fitted` object of a saved model ([`FittedModel`]).
 fn fitted<M: ModelStructure<f64> + Clone + Serialize>(fit: &Fit<f64, M>) -> Result<Value, Failure> {
     serde_json::to_value(FittedModel::of_fit(fit))
@@ -120,6 +145,9 @@ pub fn eval(args: &EvalArgs) -> Result<String, Failure> {
     let f_hz = parse_freq(&args.freq).map_err(Failure::usage)?;
     let (value, envelope) = read(&args.model, &name)?;
     let omega: Vec<f64> = f_hz.iter().map(|f| std::f64::consts::TAU * f).collect();
+    if value["kind"] == COMMON_POLES {
+        return eval_common_poles(args, &f_hz, &value, &envelope, &name);
+    }
     let fitted = &value["fitted"];
     let response = match value["kind"].as_str() {
         Some("rational") => respond::<Rational<f64>>(fitted, &omega, &name)?,
@@ -140,6 +168,73 @@ pub fn eval(args: &EvalArgs) -> Result<String, Failure> {
     } else {
         eval_csv(&f_hz, &response, &envelope, &value, &name)
     })
+}
+
+/// `fdid eval` of a saved common-pole model: every entry's response, as CSV in the
+/// matrix layout `f,re_11,im_11,re_21,im_21,…` (`re_I_J` beyond 9; `fdid fit` reads it
+/// back) or as JSON `{"entries":[{"output":i,"input":j,"frf":[[f,re,im],..]},..],
+/// "warnings":[..]}`, entries column by column.
+fn eval_common_poles(
+    args: &EvalArgs,
+    f_hz: &[f64],
+    value: &Value,
+    envelope: &Envelope,
+    name: &str,
+) -> Result<String, Failure> {
+    let model: CommonPoleModel<f64> = serde_json::from_value(value["model"].clone())
+        .map_err(|e| Failure::runtime(format!("{name}: bad saved model: {e}")))?;
+    model
+        .check()
+        .map_err(|e| Failure::runtime(format!("{name}: bad saved model: {e}")))?;
+    let omega: Vec<f64> = f_hz.iter().map(|f| std::f64::consts::TAU * f).collect();
+    let g = model.response(&omega);
+    let (ny, nu) = (model.ny(), model.nu());
+    let pairs: Vec<(usize, usize)> = (0..nu).flat_map(|j| (0..ny).map(move |i| (i, j))).collect();
+    let warnings: Vec<String> = envelope.nyquist_warning(f_hz).into_iter().collect();
+    if args.json {
+        let entries: Vec<Value> = pairs
+            .iter()
+            .map(|&(i, j)| {
+                let frf: Vec<Value> = f_hz
+                    .iter()
+                    .zip(&g)
+                    .map(|(f, m)| json!([f, finite(m[(i, j)].re), finite(m[(i, j)].im)]))
+                    .collect();
+                json!({"output": i + 1, "input": j + 1, "frf": frf})
+            })
+            .collect();
+        return Ok(json!({"entries": entries, "warnings": warnings}).to_string() + "\n");
+    }
+    let label = |i: usize, j: usize| {
+        if ny > 9 || nu > 9 {
+            format!("{}_{}", i + 1, j + 1)
+        } else {
+            format!("{}{}", i + 1, j + 1)
+        }
+    };
+    let mut out = String::new();
+    let _ = writeln!(
+        out,
+        "# common_poles model from {name} ({}): {ny} outputs x {nu} inputs, f in Hz",
+        value["source"].as_str().unwrap_or("")
+    );
+    for w in &warnings {
+        let _ = writeln!(out, "# warning: {w}");
+    }
+    out.push('f');
+    for &(i, j) in &pairs {
+        let l = label(i, j);
+        let _ = write!(out, ",re_{l},im_{l}");
+    }
+    out.push('\n');
+    for (f, m) in f_hz.iter().zip(&g) {
+        let _ = write!(out, "{f:e}");
+        for &(i, j) in &pairs {
+            let _ = write!(out, ",{:e},{:e}", m[(i, j)].re, m[(i, j)].im);
+        }
+        out.push('\n');
+    }
+    Ok(out)
 }
 
 /// The saved-model object in `path` (named `name`), checked for its format and version,

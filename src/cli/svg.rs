@@ -655,6 +655,75 @@ pub fn stabilisation(
     Ok(svg)
 }
 
+/// One magnitude panel per entry of a common-pole fit, in a grid of ny rows (outputs) by
+/// nu columns (inputs): |G_ij| in dB against frequency (Hz, log scale) of the data (points,
+/// when given: an FRF matrix) and of the model (line).
+///
+/// # Errors
+/// The drawing backend's, as text; no line above 0 Hz.
+pub fn bode_grid(
+    f_hz: &[f64],
+    data: Option<&[Vec<Complex<f64>>]>,
+    model: &[Vec<Complex<f64>>],
+    (ny, nu): (usize, usize),
+) -> Result<String, String> {
+    const PANEL: (u32, u32) = (300, 220);
+    let size = (PANEL.0 * nu as u32, PANEL.1 * ny as u32 + 30);
+    let freq = frequency_axis(f_hz)?;
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, size).into_drawing_area();
+        root.fill(&WHITE).map_err(text)?;
+        let root = root
+            .titled("Common-pole model: |G_ij| per entry", ("sans-serif", 18))
+            .map_err(text)?;
+        let panels = root.split_evenly((ny, nu));
+        for (p, area) in panels.iter().enumerate() {
+            let (i, j) = (p / nu, p % nu);
+            let e = j * ny + i;
+            let all = model[e]
+                .iter()
+                .chain(data.map_or(&[][..], |d| d[e].as_slice()))
+                .map(|z| db(*z));
+            let mag = range(all, 0.05, (-1.0, 1.0));
+            let mut chart = ChartBuilder::on(area)
+                .caption(
+                    format!("G{}{} (output {}, input {})", i + 1, j + 1, i + 1, j + 1),
+                    ("sans-serif", 13),
+                )
+                .margin(6)
+                .x_label_area_size(25)
+                .y_label_area_size(45)
+                .build_cartesian_2d((freq.0..freq.1).log_scale(), mag.0..mag.1)
+                .map_err(text)?;
+            chart
+                .configure_mesh()
+                .x_labels(4)
+                .y_labels(5)
+                .label_style(("sans-serif", 10))
+                .draw()
+                .map_err(text)?;
+            if let Some(d) = data {
+                chart
+                    .draw_series(
+                        points(f_hz, &d[e], db)
+                            .into_iter()
+                            .map(|p| Circle::new(p, 1, DATA.filled())),
+                    )
+                    .map_err(text)?;
+            }
+            chart
+                .draw_series(LineSeries::new(
+                    points(f_hz, &model[e], db),
+                    FINAL.stroke_width(2),
+                ))
+                .map_err(text)?;
+        }
+        root.present().map_err(text)?;
+    }
+    Ok(svg)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

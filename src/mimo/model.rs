@@ -195,9 +195,19 @@ fn normalised<T: Real>(v: Vec<Complex<T>>) -> Vec<Complex<T>> {
 }
 
 impl<T: Real> CommonPoleModel<T> {
-    /// Checks that the poles and residues are finite and one residue matrix per slot.
-    pub(crate) fn check(&self) -> Result<()> {
+    /// Checks the model (e.g. one read from a file): finite poles, one residue matrix per
+    /// slot, every residue matrix (and the direct term) of one shape ny × nu with ny, nu
+    /// ≥ 1, finite values, and a positive finite sample time in z.
+    ///
+    /// # Errors
+    /// [`FdidError::LengthMismatch`] for the number or shape of the matrices,
+    /// [`FdidError::InvalidArgument`] for no output or input or a bad sample time,
+    /// [`FdidError::Numerical`] or `NonFinite` for values that are not finite.
+    pub fn check(&self) -> Result<()> {
         self.poles.check_finite()?;
+        if let Domain::Discrete { ts } = self.domain {
+            crate::data::check_ts(ts)?;
+        }
         let n = self.poles.real.len() + self.poles.pairs.len();
         if self.residues.len() != n {
             return Err(FdidError::LengthMismatch {
@@ -206,10 +216,35 @@ impl<T: Real> CommonPoleModel<T> {
                 got: self.residues.len(),
             });
         }
+        let (ny, nu) = (self.ny(), self.nu());
+        if ny == 0 || nu == 0 {
+            return Err(FdidError::InvalidArgument {
+                name: "residue matrices",
+                value: format!("{ny} x {nu}"),
+                reason: "a model has at least one output and one input".into(),
+            });
+        }
+        let shapes = self
+            .residues
+            .iter()
+            .map(|r| r.shape())
+            .chain(self.direct.as_ref().map(|d| d.shape()));
+        for shape in shapes {
+            if shape != (ny, nu) {
+                return Err(FdidError::LengthMismatch {
+                    what: "entries of a residue or direct matrix (as the first one's)",
+                    expected: ny * nu,
+                    got: shape.0 * shape.1,
+                });
+            }
+        }
         let finite = self.residues.iter().all(|r| {
             r.iter()
                 .all(|v| Float::is_finite(v.re) && Float::is_finite(v.im))
-        });
+        }) && self
+            .direct
+            .as_ref()
+            .is_none_or(|d| d.iter().all(|v| Float::is_finite(*v)));
         if !finite {
             return Err(FdidError::Numerical {
                 what: "residue matrices".into(),

@@ -191,7 +191,7 @@ fn flags_a_common_pole_fit_does_not_take_are_refused() {
     let s2p = bundled("rlc_bandpass.s2p");
     for (extra, says) in [
         (vec!["--delay"], "--delay is not available"),
-        (vec!["--save", "x.json"], "--save is not available"),
+        (vec!["--noise-order", "1"], "--noise-order is not available"),
         (vec!["--criterion", "levy"], "--criterion other than ml"),
     ] {
         let mut a = vec!["fit", &s2p, "--domain", "s", "--na", "2", "--nb", "2"];
@@ -390,11 +390,23 @@ fn cd_player_arm_two_inputs_two_outputs() {
         let explained = o["explained"].as_f64().unwrap();
         assert!(explained > 0.7, "output {}: {explained}", o["output"]);
     }
-    let text = fdid(&args);
+    let scratch = Scratch::new("cli_mimo_cd_plot");
+    let svg = scratch.path("grid.svg");
+    let mut plot_args = args.to_vec();
+    plot_args.extend(["--plot", svg.to_str().unwrap()]);
+    let text = fdid(&plot_args);
     assert!(text.status.success(), "{}", stderr(&text));
     let out = String::from_utf8_lossy(&text.stdout);
     assert!(out.contains("2 outputs x 2 inputs"), "{out}");
     assert!(!out.contains("unstable"), "{out}");
+    #[cfg(feature = "plot")]
+    {
+        // one magnitude panel per entry
+        let figure = std::fs::read_to_string(&svg).unwrap();
+        for entry in ["G11", "G21", "G12", "G22"] {
+            assert!(figure.contains(entry), "{entry} panel missing");
+        }
+    }
     // what a record with several inputs refuses, and a bad column
     for (extra, says) in [
         (
@@ -600,5 +612,71 @@ fn diagnose_adds_the_f16_modes_across_outputs() {
             .as_f64()
             .is_some_and(|f| (f - 7.3).abs() < 0.2)),
         "no step named the torsion mode"
+    );
+}
+
+/// `fdid fit --save` of a common-pole fit and `fdid eval`: the saved model's response of
+/// every entry comes back in the matrix CSV layout, which `fdid fit` reads and fits to the
+/// same poles; the JSON has one FRF per entry; a damaged file is an error naming it.
+#[test]
+fn a_saved_common_pole_model_is_evaluated_entry_by_entry() {
+    let dir = Scratch::new("cli_mimo_save");
+    let model = dir.path("rlc.json");
+    let fit = fdid(&[
+        "fit",
+        &bundled("rlc_bandpass.s2p"),
+        "--domain",
+        "s",
+        "--na",
+        "2",
+        "--nb",
+        "2",
+        "--save",
+        model.to_str().unwrap(),
+    ]);
+    assert!(fit.status.success(), "{}", stderr(&fit));
+    let eval = fdid(&["eval", model.to_str().unwrap(), "--freq", "1e6:3e7:60"]);
+    assert!(eval.status.success(), "{}", stderr(&eval));
+    let csv = String::from_utf8_lossy(&eval.stdout).to_string();
+    assert!(
+        csv.contains("f,re_11,im_11,re_21,im_21,re_12,im_12,re_22,im_22"),
+        "{csv}"
+    );
+    let back = dir.file("back.csv", &csv);
+    let refit = json_of(&fdid(&[
+        "fit",
+        back.to_str().unwrap(),
+        "--domain",
+        "s",
+        "--na",
+        "2",
+        "--nb",
+        "2",
+        "--json",
+    ]));
+    for (got, want) in real_poles(&refit).iter().zip(rlc_poles()) {
+        assert!((got - want).abs() < 1e-4 * want.abs(), "{got} vs {want}");
+    }
+    let v = json_of(&fdid(&[
+        "eval",
+        model.to_str().unwrap(),
+        "--freq",
+        "1e6,2e6",
+        "--json",
+    ]));
+    let entries = v["entries"].as_array().unwrap();
+    assert_eq!(entries.len(), 4);
+    assert_eq!(entries[1]["output"], 2);
+    assert_eq!(entries[1]["frf"].as_array().unwrap().len(), 2);
+    // a residue matrix of the wrong shape
+    let mut saved: Value = serde_json::from_str(&std::fs::read_to_string(&model).unwrap()).unwrap();
+    saved["model"]["direct"][1] = Value::from(3);
+    let broken = dir.file("broken.json", &saved.to_string());
+    let o = fdid(&["eval", broken.to_str().unwrap(), "--freq", "1e6"]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(
+        stderr(&o).contains("broken.json: bad saved model"),
+        "{}",
+        stderr(&o)
     );
 }
