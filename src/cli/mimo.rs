@@ -62,11 +62,6 @@ fn write_plot(
     data: &Fitted,
     fit: &CommonPoleFit<f64>,
 ) -> Result<(), Failure> {
-    let f_hz: Vec<f64> = data
-        .omega()
-        .iter()
-        .map(|w| w / std::f64::consts::TAU)
-        .collect();
     let g = fit.model.response(data.omega());
     let (ny, nu) = data.shape();
     let entry = |e: usize| -> Vec<Complex<f64>> { g.iter().map(|m| m[(e % ny, e / ny)]).collect() };
@@ -75,8 +70,18 @@ fn write_plot(
         Fitted::Matrix(m) => Some(m.entries().iter().map(|e| e.y().to_vec()).collect()),
         Fitted::Spectra(_) => None,
     };
-    let figure = super::svg::bode_grid(&f_hz, measured.as_deref(), &model, (ny, nu))
-        .map_err(|e| Failure::runtime(format!("cannot draw the Bode grid: {e}")))?;
+    let figure = super::svg::bode_grid(&data.f_hz(), measured.as_deref(), &model, (ny, nu));
+    write_figure(path, figure, "the Bode grid")
+}
+
+/// Writes an SVG `figure` (or reports why `what` could not be drawn) to `path`.
+#[cfg(feature = "plot")]
+pub(super) fn write_figure(
+    path: &std::path::Path,
+    figure: Result<String, String>,
+    what: &str,
+) -> Result<(), Failure> {
+    let figure = figure.map_err(|e| Failure::runtime(format!("cannot draw {what}: {e}")))?;
     super::progress::write_atomic(path, figure.as_bytes())
         .map_err(|e| Failure::runtime(format!("cannot write {}: {e}", path.display())))
 }
@@ -174,6 +179,15 @@ impl Fitted {
                 .map(|k| (0..s.ny()).map(|i| s.y(i)[k].norm()).sum())
                 .collect(),
         }
+    }
+
+    /// The lines' frequencies in Hz.
+    #[cfg(feature = "plot")]
+    pub(super) fn f_hz(&self) -> Vec<f64> {
+        self.omega()
+            .iter()
+            .map(|w| w / std::f64::consts::TAU)
+            .collect()
     }
 
     pub(super) fn omega(&self) -> &[f64] {
@@ -300,7 +314,8 @@ fn pair(c: Complex<f64>) -> Value {
     json!([c.re, c.im])
 }
 
-fn matrix_json(m: &nalgebra::DMatrix<f64>) -> Value {
+/// A real matrix as a JSON array of rows.
+pub(super) fn matrix_json(m: &nalgebra::DMatrix<f64>) -> Value {
     Value::Array(
         (0..m.nrows())
             .map(|i| json!((0..m.ncols()).map(|j| m[(i, j)]).collect::<Vec<f64>>()))
@@ -447,6 +462,7 @@ impl Report<'_> {
         let model = &fit.model;
         let modes = model.modes().map_err(Failure::from)?;
         let ss = model.state_space();
+        let mf = model.matrix_fraction();
         let g = model.response(self.data.omega());
         let f_hz: Vec<f64> = self
             .data
@@ -547,6 +563,10 @@ impl Report<'_> {
             "residues": residues,
             "direct": model.direct.as_ref().map(matrix_json),
             "modes": modes_json,
+            "matrix_fraction": {
+                "denominator": mf.denominator,
+                "numerators": mf.numerators,
+            },
             "state_space": {
                 "a": matrix_json(&ss.a),
                 "b": matrix_json(&ss.b),

@@ -3,6 +3,7 @@
 
 use super::Failure;
 use super::args::EvalArgs;
+use super::mimo::matrix_json as rows;
 use fdid::estimate::RationalFit;
 use fdid::fitted::FittedModel;
 use fdid::mimo::CommonPoleModel;
@@ -69,9 +70,13 @@ pub fn saved(
 
 /// The saved-model JSON object of a common-pole model fitted to every entry of the data in
 /// `source`: `{"format":"fdid-model","version":1,"kind":"common_poles","domain":"s"|"z",
-/// "ts":x|null,"source":FILE,"model":{domain,poles,residues,direct}}` (the fields of
-/// [`fdid::mimo::CommonPoleModel`]).
+/// "ts":x|null,"source":FILE,"model":{domain,poles,residues,direct},"state_space":{a,b,c,d},
+/// "matrix_fraction":{denominator,numerators}}` (the fields of
+/// [`fdid::mimo::CommonPoleModel`]; the realisation and the common-denominator form are
+/// for other tools: `fdid eval` reads `model`).
 pub fn common_poles(model: &CommonPoleModel<f64>, source: &str) -> Result<Value, Failure> {
+    let ss = model.state_space();
+    let mf = model.matrix_fraction();
     let (domain, ts) = match model.domain {
         Domain::Continuous => ("s", None),
         Domain::Discrete { ts } => ("z", Some(ts)),
@@ -85,6 +90,10 @@ pub fn common_poles(model: &CommonPoleModel<f64>, source: &str) -> Result<Value,
         "source": source,
         "model": serde_json::to_value(model)
             .map_err(|e| Failure::runtime(format!("cannot serialise the model: {e}")))?,
+        "state_space": {
+            "a": rows(&ss.a), "b": rows(&ss.b), "c": rows(&ss.c), "d": rows(&ss.d)
+        },
+        "matrix_fraction": {"denominator": mf.denominator, "numerators": mf.numerators},
     }))
 }
 

@@ -267,15 +267,8 @@ fn write_plot(
     data: &Fitted,
     diagram: &StabilisationDiagram<f64>,
 ) -> Result<(), Failure> {
-    let f_hz: Vec<f64> = data
-        .omega()
-        .iter()
-        .map(|w| w / std::f64::consts::TAU)
-        .collect();
-    let figure = super::svg::stabilisation(diagram, &f_hz, &data.summed_magnitude())
-        .map_err(|e| Failure::runtime(format!("cannot draw the stabilisation diagram: {e}")))?;
-    super::progress::write_atomic(path, figure.as_bytes())
-        .map_err(|e| Failure::runtime(format!("cannot write {}: {e}", path.display())))
+    let figure = super::svg::stabilisation(diagram, &data.f_hz(), &data.summed_magnitude());
+    super::mimo::write_figure(path, figure, "the stabilisation diagram")
 }
 
 /// Without the `plot` feature `--plot` is a usage error.

@@ -35,6 +35,7 @@
 //! assert!((pair - p).norm() < 1e-8);
 //! ```
 
+mod matrix_fraction;
 mod model;
 mod passivity;
 mod poles;
@@ -43,6 +44,7 @@ mod state_space;
 mod varpro;
 mod vector_fit;
 
+pub use matrix_fraction::MatrixFraction;
 pub use model::{CommonPoleModel, Mode};
 pub use passivity::{PASSIVITY_TOLERANCE, Passivity, passivity};
 pub use poles::PoleSet;

@@ -55,6 +55,19 @@ fn every_entry_of_the_rlc_two_port_shares_its_two_poles() {
     }
     let entries = v["entries"].as_array().unwrap();
     assert_eq!(entries.len(), 4);
+    // the common-denominator form: a(s) = (s − p1)(s − p2), monic, one numerator per entry
+    let mf = &v["matrix_fraction"];
+    let a: Vec<f64> = mf["denominator"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_f64().unwrap())
+        .collect();
+    let [p1, p2] = rlc_poles();
+    assert_eq!(a.len(), 3);
+    assert!((a[1] + p1 + p2).abs() < 1e-4 * (p1 + p2).abs(), "{a:?}");
+    assert!((a[2] - p1 * p2).abs() < 1e-4 * (p1 * p2).abs(), "{a:?}");
+    assert_eq!(mf["numerators"].as_array().unwrap().len(), 4);
     let order: Vec<(u64, u64)> = entries
         .iter()
         .map(|e| (e["output"].as_u64().unwrap(), e["input"].as_u64().unwrap()))
@@ -667,6 +680,16 @@ fn a_saved_common_pole_model_is_evaluated_entry_by_entry() {
     let entries = v["entries"].as_array().unwrap();
     assert_eq!(entries.len(), 4);
     assert_eq!(entries[1]["output"], 2);
+    // the saved file also holds the realisation and the common-denominator form
+    let saved: Value = serde_json::from_str(&std::fs::read_to_string(&model).unwrap()).unwrap();
+    assert_eq!(saved["state_space"]["a"].as_array().unwrap().len(), 4);
+    assert_eq!(
+        saved["matrix_fraction"]["denominator"]
+            .as_array()
+            .unwrap()
+            .len(),
+        3
+    );
     assert_eq!(entries[1]["frf"].as_array().unwrap().len(), 2);
     // a residue matrix of the wrong shape
     let mut saved: Value = serde_json::from_str(&std::fs::read_to_string(&model).unwrap()).unwrap();

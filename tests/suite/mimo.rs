@@ -232,6 +232,38 @@ fn discrete_time_recovery_and_state_space() {
         .map(|(a, b)| (a - b).norm())
         .fold(0.0, f64::max);
     assert!(diff < 1e-9, "state-space response differs by {diff:e}");
+    // the common-denominator form N_ij(z)/a(z) has the model's response up to the
+    // rounding of polynomial evaluation: Horner's error is about nε Σ|c_k| on |z| = 1,
+    // so relative to N/a it is bounded by a multiple of ε(Σ|b_k|/|N| + Σ|a_k|/|a|) (large
+    // here: poles clustered near z = 1 make the coefficients ill-conditioned)
+    let mf = fit.model.matrix_fraction();
+    assert_eq!(mf.denominator.len(), 10);
+    assert_eq!(mf.denominator[0], 1.0);
+    let x: Vec<Complex<f64>> = w.iter().map(|w| Complex::from_polar(1.0, w * ts)).collect();
+    let poly = |c: &[f64], z: Complex<f64>| {
+        c.iter()
+            .fold(Complex::new(0.0, 0.0), |s: Complex<f64>, v| s * z + *v)
+    };
+    let size = |c: &[f64]| c.iter().map(|v| v.abs()).sum::<f64>();
+    for e in 0..6 {
+        let (i, j) = (e % 3, e / 3);
+        let h = mf.response(i, j, &w);
+        let b = &mf.numerators[e];
+        let worst = (0..w.len())
+            .map(|k| {
+                let cond = size(b) / poly(b, x[k]).norm()
+                    + size(&mf.denominator) / poly(&mf.denominator, x[k]).norm();
+                let err = (g[k][(i, j)] - h[k]).norm() / g[k][(i, j)].norm();
+                err / (f64::EPSILON * cond)
+            })
+            .fold(0.0, f64::max);
+        assert!(
+            worst < 100.0,
+            "matrix fraction of entry {e}: error {worst:.1} times the rounding bound"
+        );
+        // b_0 is the direct term
+        assert!((b[0] - truth.direct.as_ref().unwrap()[(i, j)]).abs() < 1e-8);
+    }
     // the modes: the continuous-time equivalents of the poles, sorted by frequency
     let modes = fit.model.modes().unwrap();
     let f_true: Vec<f64> = ct
@@ -283,6 +315,30 @@ fn mode_shapes_of_rank_one_residues() {
 }
 
 /// Complex circular Gaussian noise of variance `var` (E|n|² = var).
+/// The FRF matrix of `model` on the lines `omega` with complex noise of variance `var` on
+/// every line and entry (drawn from `seed`), the variances attached.
+pub(crate) fn noisy_matrix(
+    model: &CommonPoleModel<f64>,
+    omega: &[f64],
+    var: f64,
+    seed: u64,
+) -> FrfMatrix<f64> {
+    let g = model.response(omega);
+    let (ny, nu) = (model.ny(), model.nu());
+    let mut d = Draw(seed);
+    let entries: Vec<Vec<Complex<f64>>> = (0..ny * nu)
+        .map(|e| {
+            g.iter()
+                .map(|m| m[(e % ny, e / ny)] + noise(&mut d, var))
+                .collect()
+        })
+        .collect();
+    FrfMatrix::from_entries(omega.to_vec(), ny, nu, entries, None)
+        .unwrap()
+        .with_variances(vec![vec![var; omega.len()]; ny * nu])
+        .unwrap()
+}
+
 pub(crate) fn noise(d: &mut Draw, var: f64) -> Complex<f64> {
     let g = |d: &mut Draw| {
         let (u1, u2) = (d.unit().max(1e-300), d.unit());

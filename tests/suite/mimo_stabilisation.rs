@@ -2,7 +2,7 @@
 //! of random MIMO systems every true mode is found as a physical mode, and the marks
 //! follow their definitions.
 
-use super::mimo::{Case, Draw, noise};
+use super::mimo::{Case, noisy_matrix};
 use fdid::data::FrfMatrix;
 use fdid::mimo::{CommonPoleOptions, PoleMark, StabilityTolerances, stabilisation_diagram};
 use fdid::prelude::*;
@@ -14,25 +14,13 @@ fn noisy(case: &Case, snr_db: f64) -> (fdid::mimo::CommonPoleModel<f64>, FrfMatr
     let omega: Vec<f64> = (0..400)
         .map(|k| 0.05 * (400.0f64).powf(k as f64 / 399.0))
         .collect();
-    let g = model.response(&omega);
-    let (ny, nu) = (model.ny(), model.nu());
-    let peak = g
+    let peak = model
+        .response(&omega)
         .iter()
         .flat_map(|m| m.iter().map(|v| v.norm()))
         .fold(0.0, f64::max);
     let var = (peak * 10f64.powf(-snr_db / 20.0)).powi(2);
-    let mut d = Draw(case.seed ^ 0xabcd);
-    let entries: Vec<Vec<Complex<f64>>> = (0..ny * nu)
-        .map(|e| {
-            g.iter()
-                .map(|m| m[(e % ny, e / ny)] + noise(&mut d, var))
-                .collect()
-        })
-        .collect();
-    let data = FrfMatrix::from_entries(omega.clone(), ny, nu, entries, None)
-        .unwrap()
-        .with_variances(vec![vec![var; omega.len()]; ny * nu])
-        .unwrap();
+    let data = noisy_matrix(&model, &omega, var, case.seed ^ 0xabcd);
     (model, data)
 }
 

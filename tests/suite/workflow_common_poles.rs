@@ -4,10 +4,9 @@
 //! two poles are added and accepted by the likelihood-ratio test, and the gap closes; a
 //! model of the right order is left alone.
 
-use super::mimo::{Case, Draw, noise};
+use super::mimo::{Case, noisy_matrix};
 use fdid::data::FrfMatrix;
 use fdid::mimo::{CommonPoleModel, CommonPoleOptions};
-use fdid::prelude::*;
 use fdid::workflow::{check_common_poles, diagnose_common_poles};
 
 /// A case's FRF matrix on 300 log-spaced lines (0.05–20 rad/s) with complex noise of
@@ -17,20 +16,7 @@ fn noisy(case: &Case, var: f64) -> (CommonPoleModel<f64>, FrfMatrix<f64>) {
     let omega: Vec<f64> = (0..300)
         .map(|k| 0.05 * (400.0f64).powf(k as f64 / 299.0))
         .collect();
-    let g = model.response(&omega);
-    let (ny, nu) = (model.ny(), model.nu());
-    let mut d = Draw(case.seed ^ 0x5151);
-    let entries: Vec<Vec<Complex<f64>>> = (0..ny * nu)
-        .map(|e| {
-            g.iter()
-                .map(|m| m[(e % ny, e / ny)] + noise(&mut d, var))
-                .collect()
-        })
-        .collect();
-    let data = FrfMatrix::from_entries(omega.clone(), ny, nu, entries, None)
-        .unwrap()
-        .with_variances(vec![vec![var; omega.len()]; ny * nu])
-        .unwrap();
+    let data = noisy_matrix(&model, &omega, var, case.seed ^ 0x5151);
     (model, data)
 }
 
