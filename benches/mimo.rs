@@ -1,14 +1,18 @@
-//! Criterion bench of `fdid::mimo::fit_common_poles`: a random 4-port (16 entries, 50
-//! poles in 25 resonances spread over two decades, reciprocal residue matrices and a
-//! direct term) on 200 log-spaced lines with complex noise of 1e-4 per entry (seeded):
+//! Criterion bench of `fdid::mimo::fit_common_poles` on random n-ports (resonances spread
+//! over two decades, reciprocal residue matrices and a direct term, complex noise of 1e-4
+//! per entry, seeded), the shapes of `bench/multiport.py`:
 //!
-//! * `mimo_4port/relocation`: relaxed vector fitting alone (`ml: false`);
-//! * `mimo_4port/relocation_ml`: the default, relocation then variable-projection ML.
+//! * `mimo_4port/relocation`: 16 entries, 50 poles, 200 log-spaced lines, relaxed vector
+//!   fitting alone (`ml: false`);
+//! * `mimo_4port/relocation_ml`: the same with the default variable-projection ML;
+//! * `mimo_8port/relocation_ml`: 64 entries, 40 poles, 5 000 evenly spaced lines.
 //!
-//! The same case in the Touchstone file of `bench/multiport.py` is what scikit-rf's
-//! VectorFitting is compared against there (whole process for fdid).
+//! Thread count: rayon's pool (the `rayon` feature, on with `--all-features`) forms the
+//! entries' blocks of a relocation in parallel. The Touchstone cases of
+//! `bench/multiport.py` are what scikit-rf's VectorFitting is compared against there
+//! (whole process for fdid).
 //!
-//! Run: `cargo bench --bench mimo` (about a minute).
+//! Run: `cargo bench --all-features --bench mimo` (about two minutes).
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use fdid::data::FrfMatrix;
@@ -19,11 +23,14 @@ use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
 use std::hint::black_box;
 
-fn four_port() -> FrfMatrix<f64> {
-    let mut rng = StdRng::seed_from_u64(4);
-    let pairs: Vec<Complex<f64>> = (0..25)
+/// A random `ports`-port with `pairs` resonances on `lines` lines from 10 MHz (log-spaced
+/// to 20 GHz, or evenly spaced to 12 GHz).
+fn n_port(ports: usize, pairs: usize, lines: usize, log_spaced: bool) -> FrfMatrix<f64> {
+    let mut rng = StdRng::seed_from_u64(ports as u64);
+    let last = (pairs - 1) as f64;
+    let pairs: Vec<Complex<f64>> = (0..pairs)
         .map(|k| {
-            let f = 1e8 * (100f64).powf(k as f64 / 24.0) * (1.0 + 0.1 * rng.gen_range(-1.0..1.0));
+            let f = 1e8 * (100f64).powf(k as f64 / last) * (1.0 + 0.1 * rng.gen_range(-1.0..1.0));
             let zeta: f64 = rng.gen_range(0.01..0.08);
             let w = 2.0 * std::f64::consts::PI * f;
             Complex::new(-zeta * w, w * (1.0 - zeta * zeta).sqrt())
@@ -32,10 +39,10 @@ fn four_port() -> FrfMatrix<f64> {
     let residues = pairs
         .iter()
         .map(|p| {
-            let r = DMatrix::from_fn(4, 4, |_, _| {
+            let r = DMatrix::from_fn(ports, ports, |_, _| {
                 Complex::new(rng.gen_range(-1.0..1.0), rng.gen_range(-1.0..1.0))
             });
-            (&r + r.transpose()) * Complex::new(p.re.abs() * 0.04, 0.0)
+            (&r + r.transpose()) * Complex::new(p.re.abs() * 0.16 / ports as f64, 0.0)
         })
         .collect();
     let model = CommonPoleModel {
@@ -45,27 +52,35 @@ fn four_port() -> FrfMatrix<f64> {
             pairs,
         },
         residues,
-        direct: Some(DMatrix::from_fn(4, 4, |i, j| 0.05 * (i + j) as f64)),
+        direct: Some(DMatrix::from_fn(ports, ports, |i, j| 0.05 * (i + j) as f64)),
     };
-    let omega: Vec<f64> = (0..200)
-        .map(|k| 2.0 * std::f64::consts::PI * 1e7 * (2000f64).powf(k as f64 / 199.0))
+    let span = (lines - 1) as f64;
+    let omega: Vec<f64> = (0..lines)
+        .map(|k| {
+            let f = if log_spaced {
+                1e7 * (2000f64).powf(k as f64 / span)
+            } else {
+                1e7 + (1.2e10 - 1e7) * k as f64 / span
+            };
+            2.0 * std::f64::consts::PI * f
+        })
         .collect();
     let g = model.response(&omega);
-    let entries = (0..16)
+    let entries = (0..ports * ports)
         .map(|e| {
             g.iter()
                 .map(|m| {
                     let noise = Complex::new(rng.gen_range(-1.0..1.0), rng.gen_range(-1.0..1.0));
-                    m[(e % 4, e / 4)] + noise * 1e-4
+                    m[(e % ports, e / ports)] + noise * 1e-4
                 })
                 .collect()
         })
         .collect();
-    FrfMatrix::from_entries(omega, 4, 4, entries, None).unwrap()
+    FrfMatrix::from_entries(omega, ports, ports, entries, None).unwrap()
 }
 
 fn bench(c: &mut Criterion) {
-    let data = four_port();
+    let data = n_port(4, 25, 200, true);
     let mut group = c.benchmark_group("mimo_4port");
     group.sample_size(10);
     let relocation = CommonPoleOptions {
@@ -82,6 +97,13 @@ fn bench(c: &mut Criterion) {
     };
     group.bench_function("relocation_ml", |b| {
         b.iter(|| fit_common_poles(black_box(&data), 50, &full).unwrap())
+    });
+    group.finish();
+    let data = n_port(8, 20, 5000, false);
+    let mut group = c.benchmark_group("mimo_8port");
+    group.sample_size(10);
+    group.bench_function("relocation_ml", |b| {
+        b.iter(|| fit_common_poles(black_box(&data), 40, &full).unwrap())
     });
     group.finish();
 }

@@ -1,10 +1,12 @@
 //! Linear-algebra kernels shared by the models, criteria and solvers: dense least squares
 //! by QR and SVD ([`least_squares`]), a never-panicking SVD, the guarded normal equations
-//! over blocks of lines (`gram`) and Householder reflectors (`householder`).
+//! over blocks of lines (`gram`), Householder reflectors (`householder`) and independent
+//! items in parallel (`parallel`).
 
 pub(crate) mod gram;
 pub(crate) mod householder;
 mod lstsq;
+pub(crate) mod parallel;
 
 pub use lstsq::least_squares;
 pub(crate) use lstsq::{check_shape, equilibrate_columns, svd_of_r};

@@ -39,8 +39,10 @@ mod matrix_fraction;
 mod model;
 mod passivity;
 mod poles;
+mod sigma_blocks;
 mod stabilisation;
 mod state_space;
+mod thin_qr;
 mod varpro;
 mod vector_fit;
 

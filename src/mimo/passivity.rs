@@ -47,17 +47,26 @@ pub fn passivity<T: Real>(model: &CommonPoleModel<T>, f_max_hz: T, points: usize
         omega.push(w);
     }
     omega.sort_by(|a, b| a.partial_cmp(b).unwrap_or(std::cmp::Ordering::Equal));
+    let responses = model.response(&omega);
+    let largest = crate::linalg::parallel::map_indices(responses.len(), |k| {
+        nalgebra::SVD::try_new_unordered(
+            responses[k].clone(),
+            false,
+            false,
+            T::default_epsilon(),
+            1000,
+        )
+        .map(|svd| {
+            svd.singular_values
+                .iter()
+                .copied()
+                .fold(T::zero(), Float::max)
+        })
+        .unwrap_or(T::infinity())
+    });
     let mut worst = (T::zero(), T::zero());
     let mut violations = 0;
-    for (w, g) in omega.iter().zip(model.response(&omega)) {
-        let s = nalgebra::SVD::try_new_unordered(g, false, false, T::default_epsilon(), 1000)
-            .map(|svd| {
-                svd.singular_values
-                    .iter()
-                    .copied()
-                    .fold(T::zero(), Float::max)
-            })
-            .unwrap_or(T::infinity());
+    for (w, s) in omega.iter().zip(largest) {
         if s > T::one() + T::lit(PASSIVITY_TOLERANCE) {
             violations += 1;
         }

@@ -3,7 +3,8 @@
 //! pole parameters only.
 
 use super::poles::PoleSet;
-use super::vector_fit::{Weighted, at_b};
+use super::thin_qr::{ThinQr, at_b};
+use super::vector_fit::Weighted;
 use crate::problem::NonlinearProblem;
 use crate::scalar::Real;
 use nalgebra::{DMatrix, DVector};
@@ -61,18 +62,11 @@ impl<T: Real> VarPro<'_, T> {
     /// The projection for the weights `w` (none: unit weights); `None` when the
     /// regressor is numerically singular.
     fn projection(&self, poles: &PoleSet<T>, w: Option<&[T]>) -> Option<Projection<T>> {
-        let mut a = crate::linalg::stack_rows(&self.data.regressor(poles), w);
-        let p = a.ncols();
-        if (0..p).any(|j| !(a.column(j).norm() > T::zero())) {
+        let a = crate::linalg::stack_rows(&self.data.regressor(poles), w);
+        if (0..a.ncols()).any(|j| !(a.column(j).norm() > T::zero())) {
             return None;
         }
-        let scale = crate::linalg::equilibrate_columns(&mut a);
-        let qr = a.qr();
-        let r = qr.r();
-        if !(0..p).all(|i| Float::abs(r[(i, i)]) > T::default_epsilon() * T::lit(1e3)) {
-            return None;
-        }
-        let q = qr.q();
+        let ThinQr { q, r, scale } = ThinQr::new(a).ok()?;
         let psi = crate::linalg::stack_rows(&self.data.derivative_regressor(poles), w);
         let psi_perp = &psi - &q * at_b(&q, &psi);
         Some(Projection {

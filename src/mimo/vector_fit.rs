@@ -3,6 +3,7 @@
 
 use super::model::CommonPoleModel;
 use super::poles::{PoleSet, basis, coefficient_matrix, derivative_basis, points, starting_poles};
+use super::thin_qr::{ThinQr, r_factor};
 use crate::data::{FrfMatrix, MimoSpectra};
 use crate::error::{FdidError, Result};
 use crate::model::Domain;
@@ -126,6 +127,16 @@ impl<T: Real> Weighted<T> {
     /// least squares (one QR shared by all blocks without weights, one per block with
     /// them), and each block's weighted cost Σ_k w²|h − ĥ|².
     pub(crate) fn linear_fit(&self, poles: &PoleSet<T>) -> Result<(Vec<DVector<T>>, Vec<T>)> {
+        self.factored_fit(poles).map(|(c, v, _)| (c, v))
+    }
+
+    /// [`Weighted::linear_fit`] and, without weights, the shared QR of the regressor and
+    /// the blocks' residuals (which the next relocation from these poles reuses).
+    #[allow(clippy::type_complexity)]
+    fn factored_fit(
+        &self,
+        poles: &PoleSet<T>,
+    ) -> Result<(Vec<DVector<T>>, Vec<T>, Option<SharedFit<T>>)> {
         let a = self.regressor(poles);
         let ne = self.h.len();
         match &self.w {
@@ -134,8 +145,11 @@ impl<T: Real> Weighted<T> {
                     let v = self.h[e][r / 2];
                     if r % 2 == 0 { v.re } else { v.im }
                 });
-                let (x, costs) = shared_least_squares(crate::linalg::stack_rows(&a, None), b)?;
-                Ok(((0..ne).map(|e| x.column(e).into_owned()).collect(), costs))
+                let qr = ThinQr::new(crate::linalg::stack_rows(&a, None))?;
+                let (x, residuals) = qr.least_squares(&b)?;
+                let coeffs = (0..ne).map(|e| x.column(e).into_owned()).collect();
+                let costs = residuals.column_iter().map(|r| r.norm_squared()).collect();
+                Ok((coeffs, costs, Some(SharedFit { qr, residuals })))
             }
             Some(w) => {
                 let mut coeffs = Vec::with_capacity(ne);
@@ -145,11 +159,12 @@ impl<T: Real> Weighted<T> {
                         let v = h[r / 2] * w[r / 2];
                         if r % 2 == 0 { v.re } else { v.im }
                     });
-                    let (x, c) = shared_least_squares(crate::linalg::stack_rows(&a, Some(w)), b)?;
+                    let factor = ThinQr::new(crate::linalg::stack_rows(&a, Some(w)))?;
+                    let (x, r) = factor.least_squares(&b)?;
                     coeffs.push(x.column(0).into_owned());
-                    costs.push(c[0]);
+                    costs.push(r.norm_squared());
                 }
-                Ok((coeffs, costs))
+                Ok((coeffs, costs, None))
             }
         }
     }
@@ -235,53 +250,46 @@ impl<T: Real> Weighted<T> {
     /// n + 1 rows in the shared σ (the R₂₂ block); the stacked blocks and the constraint
     /// Re Σ_k σ(x_k) = L (which keeps σ₀ free but σ nonzero) give σ by one small least
     /// squares. The new poles are the zeros of σ(x), the eigenvalues of A − b cᵀ/σ₀ of its
-    /// real state-space form. The cost is linear in the number of entries.
-    pub(crate) fn relocate(&self, poles: &PoleSet<T>) -> Result<PoleSet<T>> {
+    /// real state-space form. The cost is linear in the number of entries, whose blocks
+    /// are formed in parallel with the `rayon` feature.
+    ///
+    /// `shared` is the linear fit at these poles without weights (the QR of the regressor
+    /// and the residuals); it is formed when `None`.
+    pub(crate) fn relocate(
+        &self,
+        poles: &PoleSet<T>,
+        shared: Option<&SharedFit<T>>,
+    ) -> Result<PoleSet<T>> {
         let phi = basis(&self.x, poles);
         let (l, n) = phi.shape();
         let regressor = self.regressor(poles);
-        let m = regressor.ncols();
         let ne = self.h.len();
-        let mut stack = DMatrix::<T>::zeros(ne * (n + 1) + 1, n + 1);
-        let mut norm = T::zero();
-        // without weights every block shares A: one QR of it, then each block's R₂₂ is the
-        // R of its σ-columns projected off the range of A (the same R₂₂ as the QR of
-        // [A | B_e], at the cost of two products and a QR of half the width)
-        let shared_q = match self.w {
-            None => Some(crate::linalg::stack_rows(&regressor, None).qr().q()),
-            Some(_) => None,
+        // without weights every block shares A: one QR of it, then each block's R₂₂ comes
+        // from its σ-columns projected off the range of A (`sigma_blocks`)
+        let formed;
+        let shared = match (&self.w, shared) {
+            (Some(_), _) => None,
+            (None, Some(f)) => Some(f),
+            (None, None) => {
+                formed = self.factored_fit(poles)?.2;
+                formed.as_ref()
+            }
         };
-        for e in 0..ne {
-            let width = if shared_q.is_some() { n + 1 } else { m + n + 1 };
-            let offset = width - (n + 1);
-            let mut a = DMatrix::<T>::zeros(2 * l, width);
-            for k in 0..l {
-                let w = self.weight(e, k);
-                let h = self.h[e][k] * w;
-                norm += h.norm_sqr();
-                if shared_q.is_none() {
-                    for c in 0..m {
-                        let v = regressor[(k, c)] * w;
-                        a[(2 * k, c)] = v.re;
-                        a[(2 * k + 1, c)] = v.im;
-                    }
-                }
-                for c in 0..n {
-                    let g = -(phi[(k, c)] * h);
-                    a[(2 * k, offset + c)] = g.re;
-                    a[(2 * k + 1, offset + c)] = g.im;
-                }
-                a[(2 * k, offset + n)] = -h.re;
-                a[(2 * k + 1, offset + n)] = -h.im;
-            }
-            if let Some(q) = &shared_q {
-                a -= q * at_b(q, &a);
-            }
-            let r = r_factor(a);
+        let blocks = match shared {
+            Some(f) => super::sigma_blocks::shared_blocks(&self.h, &phi, &f.qr.q, &f.residuals),
+            None => crate::linalg::parallel::map_indices(ne, |e| {
+                self.own_sigma_block(e, &regressor, self.sigma_columns(e, &phi))
+            }),
+        };
+        let mut stack = DMatrix::<T>::zeros(ne * (n + 1) + 1, n + 1);
+        for (e, r) in blocks.iter().enumerate() {
             stack
                 .view_mut((e * (n + 1), 0), (n + 1, n + 1))
-                .copy_from(&r.view((offset, offset), (n + 1, n + 1)));
+                .copy_from(r);
         }
+        let norm = (0..ne).fold(T::zero(), |s, e| {
+            (0..l).fold(s, |s, k| s + (self.h[e][k] * self.weight(e, k)).norm_sqr())
+        });
         let lf = T::from_usize_lossy(l);
         let beta = Float::sqrt(norm) / lf;
         let last = ne * (n + 1);
@@ -307,34 +315,44 @@ impl<T: Real> Weighted<T> {
     }
 }
 
-/// aᵀb through a transposed copy and a matrix product: nalgebra's `tr_mul` forms one dot
-/// product per entry, while the product of two matrices runs the blocked kernels of
-/// matrixmultiply, several times faster on the tall matrices of a fit.
-pub(crate) fn at_b<T: Real>(a: &DMatrix<T>, b: &DMatrix<T>) -> DMatrix<T> {
-    a.transpose() * b
+impl<T: Real> Weighted<T> {
+    /// Block e's σ-columns in real-stacked form (2L × (n + 1)): w_k h_e,k [−φ(x_k) | −1],
+    /// the terms of the linearised equation that multiply σ (filled column by column).
+    fn sigma_columns(&self, e: usize, phi: &DMatrix<Complex<T>>) -> DMatrix<T> {
+        let (l, n) = phi.shape();
+        let h: Vec<Complex<T>> = (0..l)
+            .map(|k| -(self.h[e][k] * self.weight(e, k)))
+            .collect();
+        DMatrix::from_fn(2 * l, n + 1, |row, c| {
+            let k = row / 2;
+            let g = if c < n { phi[(k, c)] * h[k] } else { h[k] };
+            if row % 2 == 0 { g.re } else { g.im }
+        })
+    }
+
+    /// Block e's R₂₂ with its own weights: the trailing (n + 1) × (n + 1) block of the R
+    /// factor of [w_e A | σ-columns].
+    fn own_sigma_block(
+        &self,
+        e: usize,
+        regressor: &DMatrix<Complex<T>>,
+        sigma: DMatrix<T>,
+    ) -> DMatrix<T> {
+        let w = self.w.as_ref().map(|w| w[e].as_slice());
+        let a = crate::linalg::stack_rows(regressor, w);
+        let (m, n1) = (a.ncols(), sigma.ncols());
+        let mut full = DMatrix::<T>::zeros(a.nrows(), m + n1);
+        full.columns_mut(0, m).copy_from(&a);
+        full.columns_mut(m, n1).copy_from(&sigma);
+        r_factor(full).view((m, m), (n1, n1)).into_owned()
+    }
 }
 
-/// The R factor of a tall matrix `a` (k columns) by CholeskyQR2: R₁ = chol(aᵀa),
-/// a₁ = aR₁⁻¹, R = chol(a₁ᵀa₁)·R₁ — two Gram matrices and one product, all matrix
-/// products (several times faster than Householder QR here), and orthogonal to working
-/// precision for κ(a) up to about ε^(−1/2) (Fukaya et al. 2014). When a Cholesky
-/// factorisation fails (κ beyond that), Householder QR.
-fn r_factor<T: Real>(a: DMatrix<T>) -> DMatrix<T> {
-    let chol_r = |a: &DMatrix<T>| -> Option<DMatrix<T>> {
-        let r = at_b(a, a).cholesky()?.l().transpose();
-        r.iter().all(|v| Float::is_finite(*v)).then_some(r)
-    };
-    let two_pass = || -> Option<DMatrix<T>> {
-        let r1 = chol_r(&a)?;
-        let inverse = r1.clone().try_inverse()?;
-        let a1 = &a * inverse;
-        let r2 = chol_r(&a1)?;
-        Some(r2 * r1)
-    };
-    match two_pass() {
-        Some(r) => r,
-        None => a.qr().r(),
-    }
+/// The linear fit of every block at one set of poles without weights: the QR of the
+/// shared regressor and the residuals h_e − A c_e (real-stacked, one column per block).
+pub(crate) struct SharedFit<T: Real> {
+    qr: ThinQr<T>,
+    residuals: DMatrix<T>,
 }
 
 /// The zeros of σ(x) = σ₀ + Σ c_m φ_m(x): the eigenvalues of A − b cᵀ/σ₀ for the real
@@ -362,53 +380,6 @@ fn zeros_of_sigma<T: Real>(poles: &PoleSet<T>, c: &DVector<T>, s0: T) -> Result<
     let zeros = PoleSet::from_eigenvalues(&ev);
     zeros.check_finite()?;
     Ok(zeros)
-}
-
-/// Least squares min ‖A X − B‖ for every column of B with one QR of A (columns
-/// equilibrated first); returns X and each column's residual ‖·‖².
-///
-/// # Errors
-/// Fewer rows than columns; [`FdidError::Singular`] when R has a diagonal below
-/// 10³·ε times its largest (the columns are numerically dependent, e.g. two equal poles).
-pub(crate) fn shared_least_squares<T: Real>(
-    mut a: DMatrix<T>,
-    b: DMatrix<T>,
-) -> Result<(DMatrix<T>, Vec<T>)> {
-    let (rows, p) = a.shape();
-    if rows < p {
-        return Err(FdidError::TooFewFrequencies {
-            lines: rows / 2,
-            equations: rows,
-            parameters: p,
-        });
-    }
-    let scale = crate::linalg::equilibrate_columns(&mut a);
-    let qr = a.qr();
-    let mut qtb = b;
-    qr.q_tr_mul(&mut qtb);
-    let r = qr.r();
-    let diag: Vec<T> = (0..p).map(|i| Float::abs(r[(i, i)])).collect();
-    let big = diag.iter().copied().fold(T::zero(), Float::max);
-    let small = diag.iter().copied().fold(T::infinity(), Float::min);
-    if !(small > big * T::default_epsilon() * T::lit(1e3)) {
-        return Err(FdidError::Singular {
-            what: "residue least squares (numerically dependent basis columns)",
-            condition: (big / small).to_f64_lossless(),
-        });
-    }
-    let top = qtb.rows(0, p).into_owned();
-    let mut x = r
-        .solve_upper_triangular(&top)
-        .ok_or_else(|| FdidError::Numerical {
-            what: "triangular solve of the residue least squares".into(),
-        })?;
-    for (j, s) in scale.iter().enumerate() {
-        x.row_mut(j).unscale_mut(*s);
-    }
-    let costs = (0..qtb.ncols())
-        .map(|c| qtb.view((p, c), (rows - p, 1)).norm_squared())
-        .collect();
-    Ok((x, costs))
 }
 
 /// The model in physical units from the poles and linear parameters in the fitting
@@ -492,7 +463,7 @@ pub(crate) fn relocation_loop<T: Real>(
         .map(|x| fitting_frequency(*x, domain))
         .fold(T::zero(), Float::max);
     let mut poles = starting_poles(order, omega_min, omega_max, unit_domain(domain))?;
-    let (mut coeffs, mut costs) = data.linear_fit(&poles)?;
+    let (mut coeffs, mut costs, mut factor) = data.factored_fit(&poles)?;
     let mut cost = total(&costs);
     let mut best = (poles.clone(), coeffs.clone(), costs.clone(), cost);
     let tolerance = Float::sqrt(T::default_epsilon()) * T::lit(0.1);
@@ -505,15 +476,16 @@ pub(crate) fn relocation_loop<T: Real>(
         if !crate::solver::work::charge(work) {
             break;
         }
-        let mut next = data.relocate(&poles)?;
+        let mut next = data.relocate(&poles, factor.as_ref())?;
         if stable {
             next = next.reflected(domain);
         }
         let previous = cost;
         done += 1;
-        match data.linear_fit(&next) {
-            Ok((c, v)) => {
+        match data.factored_fit(&next) {
+            Ok((c, v, f)) => {
                 poles = next;
+                factor = f;
                 coeffs = c;
                 cost = total(&v);
                 costs = v;

@@ -1,0 +1,244 @@
+//! The R₂₂ blocks of the fast pole relocation when every block shares its regressor A
+//! (no weights): each block's σ-columns B_e = −h_e[φ | 1] (real-stacked) projected off
+//! the range of A, reduced to the triangular factor of (I − QQᵀ)B_e.
+
+use super::thin_qr::r_factor;
+use crate::linalg::parallel::map_indices;
+use crate::scalar::{Complex, Real};
+use nalgebra::{DMatrix, DMatrixView, DVector};
+use num_traits::Float;
+
+/// Most blocks per batch of the projection product Qᵀ[B_e | B_e+1 | …] (wide enough for
+/// the matrix-product kernels to run near their peak).
+const BATCH: usize = 8;
+
+/// Values held at once by a batch's σ-columns and by a chunk of the Gram basis: under
+/// the allocator's reuse threshold, so that the buffers of successive relocations are
+/// not mapped afresh (page faults cost as much as the products on large fits).
+const CHUNK_VALUES: usize = 1 << 20;
+
+/// Every block's R₂₂ ((n + 1) × (n + 1)) for the data `h` (one vector per block over
+/// the lines), the basis φ (L × n), the orthonormal Q (2L × m) of the shared regressor
+/// and the residuals of the blocks' linear fits h_e − QQᵀh_e (2L × blocks).
+///
+/// Fast path, matrix products only: the Gram matrix G_e = B_eᵀB_e − P_eᵀP_e with
+/// P_e = QᵀB_e, whose last row and column (the σ₀ column −h_e, nearly in the range of A
+/// once the model fits) are formed from that column's residual r_e = b_e − Q P_e,last
+/// instead (B_eᵀr_e and r_eᵀr_e, free of the cancellation; r_e is the negated residual of
+/// the block's linear fit), then R₂₂ = chol(G_e). The
+/// B_eᵀB_e of all blocks are one product, |h|² times the Gram basis
+/// Re(conj φ̃_i φ̃_j)(x_k) (φ̃ = [φ | 1]), and the P_e of a batch of blocks one product
+/// Qᵀ[B_e | …]: both wide products, several times faster than a pair of thin products
+/// per block. A block takes the fast path when every other diagonal of G_e keeps at
+/// least √ε of B_eᵀB_e's (so that G_e holds its entries to about √ε) and the Cholesky
+/// factorisation succeeds; otherwise its projection (I − QQᵀ)B_e and their QR.
+pub(crate) fn shared_blocks<T: Real>(
+    h: &[Vec<Complex<T>>],
+    phi: &DMatrix<Complex<T>>,
+    q: &DMatrix<T>,
+    fit_residuals: &DMatrix<T>,
+) -> Vec<DMatrix<T>> {
+    let (l, n) = phi.shape();
+    let n1 = n + 1;
+    let grams = block_grams(h, phi);
+    let q_t = q.transpose();
+    let ne = h.len();
+    let batch = (CHUNK_VALUES / (2 * l * n1)).clamp(1, BATCH);
+    let batches = map_indices(ne.div_ceil(batch), |b| {
+        let first = b * batch;
+        let count = batch.min(ne - first);
+        let mut sigma = DMatrix::<T>::zeros(2 * l, count * n1);
+        for i in 0..count {
+            let he = &h[first + i];
+            for c in 0..n1 {
+                let mut col = sigma.column_mut(i * n1 + c);
+                let out = col.as_mut_slice();
+                if c < n {
+                    for ((pair, f), hk) in out.chunks_exact_mut(2).zip(phi.column(c).iter()).zip(he)
+                    {
+                        let g = -(*f * *hk);
+                        pair[0] = g.re;
+                        pair[1] = g.im;
+                    }
+                } else {
+                    for (pair, hk) in out.chunks_exact_mut(2).zip(he) {
+                        pair[0] = -hk.re;
+                        pair[1] = -hk.im;
+                    }
+                }
+            }
+        }
+        let p = &q_t * &sigma;
+        (0..count)
+            .map(|i| {
+                let gram = unpack(grams.row(first + i).iter().copied(), n1);
+                // the σ₀ column's residual r_e = −(h_e − QQᵀh_e) and B_eᵀr_e
+                let fit = fit_residuals.column(first + i);
+                let r = Residual {
+                    norm_sqr: fit.norm_squared(),
+                    cross: -sigma.columns(i * n1, n1).tr_mul(&fit),
+                };
+                block(sigma.columns(i * n1, n1), p.columns(i * n1, n1), gram, r, q)
+            })
+            .collect::<Vec<_>>()
+    });
+    batches.into_iter().flatten().collect()
+}
+
+/// The σ₀ column's residual r = b − Q P_last of one block: rᵀr and Bᵀr.
+struct Residual<T: Real> {
+    norm_sqr: T,
+    cross: DVector<T>,
+}
+
+/// One block's R₂₂ from its σ-columns B, their projection coefficients P = QᵀB, BᵀB and
+/// the σ₀ column's residual.
+fn block<T: Real>(
+    sigma: DMatrixView<'_, T>,
+    p: DMatrixView<'_, T>,
+    gram: DMatrix<T>,
+    residual: Residual<T>,
+    q: &DMatrix<T>,
+) -> DMatrix<T> {
+    let n1 = sigma.ncols();
+    let last = n1 - 1;
+    let kept = Float::sqrt(T::default_epsilon());
+    let mut g = &gram - p.tr_mul(&p);
+    if (0..last).all(|i| g[(i, i)] >= kept * gram[(i, i)]) {
+        for i in 0..last {
+            g[(i, last)] = residual.cross[i];
+            g[(last, i)] = residual.cross[i];
+        }
+        g[(last, last)] = residual.norm_sqr;
+        if let Some(chol) = g.cholesky() {
+            let r = chol.l().transpose();
+            if r.iter().all(|v| Float::is_finite(*v)) {
+                return r;
+            }
+        }
+    }
+    r_factor(sigma - q * p)
+}
+
+/// B_eᵀB_e of every block, packed (upper triangle by columns, one row per block):
+/// Σ_k |h_e,k|² Re(conj φ̃_i(x_k) φ̃_j(x_k)) as the product of |h|² (blocks × L) and the
+/// Gram basis (L × (n + 1)(n + 2)/2), over chunks of lines.
+fn block_grams<T: Real>(h: &[Vec<Complex<T>>], phi: &DMatrix<Complex<T>>) -> DMatrix<T> {
+    let (l, n) = phi.shape();
+    let n1 = n + 1;
+    let packed = n1 * (n1 + 1) / 2;
+    let pairs: Vec<(usize, usize)> = (0..n1).flat_map(|j| (0..=j).map(move |i| (i, j))).collect();
+    let column = |k: usize, c: usize| {
+        if c < n {
+            phi[(k, c)]
+        } else {
+            Complex::new(T::one(), T::zero())
+        }
+    };
+    let chunk = (CHUNK_VALUES / packed).max(1);
+    let mut grams = DMatrix::<T>::zeros(h.len(), packed);
+    for start in (0..l).step_by(chunk) {
+        let len = chunk.min(l - start);
+        let basis = DMatrix::from_fn(len, packed, |r, t| {
+            let (i, j) = pairs[t];
+            let k = start + r;
+            (column(k, i).conj() * column(k, j)).re
+        });
+        let power = DMatrix::from_fn(h.len(), len, |e, r| h[e][start + r].norm_sqr());
+        grams += power * basis;
+    }
+    grams
+}
+
+/// The symmetric n1 × n1 matrix of a packed upper triangle (by columns).
+fn unpack<T: Real>(mut packed: impl Iterator<Item = T>, n1: usize) -> DMatrix<T> {
+    let mut g = DMatrix::zeros(n1, n1);
+    for j in 0..n1 {
+        for i in 0..=j {
+            let v = packed.next().unwrap_or_else(T::zero);
+            g[(i, j)] = v;
+            g[(j, i)] = v;
+        }
+    }
+    g
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// R₂₂ by the definition: the R factor of (I − QQᵀ)B by Householder QR.
+    fn reference(
+        h: &[Complex<f64>],
+        phi: &DMatrix<Complex<f64>>,
+        q: &DMatrix<f64>,
+    ) -> DMatrix<f64> {
+        let (l, n) = phi.shape();
+        let b = DMatrix::from_fn(2 * l, n + 1, |row, c| {
+            let k = row / 2;
+            let g = if c < n { -(phi[(k, c)] * h[k]) } else { -h[k] };
+            if row % 2 == 0 { g.re } else { g.im }
+        });
+        let projected = &b - q * (q.transpose() * &b);
+        projected.qr().r()
+    }
+
+    #[test]
+    fn blocks_match_the_projected_qr_up_to_row_signs() {
+        let l = 60;
+        let poles = [
+            Complex::new(-0.05, 0.3),
+            Complex::new(-0.1, 0.7),
+            Complex::new(-0.2, 0.0),
+        ];
+        let x: Vec<Complex<f64>> = (0..l)
+            .map(|k| Complex::new(0.0, k as f64 / l as f64))
+            .collect();
+        let phi = DMatrix::from_fn(l, 3, |k, c| Complex::new(1.0, 0.0) / (x[k] - poles[c]));
+        let a = DMatrix::from_fn(2 * l, 4, |row, c| {
+            let v = if c < 3 {
+                phi[(row / 2, c)]
+            } else {
+                Complex::new(1.0, 0.0)
+            };
+            if row % 2 == 0 { v.re } else { v.im }
+        });
+        let q = a.qr().q();
+        // data near the model space (a rational function plus a small disturbance), and
+        // far from it, in more blocks than a batch holds
+        let h: Vec<Vec<Complex<f64>>> = (0..11)
+            .map(|e| {
+                (0..l)
+                    .map(|k| {
+                        let model = (phi[(k, 0)] + phi[(k, 1)] * (e as f64)) * 0.3;
+                        let wiggle = Complex::new((k * (e + 3)) as f64 * 0.37, 0.0).sin();
+                        model + wiggle * if e % 2 == 0 { 1e-6 } else { 0.5 }
+                    })
+                    .collect()
+            })
+            .collect();
+        let b = DMatrix::from_fn(2 * l, 11, |row, e| {
+            let v = h[e][row / 2];
+            if row % 2 == 0 { v.re } else { v.im }
+        });
+        let fit_residuals = &b - &q * (q.transpose() * &b);
+        let blocks = shared_blocks(&h, &phi, &q, &fit_residuals);
+        assert_eq!(blocks.len(), 11);
+        for (e, r) in blocks.iter().enumerate() {
+            let want = reference(&h[e], &phi, &q);
+            for i in 0..4 {
+                // rows of R are unique up to sign
+                let sign = if (r[(i, i)] > 0.0) == (want[(i, i)] > 0.0) {
+                    1.0
+                } else {
+                    -1.0
+                };
+                let row_err = (r.row(i) - want.row(i) * sign).amax();
+                assert!(
+                    row_err <= 1e-7 * want.amax(),
+                    "block {e} row {i}: {row_err:e}"
+                );
+            }
+        }
+    }
+}
