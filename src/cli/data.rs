@@ -268,7 +268,9 @@ fn column_list<'a>(flag: &str, list: &'a str) -> Result<Vec<&'a str>, Failure> {
 
 /// The spectra of a table's input columns `list` (comma-separated) and its `--output`
 /// columns (one or a list), all read as one record whose inputs act together: the DFT of
-/// the whole record without the DC line (a record's offsets), for a common-pole fit of
+/// the whole record, or with `--periods P [--skip-periods K]` the average over the
+/// periods kept (with the output noise covariances between periods, whose variances
+/// weight the fit), without the DC line (a record's offsets), for a common-pole fit of
 /// every output on every input.
 fn input_spectra(args: &CommonArgs, list: &str) -> Result<super::mimo::Entries, Failure> {
     let Some(outputs) = args.output.as_deref() else {
@@ -283,15 +285,17 @@ fn input_spectra(args: &CommonArgs, list: &str) -> Result<super::mimo::Entries, 
              an entry (--port)"
         )));
     }
-    let refused = [
-        (args.periods.is_some(), "--periods"),
-        (args.realisations.is_some(), "--realisations"),
-        (args.skip_periods > 0, "--skip-periods"),
-    ];
-    if let Some((_, flag)) = refused.iter().find(|(on, _)| *on) {
+    if args.realisations.is_some() {
         return Err(Failure::usage(format!(
-            "{flag} is not available with several inputs in one record (--input {list}): the \
-             record is fitted as one non-periodic record (add --transient)"
+            "--realisations is not available with several inputs in one record (--input \
+             {list}): average the periods of one realisation (--periods P) or fit the record \
+             as non-periodic (add --transient)"
+        )));
+    }
+    if args.skip_periods > 0 && args.periods.is_none() {
+        return Err(Failure::usage(format!(
+            "--skip-periods {} needs --periods P: it drops whole periods",
+            args.skip_periods
         )));
     }
     let selection = MultiChannelSelection {
@@ -304,6 +308,8 @@ fn input_spectra(args: &CommonArgs, list: &str) -> Result<super::mimo::Entries, 
             .map(Column::parse)
             .collect(),
         ts: args.ts,
+        periods: args.periods,
+        skip_periods: args.skip_periods,
     };
     let spectra = read_multichannel::<f64>(&args.data, &selection).map_err(|e| match e {
         FdidError::Parse { .. } | FdidError::Io(_) => Failure::from(e),

@@ -410,6 +410,15 @@ impl Report<'_> {
                 }
             }
             Fitted::Spectra(s) => {
+                if let Some((periods, rho)) = noise_correlation(s) {
+                    let _ = writeln!(
+                        w,
+                        "noise        between the {periods} periods averaged; each output weighted by \
+                         its noise variance; correlation of the outputs' noise (mean |rho| over \
+                         the lines): {}",
+                        matrix_text(&rho)
+                    );
+                }
                 let _ = writeln!(
                     w,
                     "outputs      output  rms error      rms of data    explained (1 - error/data)"
@@ -575,6 +584,12 @@ impl Report<'_> {
             },
             "cost": fit.cost,
             "weighted": fit.weighted,
+            "noise": match self.data {
+                Fitted::Spectra(s) => noise_correlation(s).map(|(periods, rho)| {
+                    json!({"periods": periods, "output_correlation": matrix_json(&rho)})
+                }),
+                Fitted::Matrix(_) => None,
+            },
             "rms_error": rms_error(self.data, fit),
             "relocations": fit.relocations,
             "ml": ml_text(fit.ml),
@@ -587,4 +602,38 @@ impl Report<'_> {
             .map(|s| s + "\n")
             .map_err(|e| Failure::runtime(format!("cannot write the JSON report: {e}")))
     }
+}
+
+/// The periods a record's spectra were averaged over and the correlation of the outputs'
+/// noise between periods, |C_ab| / √(C_aa C_bb) averaged over the lines (1 on the
+/// diagonal); `None` without periods.
+fn noise_correlation(s: &MimoSpectra<f64>) -> Option<(usize, nalgebra::DMatrix<f64>)> {
+    let noise = s.noise()?;
+    let ny = s.ny();
+    let mut rho = nalgebra::DMatrix::zeros(ny, ny);
+    for k in 0..s.len() {
+        let c = noise.output_covariance(k);
+        for a in 0..ny {
+            for b in 0..ny {
+                let scale = (c[(a, a)].re * c[(b, b)].re).sqrt();
+                if scale > 0.0 {
+                    rho[(a, b)] += c[(a, b)].norm() / scale / s.len() as f64;
+                }
+            }
+        }
+    }
+    Some((noise.periods(), rho))
+}
+
+/// A small matrix as text, rows in brackets: [[1.000, 0.120], [0.120, 1.000]].
+fn matrix_text(m: &nalgebra::DMatrix<f64>) -> String {
+    let rows: Vec<String> = (0..m.nrows())
+        .map(|i| {
+            let row: Vec<String> = (0..m.ncols())
+                .map(|j| format!("{:.3}", m[(i, j)]))
+                .collect();
+            format!("[{}]", row.join(", "))
+        })
+        .collect();
+    format!("[{}]", rows.join(", "))
 }

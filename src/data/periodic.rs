@@ -106,7 +106,7 @@ impl<T: Real> PeriodicAverage<T> {
 }
 
 /// The samples per period `M = N / P` of a record of `n` samples in `periods` periods.
-fn period_length(n: usize, periods: usize) -> Result<usize> {
+pub(crate) fn period_length(n: usize, periods: usize) -> Result<usize> {
     if periods == 0 {
         return Err(FdidError::InvalidArgument {
             name: "periods",

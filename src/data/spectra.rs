@@ -1,8 +1,8 @@
 //! The spectra of a record with several inputs and outputs: one experiment in which nu
 //! inputs act together on ny outputs, as a multi-channel time record's DFT gives them.
 
-use super::FrequencyData;
 use super::time::{TimeData, dft_lines_with, line_frequencies};
+use super::{FrequencyData, MimoNoise};
 use crate::error::{FdidError, Result};
 use crate::scalar::{Complex, Real};
 use rustfft::FftPlanner;
@@ -33,6 +33,7 @@ use rustfft::FftPlanner;
 pub struct MimoSpectra<T: Real> {
     inputs: Vec<FrequencyData<T>>,
     outputs: Vec<FrequencyData<T>>,
+    noise: Option<MimoNoise<T>>,
 }
 
 impl<T: Real> MimoSpectra<T> {
@@ -54,6 +55,7 @@ impl<T: Real> MimoSpectra<T> {
         Ok(Self {
             inputs: u.into_iter().map(channel).collect::<Result<_>>()?,
             outputs: y.into_iter().map(channel).collect::<Result<_>>()?,
+            noise: None,
         })
     }
 
@@ -65,25 +67,7 @@ impl<T: Real> MimoSpectra<T> {
     /// non-finite samples, a sample time that is not positive and finite (as
     /// [`TimeData::new`], naming the channel's position).
     pub fn from_time(inputs: Vec<Vec<T>>, outputs: Vec<Vec<T>>, ts: T) -> Result<Self> {
-        check_channels(inputs.len(), outputs.len())?;
-        let n = inputs[0].len();
-        for (what, x) in inputs
-            .iter()
-            .map(|x| ("input", x))
-            .chain(outputs.iter().map(|x| ("output", x)))
-        {
-            if x.len() != n {
-                return Err(FdidError::LengthMismatch {
-                    what: if what == "input" {
-                        "samples of an input (as the first input)"
-                    } else {
-                        "samples of an output (as the first input)"
-                    },
-                    expected: n,
-                    got: x.len(),
-                });
-            }
-        }
+        let n = check_records(&inputs, &outputs)?;
         let plan = FftPlanner::<T>::new().plan_fft_forward(n.max(1));
         let omega = line_frequencies(n, ts);
         let spectra = |channels: Vec<Vec<T>>, what: &str| -> Result<Vec<FrequencyData<T>>> {
@@ -106,7 +90,115 @@ impl<T: Real> MimoSpectra<T> {
         };
         let inputs = spectra(inputs, "input")?;
         let outputs = spectra(outputs, "output")?;
-        Ok(Self { inputs, outputs })
+        Ok(Self {
+            inputs,
+            outputs,
+            noise: None,
+        })
+    }
+
+    /// The spectra of a periodic record averaged over its P = `periods` periods of
+    /// M = N/P samples (as [`PeriodicAverage`](super::PeriodicAverage) does for one
+    /// channel): X̄(ω_k) = (1/P) Σ_p X_p(ω_k) for every channel, on the lines k = 0, …,
+    /// ⌊M/2⌋ at ω_k = 2πk/(M Ts), with the noise of the means from the spread between
+    /// periods when P ≥ 2 ([`MimoNoise`]: the ny × ny output covariance per line and the
+    /// input variances). Drop transient periods from the records first.
+    ///
+    /// ```
+    /// use fdid::data::MimoSpectra;
+    ///
+    /// // one input repeated over 4 periods of 16 samples; the output's second half of
+    /// // each period alternates in sign between periods (the part that does not repeat)
+    /// let u: Vec<f64> = (0..64).map(|t| ((t % 16) as f64 * 0.4).sin()).collect();
+    /// let y: Vec<f64> = (0..64)
+    ///     .map(|t| u[t] + if (t / 16) % 2 == 0 { 0.01 } else { -0.01 })
+    ///     .collect();
+    /// let s = MimoSpectra::from_periods(vec![u], vec![y.clone(), y], 1.0, 4).unwrap();
+    /// assert_eq!(s.len(), 9);
+    /// let noise = s.noise().unwrap();
+    /// assert_eq!(noise.periods(), 4);
+    /// // the alternating part shows on the DC line only, in both outputs alike
+    /// let c = noise.output_covariance(0);
+    /// assert!(c[(0, 0)].re > 0.0 && (c[(0, 1)] - c[(0, 0)]).norm() < 1e-15);
+    /// assert!(noise.output_covariance(3)[(0, 0)].re < 1e-25);
+    /// ```
+    ///
+    /// # Errors
+    /// As [`MimoSpectra::from_time`]; `periods` zero or not dividing N, a period shorter
+    /// than 2 samples ([`FdidError::InvalidArgument`] / [`FdidError::TooShort`]); an
+    /// input that does not repeat from period to period (the part that differs between
+    /// periods above [`PERIODICITY_TOLERANCE`](super::PERIODICITY_TOLERANCE) of the power
+    /// of the part that repeats, [`TimeData::period_mismatch`]), naming the input.
+    pub fn from_periods(
+        inputs: Vec<Vec<T>>,
+        outputs: Vec<Vec<T>>,
+        ts: T,
+        periods: usize,
+    ) -> Result<Self> {
+        let n = check_records(&inputs, &outputs)?;
+        let m = super::periodic::period_length(n, periods)?;
+        if periods >= 2 {
+            for (j, u) in inputs.iter().enumerate() {
+                let ratio = TimeData::new(u.clone(), u.clone(), ts)?.period_mismatch(periods)?;
+                if !(ratio <= super::PERIODICITY_TOLERANCE) {
+                    return Err(FdidError::InvalidArgument {
+                        name: "periods",
+                        value: periods.to_string(),
+                        reason: format!(
+                            "input {} does not repeat from period to period: the part that \
+                             differs between periods has {ratio:.3} times the power of the \
+                             part that repeats (tolerance {}); blocks that are different \
+                             realisations are not periods",
+                            j + 1,
+                            super::PERIODICITY_TOLERANCE
+                        ),
+                    });
+                }
+            }
+        }
+        let plan = FftPlanner::<T>::new().plan_fft_forward(m);
+        let per_period = |channels: &[Vec<T>]| -> Vec<Vec<Vec<Complex<T>>>> {
+            channels
+                .iter()
+                .map(|x| {
+                    x.chunks_exact(m)
+                        .map(|period| dft_lines_with(plan.as_ref(), period))
+                        .collect()
+                })
+                .collect()
+        };
+        let mean = |spectra: &[Vec<Vec<Complex<T>>>]| -> Vec<Vec<Complex<T>>> {
+            let p = T::from_usize_lossy(periods);
+            spectra
+                .iter()
+                .map(|c| {
+                    (0..=m / 2)
+                        .map(|k| {
+                            c.iter()
+                                .fold(Complex::new(T::zero(), T::zero()), |s, x| s + x[k])
+                                / p
+                        })
+                        .collect()
+                })
+                .collect()
+        };
+        let u_p = per_period(&inputs);
+        let y_p = per_period(&outputs);
+        let (u_mean, y_mean) = (mean(&u_p), mean(&y_p));
+        let noise = if periods >= 2 {
+            Some(MimoNoise::between_periods(&u_p, &y_p, &u_mean, &y_mean)?)
+        } else {
+            None
+        };
+        let mut spectra = Self::new(line_frequencies(m, ts), u_mean, y_mean, Some(ts))?;
+        spectra.noise = noise;
+        Ok(spectra)
+    }
+
+    /// The noise of the means of a period-averaged record ([`MimoSpectra::from_periods`]
+    /// with two periods or more); `None` otherwise.
+    pub fn noise(&self) -> Option<&MimoNoise<T>> {
+        self.noise.as_ref()
     }
 
     /// Inputs nu.
@@ -160,11 +252,18 @@ impl<T: Real> MimoSpectra<T> {
     /// # Errors
     /// As [`FrequencyData::band_hz`].
     pub fn band_hz(&self, f_min: T, f_max: T) -> Result<Self> {
-        let band = |c: &FrequencyData<T>| c.band_hz(f_min, f_max);
-        Ok(Self {
-            inputs: self.inputs.iter().map(band).collect::<Result<_>>()?,
-            outputs: self.outputs.iter().map(band).collect::<Result<_>>()?,
-        })
+        // the first channel's band (and its errors) gives the lines every channel keeps
+        let kept = self.inputs[0].band_hz(f_min, f_max)?;
+        let keep: Vec<bool> = self
+            .omega()
+            .iter()
+            .map(|w| {
+                kept.omega()
+                    .binary_search_by(|v| v.partial_cmp(w).unwrap_or(std::cmp::Ordering::Less))
+                    .is_ok()
+            })
+            .collect();
+        self.select_lines(&keep)
     }
 
     /// Keeps the lines where `keep` is true.
@@ -176,8 +275,34 @@ impl<T: Real> MimoSpectra<T> {
         Ok(Self {
             inputs: self.inputs.iter().map(select).collect::<Result<_>>()?,
             outputs: self.outputs.iter().map(select).collect::<Result<_>>()?,
+            noise: self.noise.as_ref().map(|n| n.select(keep)),
         })
     }
+}
+
+/// Checks the channels of a record: at least one input and one output, all of the first
+/// input's length; returns that length.
+fn check_records<T: Real>(inputs: &[Vec<T>], outputs: &[Vec<T>]) -> Result<usize> {
+    check_channels(inputs.len(), outputs.len())?;
+    let n = inputs[0].len();
+    for (what, x) in inputs
+        .iter()
+        .map(|x| ("input", x))
+        .chain(outputs.iter().map(|x| ("output", x)))
+    {
+        if x.len() != n {
+            return Err(FdidError::LengthMismatch {
+                what: if what == "input" {
+                    "samples of an input (as the first input)"
+                } else {
+                    "samples of an output (as the first input)"
+                },
+                expected: n,
+                got: x.len(),
+            });
+        }
+    }
+    Ok(n)
 }
 
 fn check_channels(nu: usize, ny: usize) -> Result<()> {

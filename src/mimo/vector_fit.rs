@@ -72,8 +72,13 @@ impl<T: Real> Weighted<T> {
         })
     }
 
-    /// The blocks of a multi-input record: one per output, unweighted, with the input
-    /// spectra and (when `transient`) the transient term.
+    /// The blocks of a multi-input record: one per output, with the input spectra and
+    /// (when `transient`) the transient term; weighted by 1/σ_i,k, σ²_i,k the variance of
+    /// output i's averaged spectrum (the diagonal of [`MimoNoise`]'s C_Y) when the record
+    /// was averaged over periods, each variance floored at 10⁻¹² of its output's largest
+    /// (unweighted when an output shows no spread at all, e.g. noise-free periods).
+    ///
+    /// [`MimoNoise`]: crate::data::MimoNoise
     pub(crate) fn from_spectra(
         data: &MimoSpectra<T>,
         domain: Domain<T>,
@@ -90,7 +95,11 @@ impl<T: Real> Weighted<T> {
             x,
             scale,
             h: (0..data.ny()).map(|i| data.y(i).to_vec()).collect(),
-            w: None,
+            w: data.noise().and_then(|noise| {
+                (0..data.ny())
+                    .map(|i| output_weights(&noise.output_variance(i)))
+                    .collect()
+            }),
             direct,
             ny: data.ny(),
             nu: data.nu(),
@@ -346,6 +355,22 @@ impl<T: Real> Weighted<T> {
         full.columns_mut(m, n1).copy_from(&sigma);
         r_factor(full).view((m, m), (n1, n1)).into_owned()
     }
+}
+
+/// The weights 1/σ_k of one output from its variances, each floored at 10⁻¹² of the
+/// largest; `None` when the largest is not positive and finite.
+fn output_weights<T: Real>(variance: &[T]) -> Option<Vec<T>> {
+    let top = variance.iter().copied().fold(T::zero(), Float::max);
+    if !(top > T::zero() && Float::is_finite(top)) {
+        return None;
+    }
+    let floor = top * T::lit(1e-12);
+    Some(
+        variance
+            .iter()
+            .map(|v| T::one() / Float::sqrt(Float::max(*v, floor)))
+            .collect(),
+    )
 }
 
 /// The linear fit of every block at one set of poles without weights: the QR of the

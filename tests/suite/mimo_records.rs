@@ -15,11 +15,11 @@ use quickcheck::TestResult;
 
 /// The sample time of the simulated records: the cases' 0.1–10 rad/s become 0.025–2.5
 /// rad/sample.
-const TS: f64 = 0.25;
+pub(crate) const TS: f64 = 0.25;
 
 /// The discrete-time image of a case (poles e^{pTs}, residues scaled by Ts) with a direct
 /// term when `direct`.
-fn z_model(case: &Case, direct: bool) -> CommonPoleModel<f64> {
+pub(crate) fn z_model(case: &Case, direct: bool) -> CommonPoleModel<f64> {
     let ct = case.model();
     let map = |p: &Complex<f64>| (p * TS).exp();
     let mut d = Draw(case.seed ^ 0x9e37_79b9);
@@ -41,7 +41,11 @@ fn z_model(case: &Case, direct: bool) -> CommonPoleModel<f64> {
 /// Simulates `model` (z) on the inputs `u` (nu rows of N samples) from random initial
 /// states: every pole and input has the state w(t+1) = p w(t) + u_j(t), and output i
 /// gathers R_ij w(t) (2 Re R_ij w(t) for a pair) and D_ij u_j(t).
-fn simulate(model: &CommonPoleModel<f64>, u: &[Vec<f64>], d: &mut Draw) -> Vec<Vec<f64>> {
+pub(crate) fn simulate(
+    model: &CommonPoleModel<f64>,
+    u: &[Vec<f64>],
+    d: &mut Draw,
+) -> Vec<Vec<f64>> {
     let n = u[0].len();
     let ny = model.ny();
     let nr = model.poles.real.len();
@@ -198,6 +202,8 @@ fn cd_player() -> MimoSpectra<f64> {
         inputs: vec![Column::parse("u1"), Column::parse("u2")],
         outputs: vec![Column::parse("y1"), Column::parse("y2")],
         ts: None,
+        periods: None,
+        skip_periods: 0,
     };
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("data/cd_player_arm.csv");
     let s = read_multichannel::<f64>(&path, &selection).unwrap();

@@ -124,6 +124,11 @@ pub struct MultiChannelSelection {
     pub outputs: Vec<Column>,
     /// The sample time (s), as [`ChannelSelection::ts`].
     pub ts: Option<f64>,
+    /// The periods P the record holds (`None`: one non-periodic record): the spectra are
+    /// averaged over the periods kept ([`MimoSpectra::from_periods`]).
+    pub periods: Option<usize>,
+    /// The leading periods dropped before averaging (transients); needs `periods`.
+    pub skip_periods: usize,
 }
 
 /// Reads the table `path` and returns the spectra (DFT) of the input and output columns
@@ -142,12 +147,16 @@ pub fn read_multichannel<T: Real>(
 }
 
 /// Parses a table of channels as [`parse_channels`] does, with several input and output
-/// columns, and returns their DFT spectra ([`MimoSpectra::from_time`]: lines k = 0, …,
-/// ⌊N/2⌋ of the whole record).
+/// columns, and returns their DFT spectra: [`MimoSpectra::from_time`] (lines k = 0, …,
+/// ⌊N/2⌋ of the whole record) or, with `periods` P and `skip_periods` K, the average over
+/// the last P − K of the P periods ([`MimoSpectra::from_periods`], with the noise
+/// covariances between periods).
 ///
 /// # Errors
-/// As [`parse_channels`] for each column; no input or no output column;
-/// [`MimoSpectra::from_time`]'s errors.
+/// As [`parse_channels`] for each column; no input or no output column; `skip_periods`
+/// without `periods` or leaving no period, P not dividing the record
+/// ([`FdidError::InvalidArgument`]); [`MimoSpectra::from_time`]'s and
+/// [`MimoSpectra::from_periods`]'s errors.
 pub fn parse_multichannel<T: Real, R: Read>(
     reader: R,
     name: &str,
@@ -160,7 +169,32 @@ pub fn parse_multichannel<T: Real, R: Read>(
         &selection.outputs,
         selection.ts,
     )?;
-    MimoSpectra::from_time(u, y, T::lit(ts))
+    let Some(p) = selection.periods else {
+        if selection.skip_periods > 0 {
+            return Err(FdidError::InvalidArgument {
+                name: "skip_periods",
+                value: selection.skip_periods.to_string(),
+                reason: "skipping periods needs the number of periods".into(),
+            });
+        }
+        return MimoSpectra::from_time(u, y, T::lit(ts));
+    };
+    let n = u.first().map_or(0, Vec::len);
+    let k = selection.skip_periods;
+    if p == 0 || !n.is_multiple_of(p) || k >= p {
+        return Err(FdidError::InvalidArgument {
+            name: "periods",
+            value: p.to_string(),
+            reason: if k >= p && p > 0 {
+                format!("skipping {k} of {p} periods leaves none")
+            } else {
+                format!("the record of {n} samples is not a whole number of {p} periods")
+            },
+        });
+    }
+    let drop = k * (n / p);
+    let steady = |x: Vec<Vec<T>>| x.into_iter().map(|c| c[drop..].to_vec()).collect();
+    MimoSpectra::from_periods(steady(u), steady(y), T::lit(ts), p - k)
 }
 
 /// The selected input and output columns of a table (in `T`) and its sample time.
