@@ -279,10 +279,11 @@ fn entry_errors(
 }
 
 /// Per output of a record's spectra: output 1-based, RMS error of Y − Ŷ (Ŷ with the
-/// transient) and RMS of Y over the lines, from the fit's per-output costs.
+/// transient) and RMS of Y over the lines, from the fit's per-output residual powers
+/// (without the weights).
 fn output_errors(spectra: &MimoSpectra<f64>, fit: &CommonPoleFit<f64>) -> Vec<(usize, f64, f64)> {
     let n = spectra.len() as f64;
-    fit.costs
+    fit.residual_power
         .iter()
         .enumerate()
         .map(|(i, cost)| {
@@ -296,7 +297,9 @@ fn output_errors(spectra: &MimoSpectra<f64>, fit: &CommonPoleFit<f64>) -> Vec<(u
 fn rms_error(data: &Fitted, fit: &CommonPoleFit<f64>) -> f64 {
     match data {
         Fitted::Matrix(m) => fit.rms(m),
-        Fitted::Spectra(s) => (fit.cost / (s.len() * s.ny()) as f64).sqrt(),
+        Fitted::Spectra(s) => {
+            (fit.residual_power.iter().sum::<f64>() / (s.len() * s.ny()) as f64).sqrt()
+        }
     }
 }
 

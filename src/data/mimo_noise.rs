@@ -4,7 +4,7 @@
 
 use crate::error::Result;
 use crate::scalar::{Complex, Real};
-use nalgebra::DMatrix;
+use nalgebra::{DMatrix, DVector};
 
 /// The noise of the period-averaged spectra of a [`MimoSpectra`](super::MimoSpectra)
 /// (see [`MimoSpectra::from_periods`](super::MimoSpectra::from_periods)): with d_p(k) the
@@ -44,16 +44,10 @@ impl<T: Real> MimoNoise<T> {
         let norm = T::from_usize_lossy(periods * (periods - 1));
         let output_covariance: Vec<DMatrix<Complex<T>>> = (0..lines)
             .map(|k| {
-                let mut c = DMatrix::zeros(ny, ny);
-                for p in 0..periods {
-                    let d: Vec<Complex<T>> =
-                        (0..ny).map(|i| outputs[i][p][k] - y_mean[i][k]).collect();
-                    for a in 0..ny {
-                        for b in 0..ny {
-                            c[(a, b)] += d[a] * d[b].conj();
-                        }
-                    }
-                }
+                let c = (0..periods).fold(DMatrix::zeros(ny, ny), |c, p| {
+                    let d = DVector::from_fn(ny, |i, _| outputs[i][p][k] - y_mean[i][k]);
+                    c + &d * d.adjoint()
+                });
                 c / Complex::new(norm, T::zero())
             })
             .collect();

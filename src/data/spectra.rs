@@ -146,10 +146,15 @@ impl<T: Real> MimoSpectra<T> {
                         value: periods.to_string(),
                         reason: format!(
                             "input {} does not repeat from period to period: the part that \
-                             differs between periods has {ratio:.3} times the power of the \
-                             part that repeats (tolerance {}); blocks that are different \
+                             differs between periods has {} the power of the part that \
+                             repeats (tolerance {} times); blocks that are different \
                              realisations are not periods",
                             j + 1,
+                            if ratio.is_finite() {
+                                format!("{ratio:.3} times")
+                            } else {
+                                "more than".to_string()
+                            },
                             super::PERIODICITY_TOLERANCE
                         ),
                     });

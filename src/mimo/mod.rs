@@ -115,6 +115,9 @@ pub struct CommonPoleFit<T: Real> {
     /// Each fitted block's part of the cost: per entry (column by column) for an FRF
     /// matrix, per output for spectra.
     pub costs: Vec<T>,
+    /// Each block's residual power without the weights, Σ_k |G_e,k − Ĝ_e,k|² (spectra:
+    /// |Y_i,k − Ŷ_i,k|²), in the data's units: equal to `costs` for an unweighted fit.
+    pub residual_power: Vec<T>,
     /// The cost after pole relocation, before maximum likelihood.
     pub relocation_cost: T,
     /// Relocations made.
@@ -332,6 +335,7 @@ fn fit_weighted<T: Real>(
         model: model_of(weighted, options.domain, &poles, &coeffs),
         cost: relocation_cost,
         costs,
+        residual_power: Vec::new(),
         relocation_cost,
         relocations,
         ml: MlOutcome::Skipped,
@@ -370,6 +374,7 @@ fn fit_weighted<T: Real>(
         }
         fit.pole_covariance = covariance(&problem, &final_poles, &fit, weighted);
     }
+    fit.residual_power = weighted.residual_power(&final_poles)?;
     fit.model.check()?;
     Ok(fit)
 }

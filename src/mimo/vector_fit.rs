@@ -178,6 +178,28 @@ impl<T: Real> Weighted<T> {
         }
     }
 
+    /// Each block's residual power without the weights, Σ_k |h_e,k − ĥ_e,k|², at the
+    /// poles' (weighted) least-squares fit.
+    pub(crate) fn residual_power(&self, poles: &PoleSet<T>) -> Result<Vec<T>> {
+        let (coeffs, costs) = self.linear_fit(poles)?;
+        if self.w.is_none() {
+            return Ok(costs);
+        }
+        let a = self.regressor(poles);
+        Ok(coeffs
+            .iter()
+            .zip(&self.h)
+            .map(|(c, h)| {
+                (0..self.lines()).fold(T::zero(), |s, k| {
+                    let fitted = (0..c.len()).fold(Complex::new(T::zero(), T::zero()), |f, m| {
+                        f + a[(k, m)] * c[m]
+                    });
+                    s + (h[k] - fitted).norm_sqr()
+                })
+            })
+            .collect())
+    }
+
     /// The complex regressor (L × [`Weighted::linear_parameters`]): [φ(x) | 1] for FRF
     /// entries, [φU_1 | U_1 | … | φU_nu | U_nu | φx_T] for a record's outputs (the direct
     /// columns only with a direct term, the last block only with a transient).

@@ -423,8 +423,8 @@ fn cd_player_arm_two_inputs_two_outputs() {
     // what a record with several inputs refuses, and a bad column
     for (extra, says) in [
         (
-            vec!["--periods", "2"],
-            "--periods is not available with several inputs",
+            vec!["--realisations", "2"],
+            "--realisations is not available with several inputs",
         ),
         (vec!["--delay"], "--delay is not available"),
     ] {
@@ -434,6 +434,16 @@ fn cd_player_arm_two_inputs_two_outputs() {
         assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
         assert!(stderr(&o).contains(says), "{}", stderr(&o));
     }
+    // the record is not periodic: its halves are not periods of one input
+    let mut a = args.to_vec();
+    a.extend(["--periods", "2"]);
+    let o = fdid(&a);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("input 1 does not repeat from period to period"),
+        "{}",
+        stderr(&o)
+    );
     let o = fdid(&[
         "fit", &cd, "--input", "u1,u3", "--output", "y1", "--domain", "z", "--na", "2", "--nb", "2",
     ]);

@@ -37,10 +37,11 @@ fn periodic_record() -> (Vec<Vec<f64>>, Vec<Vec<f64>>) {
     let mut y = simulate(&model, &u, &mut d);
     // unit-variance noise: uniform on ±√3
     let s3 = 3f64.sqrt();
-    for t in 0..M * PERIODS {
+    let (first, second) = y.split_at_mut(1);
+    for (y1, y2) in first[0].iter_mut().zip(second[0].iter_mut()) {
         let (a, b) = (s3 * d.signed(), s3 * d.signed());
-        y[0][t] += SIGMA * a;
-        y[1][t] += SIGMA * (RHO * a + (1.0 - RHO * RHO).sqrt() * b);
+        *y1 += SIGMA * a;
+        *y2 += SIGMA * (RHO * a + (1.0 - RHO * RHO).sqrt() * b);
     }
     (u, y)
 }
@@ -116,6 +117,13 @@ fn weighted_fit_of_the_averaged_record() {
     let err = pole_error(&model.poles, &fit.model.poles);
     assert!(err < 0.01, "pole error {err:e}");
     let per_equation = fit.cost / (s.len() * s.ny()) as f64;
+    // the unweighted residual power is the noise of the mean, σ²/8 per line and output
+    let power = fit.residual_power.iter().sum::<f64>() / (s.len() * s.ny()) as f64;
+    let noise = SIGMA * SIGMA / (PERIODS - 1) as f64;
+    assert!(
+        (0.6..1.2).contains(&(power / noise)),
+        "residual power {power:e} vs {noise:e}"
+    );
     assert!(
         (0.85..1.5).contains(&per_equation),
         "weighted cost per line and output {per_equation}"
@@ -184,6 +192,17 @@ fn command_averages_the_periods_and_reports_the_noise() {
     // mean |ρ| over the lines: near 0.6 (|·| of a sample correlation is biased up a bit)
     assert!((0.55..0.75).contains(&rho), "{rho}");
     assert_eq!(v["lines"], M / 2);
+    // errors in the data's units (not weighted): at the noise of the mean, σ/√8
+    let floor = SIGMA / 8f64.sqrt();
+    let rms = v["rms_error"].as_f64().unwrap();
+    assert!(
+        (0.7 * floor..1.2 * floor).contains(&rms),
+        "rms error {rms:e}, noise {floor:e}"
+    );
+    for output in v["output_errors"].as_array().unwrap() {
+        let explained = output["explained"].as_f64().unwrap();
+        assert!(explained > 0.95, "{output}");
+    }
     // refusals: realisations, skip without periods, periods not dividing the record
     for (extra, says) in [
         (vec!["--realisations", "3"], "--realisations"),
