@@ -1,7 +1,7 @@
 //! `fdid fit` on every entry of a multi-port file: a common-pole model ([`fdid::mimo`]),
 //! its modes, residue matrices, state-space realisation and per-entry errors.
 
-use super::args::{CommonArgs, CriterionArg, DomainArg, FitArgs, parse_band};
+use super::args::{CommonArgs, CriterionArg, FitArgs, parse_band};
 use super::{Failure, budget};
 use fdid::data::{FrfMatrix, MimoSpectra};
 use fdid::io::NetworkParameter;
@@ -237,11 +237,7 @@ fn check_flags(args: &FitArgs, spectra: bool) -> Result<(), Failure> {
             c.na
         )));
     }
-    if c.domain == DomainArg::Z && c.ts.is_none() && !spectra {
-        return Err(Failure::usage(
-            "--domain z needs a sample time: pass --ts SECONDS".into(),
-        ));
-    }
+    // --domain z takes its sample time from --ts or the data (`options`)
     Ok(())
 }
 

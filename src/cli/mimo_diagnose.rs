@@ -2,7 +2,7 @@
 //! workflow of [`fdid::workflow::diagnose_common_poles`] — per-entry cost and whiteness
 //! verdicts, the missing resonance across entries, the pole pairs it adds.
 
-use super::args::{DiagnoseArgs, DomainArg};
+use super::args::DiagnoseArgs;
 use super::mimo::{Entries, Fitted, banded, options};
 use super::{Failure, budget};
 use fdid::workflow::{CommonPoleCheck, CommonPoleDiagnosis, diagnose_common_poles};
@@ -13,16 +13,20 @@ use std::result::Result;
 /// Runs the common-pole workflow on `entries` and reports it.
 pub(super) fn diagnose(args: &DiagnoseArgs, entries: Entries) -> Result<String, Failure> {
     let c = &args.common;
-    check_flags(args)?;
-    let (data, _) = banded(c, entries)?;
-    let Fitted::Matrix(matrix) = &data else {
+    if matches!(entries, Entries::Spectra(_)) {
         return Err(Failure::usage(
             "diagnose compares a model with frequency response data entry by entry; a record \
              with several inputs has no FRF per entry: fit it with `fdid fit --input U1,U2 \
              --output Y1,Y2 --transient`"
                 .into(),
         ));
+    }
+    check_flags(args)?;
+    let (data, _) = banded(c, entries)?;
+    let Fitted::Matrix(matrix) = &data else {
+        unreachable!("spectra were refused above")
     };
+    // the sample time of --domain z: the data's (a time record's t column) or --ts
     let options = options(c, data.ts(), args.stable)?;
     let (diagnosis, stopped) = budget::fit_common_poles(args.allow_long, || {
         diagnose_common_poles(matrix, c.na, &options, args.alpha, args.max_steps)
@@ -65,11 +69,6 @@ fn check_flags(args: &DiagnoseArgs) -> Result<(), Failure> {
             c.na.saturating_sub(1),
             c.na
         )));
-    }
-    if c.domain == DomainArg::Z && c.ts.is_none() {
-        return Err(Failure::usage(
-            "--domain z needs a sample time: pass --ts SECONDS".into(),
-        ));
     }
     Ok(())
 }

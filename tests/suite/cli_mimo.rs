@@ -713,3 +713,33 @@ fn a_saved_common_pole_model_is_evaluated_entry_by_entry() {
         stderr(&o)
     );
 }
+
+/// `--domain z` on a time record takes Ts from its `t` column, for the fit and the workflow
+/// of one input and several outputs; a record with several inputs is refused by
+/// `diagnose` for what it is, not for a missing --ts.
+#[test]
+fn time_records_give_their_sample_time_to_common_pole_fits() {
+    let cd = bundled("cd_player_arm.csv");
+    let one_input = [
+        "--input", "u1", "--output", "y1,y2", "--domain", "z", "--na", "2", "--nb", "2",
+    ];
+    for command in ["fit", "diagnose"] {
+        let mut args = vec![command, &cd];
+        args.extend(one_input);
+        if command == "diagnose" {
+            args.extend(["--max-steps", "1"]);
+        }
+        let out = fdid(&args);
+        assert!(out.status.success(), "{command}: {}", stderr(&out));
+    }
+    let out = fdid(&[
+        "diagnose", &cd, "--input", "u1,u2", "--output", "y1,y2", "--domain", "z", "--na", "2",
+        "--nb", "2",
+    ]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(
+        stderr(&out).contains("no FRF per entry"),
+        "{}",
+        stderr(&out)
+    );
+}
