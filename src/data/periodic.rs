@@ -150,7 +150,11 @@ fn period_spectra<T: Real>(record: &TimeData<T>, m: usize) -> (Spectra<T>, Spect
 }
 
 /// `X̄[k] = (1/P) Σ_p X_p[k]` on the lines `k < lines`, with `p_t = P`.
-fn mean_over_periods<T: Real>(x: &[Vec<Complex<T>>], lines: usize, p_t: T) -> Vec<Complex<T>> {
+pub(crate) fn mean_over_periods<T: Real>(
+    x: &[Vec<Complex<T>>],
+    lines: usize,
+    p_t: T,
+) -> Vec<Complex<T>> {
     (0..lines)
         .map(|k| {
             x.iter()

@@ -172,19 +172,11 @@ impl<T: Real> MimoSpectra<T> {
                 })
                 .collect()
         };
+        let p = T::from_usize_lossy(periods);
         let mean = |spectra: &[Vec<Vec<Complex<T>>>]| -> Vec<Vec<Complex<T>>> {
-            let p = T::from_usize_lossy(periods);
             spectra
                 .iter()
-                .map(|c| {
-                    (0..=m / 2)
-                        .map(|k| {
-                            c.iter()
-                                .fold(Complex::new(T::zero(), T::zero()), |s, x| s + x[k])
-                                / p
-                        })
-                        .collect()
-                })
+                .map(|c| super::periodic::mean_over_periods(c, m / 2 + 1, p))
                 .collect()
         };
         let u_p = per_period(&inputs);

@@ -345,6 +345,7 @@ fn fit_weighted<T: Real>(
         weighted: weighted.w.is_some(),
     };
     let mut final_poles = poles.clone();
+    let mut final_coeffs = coeffs;
     if options.ml {
         let problem = varpro::VarPro {
             data: weighted,
@@ -364,6 +365,7 @@ fn fit_weighted<T: Real>(
                 && vector_fit::total(&costs) <= relocation_cost
             {
                 fit.model = model_of(weighted, options.domain, &candidate, &c);
+                final_coeffs = c;
                 fit.cost = vector_fit::total(&costs);
                 fit.costs = costs;
                 fit.ml = MlOutcome::Kept {
@@ -374,7 +376,10 @@ fn fit_weighted<T: Real>(
         }
         fit.pole_covariance = covariance(&problem, &final_poles, &fit, weighted);
     }
-    fit.residual_power = weighted.residual_power(&final_poles)?;
+    fit.residual_power = match weighted.w {
+        None => fit.costs.clone(),
+        Some(_) => weighted.residual_power(&final_poles, &final_coeffs),
+    };
     fit.model.check()?;
     Ok(fit)
 }

@@ -49,24 +49,7 @@ pub(crate) fn shared_blocks<T: Real>(
         let count = batch.min(ne - first);
         let mut sigma = DMatrix::<T>::zeros(2 * l, count * n1);
         for i in 0..count {
-            let he = &h[first + i];
-            for c in 0..n1 {
-                let mut col = sigma.column_mut(i * n1 + c);
-                let out = col.as_mut_slice();
-                if c < n {
-                    for ((pair, f), hk) in out.chunks_exact_mut(2).zip(phi.column(c).iter()).zip(he)
-                    {
-                        let g = -(*f * *hk);
-                        pair[0] = g.re;
-                        pair[1] = g.im;
-                    }
-                } else {
-                    for (pair, hk) in out.chunks_exact_mut(2).zip(he) {
-                        pair[0] = -hk.re;
-                        pair[1] = -hk.im;
-                    }
-                }
-            }
+            fill_sigma_columns(&h[first + i], phi, &mut sigma, i * n1);
         }
         let p = &q_t * &sigma;
         (0..count)
@@ -83,6 +66,35 @@ pub(crate) fn shared_blocks<T: Real>(
             .collect::<Vec<_>>()
     });
     batches.into_iter().flatten().collect()
+}
+
+/// Writes the σ-columns −h_k[φ(x_k) | 1] of the data `h` (real-stacked: rows 2k and
+/// 2k + 1) into the n + 1 columns of `out` from `first`, column by column (contiguous
+/// writes, no index arithmetic per value: on large fits this fill costs as much as the
+/// products).
+pub(crate) fn fill_sigma_columns<T: Real>(
+    h: &[Complex<T>],
+    phi: &DMatrix<Complex<T>>,
+    out: &mut DMatrix<T>,
+    first: usize,
+) {
+    let n = phi.ncols();
+    for c in 0..=n {
+        let mut col = out.column_mut(first + c);
+        let pairs = col.as_mut_slice().chunks_exact_mut(2);
+        if c < n {
+            for ((pair, f), hk) in pairs.zip(phi.column(c).iter()).zip(h) {
+                let g = -(*f * *hk);
+                pair[0] = g.re;
+                pair[1] = g.im;
+            }
+        } else {
+            for (pair, hk) in pairs.zip(h) {
+                pair[0] = -hk.re;
+                pair[1] = -hk.im;
+            }
+        }
+    }
 }
 
 /// The σ₀ column's residual r = b − Q P_last of one block: rᵀr and Bᵀr.

@@ -178,15 +178,11 @@ impl<T: Real> Weighted<T> {
         }
     }
 
-    /// Each block's residual power without the weights, Σ_k |h_e,k − ĥ_e,k|², at the
-    /// poles' (weighted) least-squares fit.
-    pub(crate) fn residual_power(&self, poles: &PoleSet<T>) -> Result<Vec<T>> {
-        let (coeffs, costs) = self.linear_fit(poles)?;
-        if self.w.is_none() {
-            return Ok(costs);
-        }
+    /// Each block's residual power without the weights, Σ_k |h_e,k − ĥ_e,k|², for the
+    /// poles and the blocks' linear parameters `coeffs`.
+    pub(crate) fn residual_power(&self, poles: &PoleSet<T>, coeffs: &[DVector<T>]) -> Vec<T> {
         let a = self.regressor(poles);
-        Ok(coeffs
+        coeffs
             .iter()
             .zip(&self.h)
             .map(|(c, h)| {
@@ -197,7 +193,7 @@ impl<T: Real> Weighted<T> {
                     s + (h[k] - fitted).norm_sqr()
                 })
             })
-            .collect())
+            .collect()
     }
 
     /// The complex regressor (L × [`Weighted::linear_parameters`]): [φ(x) | 1] for FRF
@@ -348,17 +344,13 @@ impl<T: Real> Weighted<T> {
 
 impl<T: Real> Weighted<T> {
     /// Block e's σ-columns in real-stacked form (2L × (n + 1)): w_k h_e,k [−φ(x_k) | −1],
-    /// the terms of the linearised equation that multiply σ (filled column by column).
+    /// the terms of the linearised equation that multiply σ.
     fn sigma_columns(&self, e: usize, phi: &DMatrix<Complex<T>>) -> DMatrix<T> {
         let (l, n) = phi.shape();
-        let h: Vec<Complex<T>> = (0..l)
-            .map(|k| -(self.h[e][k] * self.weight(e, k)))
-            .collect();
-        DMatrix::from_fn(2 * l, n + 1, |row, c| {
-            let k = row / 2;
-            let g = if c < n { phi[(k, c)] * h[k] } else { h[k] };
-            if row % 2 == 0 { g.re } else { g.im }
-        })
+        let h: Vec<Complex<T>> = (0..l).map(|k| self.h[e][k] * self.weight(e, k)).collect();
+        let mut a = DMatrix::<T>::zeros(2 * l, n + 1);
+        super::sigma_blocks::fill_sigma_columns(&h, phi, &mut a, 0);
+        a
     }
 
     /// Block e's R₂₂ with its own weights: the trailing (n + 1) × (n + 1) block of the R
