@@ -55,6 +55,8 @@ pub enum StageKind {
     MlSpread,
     /// The least-squares residues of a modal start (`modal ls`).
     ModalLs,
+    /// The least-squares numerator over given starting poles (`poles ls`).
+    PolesLs,
     /// ML with a noise model (`noise-model ml`, eq. 26).
     NoiseModelMl,
     /// The noise-model ML after H was made stable (`noise-model ml (H stabilised)`).
@@ -79,6 +81,7 @@ impl StageKind {
             StageKind::MlReduced => "ml-reduced",
             StageKind::MlSpread => "ml-spread",
             StageKind::ModalLs => "modal ls",
+            StageKind::PolesLs => "poles ls",
             StageKind::NoiseModelMl => "noise-model ml",
             StageKind::NoiseModelStabilised => "noise-model ml (H stabilised)",
             StageKind::RationalStart(inner) => return format!("rational {}", inner.name()),
@@ -104,6 +107,7 @@ impl StageKind {
             "ml-reduced" => StageKind::MlReduced,
             "ml-spread" => StageKind::MlSpread,
             "modal ls" => StageKind::ModalLs,
+            "poles ls" => StageKind::PolesLs,
             "noise-model ml" => StageKind::NoiseModelMl,
             "noise-model ml (H stabilised)" => StageKind::NoiseModelStabilised,
             _ => return None,

@@ -22,6 +22,7 @@ pub mod batch;
 mod chain;
 mod delay;
 mod eiv;
+mod from_poles;
 pub mod greybox;
 mod modal;
 pub mod multistart;

@@ -5,6 +5,7 @@
 
 use super::fit_noise_model;
 use super::{Pipeline, estimate, fit_delayed, fit_eiv, fit_eiv_delayed};
+use crate::basis::PolyBasis;
 use crate::criterion::{TotalLeastSquares, interior_lines};
 use crate::data::{FrequencyData, NoiseWeighting, Normalisation};
 use crate::error::{FdidError, Result};
@@ -215,6 +216,15 @@ impl ModelSpec {
             Domain::Continuous => Rational::continuous(self.na, self.nb, data.omega())?,
             Domain::Discrete { ts } => Rational::discrete(self.na, self.nb, ts)?,
         };
+        self.with_transient(model, data)
+    }
+
+    /// `model` with the spec's transient term, when it asks for one.
+    fn with_transient(
+        &self,
+        model: Rational<f64>,
+        data: &FrequencyData<f64>,
+    ) -> Result<Rational<f64>> {
         if !self.transient {
             return Ok(model);
         }
@@ -264,6 +274,111 @@ impl ModelSpec {
                 data.len()
             )
         });
+        self.check_fit_data(data)?;
+        let model = self.model(data)?;
+        self.fit_model(&model, Pipeline::default(), data)
+    }
+
+    /// The fit of a plain ML spec (no delay, no noise model) started from the poles
+    /// `poles` (na values, closed under conjugation) by [`Pipeline::fit_from_roots`]: the
+    /// denominator with those roots, the numerator by linear least squares, then ML
+    /// (McKelvey eq. 23), stable-constrained when the spec enforces it. A continuous-time
+    /// spec with nb ≤ na is fitted in the partial-fraction form with its basis poles at
+    /// `poles` (reflected into the left half-plane), where the start is D = 1; the others
+    /// in the spec's own basis ([`ModelSpec::model`]). A warm start: the discrepancy
+    /// workflow refits an augmented model from the poles of the model it augments and
+    /// the poles its finding adds, where a fit from scratch may land in another local
+    /// minimum.
+    ///
+    /// ```
+    /// use fdid::estimate::ModelSpec;
+    /// use fdid::prelude::*;
+    /// # fn main() -> fdid::Result<()> {
+    /// // G(s) = 1 / (s² + 0.2 s + 1) on 200 lines, started 10 % off
+    /// let omega: Vec<f64> = (1..=200).map(|k| 0.01 * k as f64).collect();
+    /// let g = |w: f64| {
+    ///     let s = Complex::new(0.0, w);
+    ///     Complex::new(1.0, 0.0) / (s * s + s * 0.2 + 1.0)
+    /// };
+    /// let y = omega.iter().map(|w| g(*w)).collect();
+    /// let data = FrequencyData::from_frf(omega, y, None)?;
+    /// let truth = Complex::new(-0.1, 0.99f64.sqrt());
+    /// let start = [truth * 1.1, truth.conj() * 1.1];
+    /// let fit = ModelSpec::continuous(2, 0).fit_from_poles(&data, &start)?;
+    /// assert!(fit.poles()?.iter().any(|p| (p - truth).norm() < 1e-8));
+    /// # Ok(())
+    /// # }
+    /// ```
+    ///
+    /// # Errors
+    /// [`FdidError::InvalidArgument`] for a delay, a noise model or another criterion
+    /// than ML; as [`Pipeline::fit_from_roots`] and [`ModelSpec::fit`].
+    pub fn fit_from_poles(
+        &self,
+        data: &FrequencyData<f64>,
+        poles: &[Complex<f64>],
+    ) -> Result<RationalFit> {
+        crate::progress::report(|| {
+            format!(
+                "fitting na {} nb {} from given poles on {} lines",
+                self.na,
+                self.nb,
+                data.len()
+            )
+        });
+        if self.delay || self.noise_order.is_some() || self.criterion != Method::Ml {
+            return Err(FdidError::InvalidArgument {
+                name: "spec",
+                value: format!(
+                    "delay {}, noise order {:?}, criterion {}",
+                    self.delay,
+                    self.noise_order,
+                    self.criterion.name()
+                ),
+                reason: "a start from given poles is for plain ML specs".into(),
+            });
+        }
+        self.check_fit_data(data)?;
+        let model = match self.domain {
+            Domain::Continuous if self.na >= 1 && self.nb <= self.na => {
+                let basis = left_half_plane_members(poles);
+                self.with_transient(Rational::partial_fractions(basis, self.nb)?, data)?
+            }
+            _ => self.model(data)?,
+        };
+        let pipeline = Pipeline {
+            stable: self.stability == Stability::Enforced,
+            ..Pipeline::default()
+        };
+        let normalisation = Normalisation::of(data);
+        let from_roots = if normalisation.is_identity() {
+            pipeline.fit_from_roots(&model, data, poles)
+        } else {
+            pipeline
+                .fit_from_roots(&model, &normalisation.apply(data), poles)
+                .and_then(|f| f.denormalised(&normalisation))
+        }
+        .map(RationalFit::Plain);
+        if !matches!(model.basis(), PolyBasis::PartialFractions { .. }) {
+            return from_roots;
+        }
+        // the Levy solve in the basis at the poles: one SK iteration from them
+        let one_relocation = Pipeline {
+            sk: None,
+            ..Pipeline::default()
+        };
+        let levy = self.fit_model(&model, one_relocation, data);
+        match (from_roots, levy) {
+            (Ok(a), Ok(b)) => Ok(if b.cost() < a.cost() { b } else { a }),
+            (Ok(a), Err(_)) => Ok(a),
+            (Err(_), Ok(b)) => Ok(b),
+            (Err(e), Err(_)) => Err(e),
+        }
+    }
+
+    /// The checks of [`ModelSpec::fit`] before any model is built: enough lines for the
+    /// parameters, an output that is not zero.
+    fn check_fit_data(&self, data: &FrequencyData<f64>) -> Result<()> {
         let p = self.na + self.nb + 1;
         if 2 * data.len() < p {
             return Err(FdidError::TooFewFrequencies {
@@ -272,18 +387,24 @@ impl ModelSpec {
                 parameters: p,
             });
         }
-        data.check_output()?;
-        let model = self.model(data)?;
+        data.check_output()
+    }
+
+    /// The fit of `model` by the spec's strategy with `pipeline`'s stages, on data
+    /// normalised by powers of two (mapped back), stable when the spec enforces it.
+    fn fit_model(
+        &self,
+        model: &Rational<f64>,
+        pipeline: Pipeline,
+        data: &FrequencyData<f64>,
+    ) -> Result<RationalFit> {
         let stable = self.stability == Stability::Enforced;
-        let pipeline = Pipeline {
-            stable,
-            ..Pipeline::default()
-        };
+        let pipeline = Pipeline { stable, ..pipeline };
         let normalisation = Normalisation::of(data);
         let fit = if normalisation.is_identity() {
-            self.fit_with(&pipeline, &model, data)?
+            self.fit_with(&pipeline, model, data)?
         } else {
-            self.fit_with(&pipeline, &model, &normalisation.apply(data))?
+            self.fit_with(&pipeline, model, &normalisation.apply(data))?
                 .denormalised(&normalisation)?
         };
         if stable && !fit.is_stable() {
@@ -674,4 +795,25 @@ impl RationalFit {
             _ => Ok(Cow::Borrowed(data)),
         }
     }
+}
+
+/// One member of each complex pair (im > 0) and the real values of `poles`, reflected
+/// into the left half-plane (a pole on the imaginary axis moved left by ε|p|): basis
+/// poles of the partial-fraction form. Members with im < 0 are dropped, so a set closed
+/// under conjugation gives a basis of its own order.
+fn left_half_plane_members(poles: &[Complex<f64>]) -> Vec<Complex<f64>> {
+    poles
+        .iter()
+        .filter(|q| q.im >= 0.0)
+        .map(|q| {
+            let re = if q.re > 0.0 {
+                -q.re
+            } else if q.re == 0.0 {
+                -f64::EPSILON * q.norm().max(f64::MIN_POSITIVE)
+            } else {
+                q.re
+            };
+            Complex::new(re, q.im)
+        })
+        .collect()
 }

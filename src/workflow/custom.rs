@@ -9,6 +9,7 @@
 use super::finding::{Context, Effect, Finding};
 use super::hypothesis::Hypothesis;
 use super::spec::SpecFit;
+use super::warm_start::{LIGHT_DAMPING, ratio_peak};
 use super::{Report, Workflow, consistent};
 use crate::criterion::MaximumLikelihood;
 use crate::data::FrequencyData;
@@ -296,9 +297,6 @@ impl<M: ModelStructure<f64> + Clone> Hypothesis for AugmentedFit<M> {
 /// The ω_z/ω_p ratios of the starts of a new flexible mode.
 const ZERO_RATIOS: [f64; 4] = [0.5, 0.7, 0.85, 1.25];
 
-/// The second damping start of a new flexible mode (beside the detector's width).
-const LIGHT_DAMPING: f64 = 0.02;
-
 impl Workflow {
     /// Runs the discrepancy workflow from the user's model structure `model` (e.g. a
     /// grey-box physical model with some parameters held by [`crate::greybox::Fixed`]) and
@@ -509,21 +507,6 @@ fn proposal<M: ModelStructure<f64> + Clone>(
         }
         _ => None,
     }
-}
-
-/// The frequency of the largest measured-to-modelled magnitude ratio |Y_k|/|Ŷ_k| among
-/// the lines whose residual is significant (|r_k|² > 9 times its null mean): a missing
-/// resonance multiplies the response by a factor peaking at ω_p whatever the absolute
-/// level, while the residual power peaks where |G| is largest (the detector's
-/// `peak_hz`, which at high SNR can sit at the low-frequency end).
-fn ratio_peak(data: &FrequencyData<f64>, fit: &SpecFit) -> Option<f64> {
-    let (power, mean, _) = super::finding::residual_power(fit);
-    (0..fit.residuals.len())
-        .filter(|k| power[*k] > 9.0 * mean && fit.output[*k].norm() > 0.0)
-        .map(|k| (data.y()[k].norm() / fit.output[k].norm(), fit.omega[k]))
-        .filter(|(r, _)| r.is_finite())
-        .max_by(|a, b| a.0.total_cmp(&b.0))
-        .map(|(_, w)| w)
 }
 
 /// Output-error ML (McKelvey eq. 23, the data's noise weighting) of `model` from each

@@ -65,9 +65,28 @@ impl Hypothesis for SpecFit {
         super::fit_spec(&self.spec, data)
     }
 
-    /// The finding's proposal ([`Finding::proposal`]) when it differs from the spec.
+    /// The finding's proposal ([`Finding::proposal`]) when it differs from the spec: fitted
+    /// from scratch and from the warm starts of [`super::warm_start::starts`] (the current
+    /// poles with the ones the finding adds); the fit of least cost among those the step
+    /// can accept (stable, no new pole on the stability boundary), if any.
     fn augment(&self, data: &FrequencyData<f64>, finding: &Finding) -> Option<Result<Self>> {
-        (finding.proposal != self.spec).then(|| super::fit_spec(&finding.proposal, data))
+        if finding.proposal == self.spec {
+            return None;
+        }
+        let scratch = super::fit_spec(&finding.proposal, data);
+        let warm = super::warm_start::starts(data, self, finding)
+            .into_iter()
+            .filter_map(|poles| {
+                super::spec::fit_spec_from_poles(&finding.proposal, data, &poles).ok()
+            });
+        // the step's own rule (`try_refit`): unstable or new marginal poles are rejected
+        let marginal = self.marginal_poles();
+        let rank = |f: &SpecFit| (!f.is_stable() || f.marginal_poles() > marginal, f.cost);
+        let best = warm.fold(scratch, |best, fit| match best {
+            Ok(b) if rank(&b) <= rank(&fit) => Ok(b),
+            _ => Ok(fit),
+        });
+        Some(best)
     }
 
     fn switch_criterion(

@@ -74,6 +74,7 @@ mod ltv_step;
 mod revise;
 mod segments;
 mod spec;
+mod warm_start;
 
 pub use crate::estimate::{DelayRange, Method, ModelSpec};
 pub use attempt::{Attempt, Elimination, Outcome};

@@ -178,19 +178,42 @@ pub const MARGINAL_DAMPING: f64 = 1e-6;
 /// # Errors
 /// As [`ModelSpec::fit`].
 pub fn fit_spec(spec: &ModelSpec, data: &FrequencyData<f64>) -> Result<SpecFit> {
-    let fit = spec.fit(data)?;
-    if spec.stability == Stability::Free && !fit.is_stable() {
+    fit_spec_by(spec, data, |s| s.fit(data))
+}
+
+/// [`fit_spec`] started from the basis poles `poles`
+/// ([`ModelSpec::fit_from_poles`]: continuous-time specs), with the same stability rule.
+///
+/// # Errors
+/// As [`ModelSpec::fit_from_poles`].
+pub(crate) fn fit_spec_from_poles(
+    spec: &ModelSpec,
+    data: &FrequencyData<f64>,
+    poles: &[Complex<f64>],
+) -> Result<SpecFit> {
+    fit_spec_by(spec, data, |s| s.fit_from_poles(data, poles))
+}
+
+/// The [`SpecFit`] of `fit(spec)`, refitted with the stability enforced when it is
+/// unstable and `spec` leaves stability free.
+fn fit_spec_by(
+    spec: &ModelSpec,
+    data: &FrequencyData<f64>,
+    fit: impl Fn(&ModelSpec) -> Result<RationalFit>,
+) -> Result<SpecFit> {
+    let first = fit(spec)?;
+    if spec.stability == Stability::Free && !first.is_stable() {
         let stable = ModelSpec {
             stability: Stability::Enforced,
             ..spec.clone()
         };
-        if let Ok(refit) = stable.fit(data)
+        if let Ok(refit) = fit(&stable)
             && let Ok(reduced) = reduce_fit(&stable, data, refit)
         {
             return Ok(reduced);
         }
     }
-    reduce_fit(spec, data, fit)
+    reduce_fit(spec, data, first)
 }
 
 /// The [`SpecFit`] of the fit `fit` of `spec`.

@@ -39,6 +39,7 @@ mod data_time;
 mod estimators_band;
 mod estimators_eiv;
 mod estimators_errors;
+mod estimators_from_poles;
 mod estimators_jacobian;
 mod estimators_montecarlo;
 mod estimators_noise_model;
