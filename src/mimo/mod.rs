@@ -219,7 +219,62 @@ pub fn fit_common_poles<T: Real>(
 ) -> Result<CommonPoleFit<T>> {
     check_order_and_grid(data.omega(), order, options)?;
     let weighted = Weighted::new(data, options.domain, options.direct)?;
-    fit_weighted(&weighted, order, options)
+    fit_weighted(&weighted, order, options, None)
+}
+
+/// [`fit_common_poles`] with the relocation started from the poles `start` (rad/s in s,
+/// z in z; its order is the model's) instead of poles spread over the band: a warm start,
+/// e.g. a fitted model's poles with a pair added where a resonance is missing
+/// ([`crate::workflow::diagnose_common_poles`] refits from both).
+///
+/// ```
+/// use fdid::data::FrfMatrix;
+/// use fdid::mimo::{CommonPoleOptions, PoleSet, fit_common_poles_from};
+/// use fdid::prelude::*;
+///
+/// // two entries sharing the poles −0.1 ± 2i
+/// let omega: Vec<f64> = (1..=100).map(|k| 0.04 * k as f64).collect();
+/// let p = Complex::new(-0.1, 2.0);
+/// let entry = |r: f64| -> Vec<Complex<f64>> {
+///     omega
+///         .iter()
+///         .map(|w| {
+///             let s = Complex::new(0.0, *w);
+///             Complex::new(r, 0.0) / (s - p) + Complex::new(r, 0.0) / (s - p.conj())
+///         })
+///         .collect()
+/// };
+/// let data = FrfMatrix::from_entries(omega.clone(), 2, 1, vec![entry(1.0), entry(-0.5)], None)?;
+/// let start = PoleSet { real: vec![], pairs: vec![Complex::new(-0.2, 2.2)] };
+/// let fit = fit_common_poles_from(&data, &start, &CommonPoleOptions::default())?;
+/// assert!((fit.model.poles.pairs[0] - p).norm() < 1e-9);
+/// # Ok::<(), fdid::FdidError>(())
+/// ```
+///
+/// # Errors
+/// As [`fit_common_poles`]; non-finite starting poles, or a pair with Im p ≤ 0
+/// ([`FdidError::InvalidArgument`]).
+pub fn fit_common_poles_from<T: Real>(
+    data: &FrfMatrix<T>,
+    start: &PoleSet<T>,
+    options: &CommonPoleOptions<T>,
+) -> Result<CommonPoleFit<T>> {
+    let order = start.order();
+    check_order_and_grid(data.omega(), order, options)?;
+    let finite = start.real.iter().all(|r| r.is_finite())
+        && start
+            .pairs
+            .iter()
+            .all(|p| p.re.is_finite() && p.im.is_finite());
+    if !finite || start.pairs.iter().any(|p| !(p.im > T::zero())) {
+        return Err(FdidError::InvalidArgument {
+            name: "start",
+            value: format!("{:?} {:?}", start.real, start.pairs),
+            reason: "starting poles are finite, one member with Im p > 0 per pair".into(),
+        });
+    }
+    let weighted = Weighted::new(data, options.domain, options.direct)?;
+    fit_weighted(&weighted, order, options, Some(start))
 }
 
 /// Fits a common-pole model of `order` poles to the spectra of a record with several
@@ -269,7 +324,7 @@ pub fn fit_common_poles_spectra<T: Real>(
 ) -> Result<CommonPoleFit<T>> {
     check_order_and_grid(data.omega(), order, options)?;
     let weighted = Weighted::from_spectra(data, options.domain, options.direct, options.transient)?;
-    fit_weighted(&weighted, order, options)
+    fit_weighted(&weighted, order, options, None)
 }
 
 /// Checks the order (at least one pole) and, in z, that no line lies beyond Nyquist.
@@ -308,6 +363,7 @@ fn fit_weighted<T: Real>(
     weighted: &Weighted<T>,
     order: usize,
     options: &CommonPoleOptions<T>,
+    start: Option<&PoleSet<T>>,
 ) -> Result<CommonPoleFit<T>> {
     let lines = weighted.lines();
     let needed = weighted.linear_parameters(order) + order + 1;
@@ -329,6 +385,7 @@ fn fit_weighted<T: Real>(
         order,
         options.stable,
         options.relocations,
+        start.map(|p| p.scaled(T::one() / weighted.scale)),
     )?;
     let relocation_cost = vector_fit::total(&costs);
     let mut fit = CommonPoleFit {

@@ -480,16 +480,18 @@ pub(crate) fn total<T: Real>(costs: &[T]) -> T {
     costs.iter().fold(T::zero(), |s, c| s + *c)
 }
 
-/// The relocation loop of [`super::fit_common_poles`]: from the starting poles, relocate
-/// (reflecting unstable poles when `stable`) until the weighted cost changes by less than
-/// `tolerance` relatively or `iterations` relocations; returns the poles of lowest cost
-/// (in the fitting variable), their linear parameters, cost and the relocations made.
+/// The relocation loop of [`super::fit_common_poles`]: from `start` (in the fitting
+/// variable) or else the lightly damped poles spread over the band, relocate (reflecting
+/// unstable poles when `stable`) until the weighted cost changes by less than `tolerance`
+/// relatively or `iterations` relocations; returns the poles of lowest cost (in the
+/// fitting variable), their linear parameters, cost and the relocations made.
 pub(crate) fn relocation_loop<T: Real>(
     data: &Weighted<T>,
     domain: Domain<T>,
     order: usize,
     stable: bool,
     iterations: usize,
+    start: Option<PoleSet<T>>,
 ) -> Result<Relocated<T>> {
     let omega_min = data
         .x
@@ -501,7 +503,10 @@ pub(crate) fn relocation_loop<T: Real>(
         .iter()
         .map(|x| fitting_frequency(*x, domain))
         .fold(T::zero(), Float::max);
-    let mut poles = starting_poles(order, omega_min, omega_max, unit_domain(domain))?;
+    let mut poles = match start {
+        Some(p) => p,
+        None => starting_poles(order, omega_min, omega_max, unit_domain(domain))?,
+    };
     let (mut coeffs, mut costs, mut factor) = data.factored_fit(&poles)?;
     let mut cost = total(&costs);
     let mut best = (poles.clone(), coeffs.clone(), costs.clone(), cost);

@@ -6,7 +6,9 @@
 use crate::common;
 
 use fdid::data::FrfMatrix;
-use fdid::mimo::{CommonPoleModel, CommonPoleOptions, MlOutcome, PoleSet, fit_common_poles};
+use fdid::mimo::{
+    CommonPoleModel, CommonPoleOptions, MlOutcome, PoleSet, fit_common_poles, fit_common_poles_from,
+};
 use fdid::prelude::*;
 use nalgebra::DMatrix;
 use quickcheck::{Arbitrary, Gen, TestResult};
@@ -181,6 +183,51 @@ fn noise_free_recovery_of_random_mimo_systems_f32() {
     common::seeded(0x5eed_2718)
         .tests(40)
         .quickcheck(recovers_f32 as fn(Case) -> TestResult);
+}
+
+/// Started from the true poles moved by 2 % (each pair scaled, each real pole too), the
+/// relocation and ML recover every pole of 30 random systems to 1e-7 relative; a start
+/// whose pair has Im p ≤ 0 or is not finite is refused.
+#[test]
+fn warm_started_fits_recover_random_mimo_systems() {
+    let w = omega(300);
+    for seed in 0..30u64 {
+        let case = Case {
+            seed: 2 * seed + 1,
+            ny: 1 + (seed as usize) % 3,
+            nu: 1 + (seed as usize / 3) % 2,
+            pairs: 1 + (seed as usize) % 4,
+            real: (seed as usize) % 2,
+        };
+        let model = case.model();
+        let data = frf_matrix::<f64>(&model, &w);
+        let start = PoleSet {
+            real: model.poles.real.iter().map(|r| r * 1.02).collect(),
+            pairs: model.poles.pairs.iter().map(|p| p * 0.98).collect(),
+        };
+        let fit = fit_common_poles_from(&data, &start, &CommonPoleOptions::default()).unwrap();
+        let err = pole_error(&model.poles, &fit.model.poles);
+        assert!(err < 1e-7, "{case:?}: pole error {err:.2e}");
+    }
+    let data = frf_matrix::<f64>(
+        &Case {
+            seed: 3,
+            ny: 2,
+            nu: 1,
+            pairs: 1,
+            real: 0,
+        }
+        .model(),
+        &w,
+    );
+    for pair in [Complex::new(-0.1, -1.0), Complex::new(f64::NAN, 1.0)] {
+        let start = PoleSet {
+            real: vec![],
+            pairs: vec![pair],
+        };
+        let e = fit_common_poles_from(&data, &start, &CommonPoleOptions::default()).unwrap_err();
+        assert!(e.to_string().contains("start"), "{e}");
+    }
 }
 
 #[test]
