@@ -5,7 +5,10 @@
 //! * `mimo_4port/relocation`: 16 entries, 50 poles, 200 log-spaced lines, relaxed vector
 //!   fitting alone (`ml: false`);
 //! * `mimo_4port/relocation_ml`: the same with the default variable-projection ML;
-//! * `mimo_8port/relocation_ml`: 64 entries, 40 poles, 5 000 evenly spaced lines.
+//! * `mimo_8port/relocation_ml`: 64 entries, 40 poles, 5 000 evenly spaced lines;
+//! * `mimo_4port/enforce_passivity`: the 4-port's fitted model with its residues and
+//!   direct term scaled to a largest singular value of 1.2, made passive on the
+//!   command's grid (4 000 points) by `enforce_passivity`.
 //!
 //! Thread count: rayon's pool (the `rayon` feature, on with `--all-features`) forms the
 //! entries' blocks of a relocation in parallel. The Touchstone cases of
@@ -16,7 +19,9 @@
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use fdid::data::FrfMatrix;
-use fdid::mimo::{CommonPoleModel, CommonPoleOptions, PoleSet, fit_common_poles};
+use fdid::mimo::{
+    CommonPoleModel, CommonPoleOptions, PoleSet, enforce_passivity, fit_common_poles, passivity,
+};
 use fdid::prelude::*;
 use nalgebra::DMatrix;
 use rand::rngs::StdRng;
@@ -97,6 +102,20 @@ fn bench(c: &mut Criterion) {
     };
     group.bench_function("relocation_ml", |b| {
         b.iter(|| fit_common_poles(black_box(&data), 50, &full).unwrap())
+    });
+    let mut model = fit_common_poles(&data, 50, &full).unwrap().model;
+    let f_max = data.omega().iter().copied().fold(0.0, f64::max) / std::f64::consts::TAU;
+    let factor = 1.2 / passivity(&model, f_max, 4000).max_singular_value;
+    for r in model.residues.iter_mut() {
+        *r *= Complex::new(factor, 0.0);
+    }
+    if let Some(d) = model.direct.as_mut() {
+        *d *= factor;
+    }
+    let once = enforce_passivity(&model, data.omega(), f_max, 4000).unwrap();
+    assert!(once.after.passive(), "{:?}", once.after);
+    group.bench_function("enforce_passivity", |b| {
+        b.iter(|| enforce_passivity(black_box(&model), data.omega(), f_max, 4000).unwrap())
     });
     group.finish();
     let data = n_port(8, 20, 5000, false);

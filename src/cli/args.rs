@@ -470,6 +470,13 @@ pub struct FitArgs {
     #[arg(long)]
     pub stable: bool,
 
+    /// S-parameter data fitted on every entry with common poles: perturb the residues so
+    /// that the largest singular value of S is at most 1 on the passivity check's grid,
+    /// with the least change over the fitted lines (poles kept); the report gives the
+    /// check before and after and the change
+    #[arg(long)]
+    pub enforce_passivity: bool,
+
     /// Lift the limits that keep a fit to about a minute: without it a delay search
     /// (--delay) or noise model (--noise-order) estimated to take longer is refused, and
     /// the iterative solvers stop at a work budget (with a note in the report)

@@ -5,7 +5,9 @@ use super::args::{CommonArgs, CriterionArg, FitArgs, parse_band};
 use super::{Failure, budget};
 use fdid::data::{FrfMatrix, MimoSpectra};
 use fdid::io::NetworkParameter;
-use fdid::mimo::{CommonPoleFit, CommonPoleOptions, MlOutcome, passivity};
+use fdid::mimo::{
+    CommonPoleFit, CommonPoleOptions, Enforcement, MlOutcome, enforce_passivity, passivity,
+};
 use fdid::prelude::*;
 use serde_json::{Value, json};
 use std::fmt::Write as _;
@@ -34,6 +36,25 @@ pub(super) fn fit(args: &FitArgs, entries: Entries) -> Result<String, Failure> {
     let (data, parameter) = banded(c, entries)?;
     let options = options(c, data.ts(), args.stable)?;
     let (fit, stopped) = budget::fit_common_poles(args.allow_long, || data.fit(c.na, &options))?;
+    let (fit, enforcement) = match (args.enforce_passivity, parameter, &data) {
+        (false, ..) => (fit, None),
+        (true, Some(NetworkParameter::S), Fitted::Matrix(matrix)) => {
+            let e = enforce_passivity(
+                &fit.model,
+                matrix.omega(),
+                f_max_hz(&data),
+                PASSIVITY_POINTS,
+            )
+            .map_err(Failure::from)?;
+            (fit.with_model(e.model.clone(), matrix)?, Some(e))
+        }
+        (true, ..) => {
+            return Err(Failure::usage(
+                "--enforce-passivity applies to S-parameter data (a Touchstone file of S)"
+                    .to_string(),
+            ));
+        }
+    };
     if let Some(path) = &args.plot {
         write_plot(path, &data, &fit)?;
     }
@@ -47,6 +68,7 @@ pub(super) fn fit(args: &FitArgs, entries: Entries) -> Result<String, Failure> {
         fit: &fit,
         parameter,
         stopped,
+        enforcement: enforcement.as_ref(),
     };
     Ok(if args.json {
         report.json()?
@@ -247,6 +269,13 @@ struct Report<'a> {
     fit: &'a CommonPoleFit<f64>,
     parameter: Option<NetworkParameter>,
     stopped: Option<&'static str>,
+    /// `--enforce-passivity`: the check before, and the change made.
+    enforcement: Option<&'a Enforcement>,
+}
+
+/// The highest line's frequency (Hz): the passivity grid reaches 1.5 times it.
+fn f_max_hz(data: &Fitted) -> f64 {
+    data.omega().iter().copied().fold(0.0, f64::max) / std::f64::consts::TAU
 }
 
 /// Per entry of an FRF matrix: (output, input) 1-based, RMS error and RMS of the data.
@@ -328,11 +357,8 @@ impl Report<'_> {
     }
 
     fn passivity(&self) -> Option<fdid::mimo::Passivity<f64>> {
-        (self.parameter == Some(NetworkParameter::S)).then(|| {
-            let f_max =
-                self.data.omega().iter().copied().fold(0.0, f64::max) / std::f64::consts::TAU;
-            passivity(&self.fit.model, f_max, PASSIVITY_POINTS)
-        })
+        (self.parameter == Some(NetworkParameter::S))
+            .then(|| passivity(&self.fit.model, f_max_hz(self.data), PASSIVITY_POINTS))
     }
 
     fn text(&self) -> Result<String, Failure> {
@@ -453,6 +479,21 @@ impl Report<'_> {
                 p.points
             );
         }
+        if let Some(e) = self.enforcement {
+            let _ = writeln!(
+                w,
+                "enforced     passivity by {}: max singular value {:.6} before ({} violations); the model changed by {:.3e} relative over the fitted lines",
+                if e.scaled {
+                    "scaling S (the residue perturbation changed it more or did not converge)"
+                        .to_string()
+                } else {
+                    format!("residue perturbation in {} iteration(s)", e.iterations)
+                },
+                e.before.max_singular_value,
+                e.before.violations,
+                e.relative_change
+            );
+        }
         if !self.stable() {
             let _ = writeln!(
                 w,
@@ -548,13 +589,23 @@ impl Report<'_> {
             None => Value::Null,
         };
         let passivity = self.passivity().map(|p| {
-            json!({
+            let mut v = json!({
                 "max_singular_value": p.max_singular_value,
                 "at_hz": p.at_hz,
                 "passive": p.passive(),
                 "violations": p.violations,
                 "points": p.points,
-            })
+            });
+            if let Some(e) = self.enforcement {
+                v["enforced"] = json!({
+                    "method": if e.scaled { "scaling" } else { "residue perturbation" },
+                    "iterations": e.iterations,
+                    "max_singular_value_before": e.before.max_singular_value,
+                    "violations_before": e.before.violations,
+                    "relative_change": e.relative_change,
+                });
+            }
+            v
         });
         let v = json!({
             "file": self.file,

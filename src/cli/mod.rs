@@ -112,6 +112,13 @@ fn fit(args: &FitArgs) -> Result<String, Failure> {
     if let Some(entries) = data::read_entries(c)? {
         return mimo::fit(args, entries);
     }
+    if args.enforce_passivity {
+        return Err(Failure::usage(
+            "--enforce-passivity applies to S-parameter data fitted on every entry with \
+             common poles (a Touchstone file of S without --port)"
+                .to_string(),
+        ));
+    }
     let prepared = data::prepare(c, args.noise_order.is_some(), false)?;
     let file = c.data.display().to_string();
     let spec = ModelSpec {

@@ -38,6 +38,7 @@
 mod matrix_fraction;
 mod model;
 mod passivity;
+mod passivity_enforcement;
 mod poles;
 mod sigma_blocks;
 mod stabilisation;
@@ -49,6 +50,7 @@ mod vector_fit;
 pub use matrix_fraction::MatrixFraction;
 pub use model::{CommonPoleModel, Mode};
 pub use passivity::{PASSIVITY_TOLERANCE, Passivity, passivity};
+pub use passivity_enforcement::{Enforcement, enforce_passivity};
 pub use poles::PoleSet;
 pub use stabilisation::{
     DiagramPole, PhysicalMode, PoleMark, StabilisationDiagram, StabilityTolerances,

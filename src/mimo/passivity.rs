@@ -35,18 +35,7 @@ impl<T: Real> Passivity<T> {
 /// a violation peaks), the test of a passive n-port (a reciprocal lossless network has
 /// σ_max = 1). A sampled check: a violation narrower than the grid can escape it.
 pub fn passivity<T: Real>(model: &CommonPoleModel<T>, f_max_hz: T, points: usize) -> Passivity<T> {
-    let top = f_max_hz * T::lit(1.5) * T::two_pi();
-    let mut omega: Vec<T> = (0..points.max(2))
-        .map(|k| top * T::from_usize_lossy(k) / T::from_usize_lossy(points.max(2) - 1))
-        .collect();
-    for p in model.poles.slots() {
-        let w = match model.domain {
-            crate::model::Domain::Continuous => Float::abs(p.im),
-            crate::model::Domain::Discrete { ts } => Float::abs(p.arg()) / ts,
-        };
-        omega.push(w);
-    }
-    omega.sort_by(|a, b| a.partial_cmp(b).unwrap_or(std::cmp::Ordering::Equal));
+    let omega = frequency_grid(model, f_max_hz, points);
     let responses = model.response(&omega);
     let largest = crate::linalg::parallel::map_indices(responses.len(), |k| {
         nalgebra::SVD::try_new_unordered(
@@ -80,4 +69,26 @@ pub fn passivity<T: Real>(model: &CommonPoleModel<T>, f_max_hz: T, points: usize
         violations,
         points: omega.len(),
     }
+}
+
+/// The check's frequencies (rad/s, ascending): `points` evenly spaced from 0 to 1.5 times
+/// `f_max_hz`, and the natural frequency of every pole.
+pub(crate) fn frequency_grid<T: Real>(
+    model: &CommonPoleModel<T>,
+    f_max_hz: T,
+    points: usize,
+) -> Vec<T> {
+    let top = f_max_hz * T::lit(1.5) * T::two_pi();
+    let mut omega: Vec<T> = (0..points.max(2))
+        .map(|k| top * T::from_usize_lossy(k) / T::from_usize_lossy(points.max(2) - 1))
+        .collect();
+    for p in model.poles.slots() {
+        let w = match model.domain {
+            crate::model::Domain::Continuous => Float::abs(p.im),
+            crate::model::Domain::Discrete { ts } => Float::abs(p.arg()) / ts,
+        };
+        omega.push(w);
+    }
+    omega.sort_by(|a, b| a.partial_cmp(b).unwrap_or(std::cmp::Ordering::Equal));
+    omega
 }
