@@ -284,8 +284,10 @@ impl ModelSpec {
     /// denominator with those roots, the numerator by linear least squares, then ML
     /// (McKelvey eq. 23), stable-constrained when the spec enforces it. A continuous-time
     /// spec with nb ≤ na is fitted in the partial-fraction form with its basis poles at
-    /// `poles` (reflected into the left half-plane), where the start is D = 1; the others
-    /// in the spec's own basis ([`ModelSpec::model`]). A warm start: the discrepancy
+    /// `poles` (reflected into the left half-plane), where the start is D = 1 and the Levy
+    /// solve in that basis (one Sanathanan–Koerner iteration from those poles, eq. 41)
+    /// followed by ML is a second start, the lower cost winning; the others in the spec's
+    /// own basis ([`ModelSpec::model`]). A warm start: the discrepancy
     /// workflow refits an augmented model from the poles of the model it augments and
     /// the poles its finding adds, where a fit from scratch may land in another local
     /// minimum.

@@ -181,8 +181,8 @@ pub fn fit_spec(spec: &ModelSpec, data: &FrequencyData<f64>) -> Result<SpecFit> 
     fit_spec_by(spec, data, |s| s.fit(data))
 }
 
-/// [`fit_spec`] started from the basis poles `poles`
-/// ([`ModelSpec::fit_from_poles`]: continuous-time specs), with the same stability rule.
+/// [`fit_spec`] started from the poles `poles` (na values, closed under conjugation;
+/// [`ModelSpec::fit_from_poles`]: plain ML specs), with the same stability rule.
 ///
 /// # Errors
 /// As [`ModelSpec::fit_from_poles`].
