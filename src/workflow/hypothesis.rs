@@ -66,7 +66,7 @@ impl Hypothesis for SpecFit {
     }
 
     /// The finding's proposal ([`Finding::proposal`]) when it differs from the spec: fitted
-    /// from scratch and from the warm starts of [`super::warm_start::starts`] (the current
+    /// from scratch and from the warm starts of `warm_start::starts` (the current
     /// poles with the ones the finding adds); the fit of least cost among those the step
     /// can accept (stable, no new pole on the stability boundary), if any.
     fn augment(&self, data: &FrequencyData<f64>, finding: &Finding) -> Option<Result<Self>> {
