@@ -100,10 +100,12 @@ pub fn enforce_passivity(
     // the objective's Gram matrix Re(ΦᴴΦ) over the lines, plus the check's grid with a
     // total weight of one line in ten (a change where no line was fitted is not free: it
     // makes new violations there), and a relative ridge
-    let grid = basis(&current, &frequency_grid(&current, f_max_hz, points));
-    let out_of_band = 0.1 * omega.len() as f64 / grid.nrows().max(1) as f64;
+    // the grid depends on the poles only, which the enforcement keeps
+    let grid = frequency_grid(&current, f_max_hz, points);
+    let on_grid = basis(&current, &grid);
+    let out_of_band = 0.1 * omega.len() as f64 / on_grid.nrows().max(1) as f64;
     let mut gram = (lines.adjoint() * &lines).map(|v| v.re)
-        + (grid.adjoint() * &grid).map(|v| v.re * out_of_band);
+        + (on_grid.adjoint() * &on_grid).map(|v| v.re * out_of_band);
     let ridge = 1e-12 * gram.trace().max(f64::MIN_POSITIVE) / nb as f64;
     for i in 0..nb {
         gram[(i, i)] += ridge;
@@ -115,7 +117,6 @@ pub fn enforce_passivity(
     let entries = ny * nu;
     let mut iterations = 0;
     while iterations < MAX_ITERATIONS {
-        let grid = frequency_grid(&current, f_max_hz, points);
         let triples = largest_triples(&current, &grid);
         let peaks = violation_peaks(&triples);
         if peaks.is_empty() {
