@@ -477,6 +477,16 @@ pub struct FitArgs {
     #[arg(long)]
     pub enforce_passivity: bool,
 
+    /// Several outputs fitted with common poles from a periodic record (--output A,B,...
+    /// with --periods P, P minus the skipped periods > outputs + 1): weight each line's
+    /// residual vector r by the inverse of the outputs' noise covariance C between periods
+    /// (r'C^-1 r, the maximum likelihood when the sensors' noise is correlated) instead of
+    /// by their variances alone. It lowers the poles' variance when the model is right;
+    /// when model errors (e.g. nonlinear distortion) dominate the residual it weights
+    /// them by a noise correlation they do not share
+    #[arg(long)]
+    pub full_covariance: bool,
+
     /// Lift the limits that keep a fit to about a minute: without it a delay search
     /// (--delay) or noise model (--noise-order) estimated to take longer is refused, and
     /// the iterative solvers stop at a work budget (with a note in the report)

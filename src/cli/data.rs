@@ -248,10 +248,60 @@ fn output_entries(args: &CommonArgs, list: &str) -> Result<super::mimo::Entries,
             "--output {list}: the outputs' FRFs are not on the same lines ({e})"
         ))
     })?;
+    let matrix = match output_covariances(args, &names, &matrix)? {
+        Some(covariances) => matrix.with_covariances(vec![covariances])?,
+        None => matrix,
+    };
     Ok(super::mimo::Entries::Matrix {
         matrix,
         parameter: None,
     })
+}
+
+/// The ny × ny noise covariance of the outputs' FRFs on each line of `matrix`, from the
+/// spread of the outputs' spectra between the periods of a periodic record with one named
+/// input (`--input U --periods P`, P > ny + 1 periods kept, no `--realisations`): C_G(ω_k) =
+/// C_Y(ω_k)/|U(ω_k)|² with C_Y the covariance of the averaged output spectra
+/// ([`fdid::data::MimoNoise`]); its diagonal is the variance each output's FRF carries
+/// alone. `None` when the record is not of that kind.
+fn output_covariances(
+    args: &CommonArgs,
+    names: &[&str],
+    matrix: &FrfMatrix<f64>,
+) -> Result<Option<Vec<nalgebra::DMatrix<fdid::prelude::Complex<f64>>>>, Failure> {
+    let (Some(input), Some(periods)) = (args.input.as_deref(), args.periods) else {
+        return Ok(None);
+    };
+    if periods.saturating_sub(args.skip_periods) < names.len() + 2 || args.realisations.is_some() {
+        return Ok(None);
+    }
+    let selection = MultiChannelSelection {
+        inputs: vec![Column::parse(input)],
+        outputs: names.iter().map(|n| Column::parse(n)).collect(),
+        ts: args.ts,
+        periods: Some(periods),
+        skip_periods: args.skip_periods,
+    };
+    let spectra = read_multichannel::<f64>(&args.data, &selection).map_err(Failure::from)?;
+    let Some(noise) = spectra.noise() else {
+        return Ok(None);
+    };
+    let omega = spectra.omega();
+    let mut covariances = Vec::with_capacity(matrix.len());
+    for w in matrix.omega() {
+        let Some(k) = omega
+            .iter()
+            .position(|v| (v - w).abs() <= 1e-9 * w.abs().max(1.0))
+        else {
+            return Ok(None);
+        };
+        let u2 = spectra.u(0)[k].norm_sqr();
+        if u2.is_nan() || u2 <= 0.0 {
+            return Ok(None);
+        }
+        covariances.push(noise.output_covariance(k).map(|c| c / u2));
+    }
+    Ok(Some(covariances))
 }
 
 /// The column names of a comma-separated list, refusing an empty name.

@@ -34,8 +34,19 @@ pub(super) fn fit(args: &FitArgs, entries: Entries) -> Result<String, Failure> {
     let spectra = matches!(entries, Entries::Spectra(_));
     check_flags(args, spectra)?;
     let (data, parameter) = banded(c, entries)?;
-    let options = options(c, data.ts(), args.stable)?;
+    let options = CommonPoleOptions {
+        full_covariance: args.full_covariance,
+        ..options(c, data.ts(), args.stable)?
+    };
     let (fit, stopped) = budget::fit_common_poles(args.allow_long, || data.fit(c.na, &options))?;
+    if args.full_covariance && !fit.correlated {
+        return Err(Failure::usage(
+            "--full-covariance needs the outputs' noise covariance: several outputs of a \
+             periodic record (--output A,B,... with --periods P, more than outputs + 1 \
+             periods kept)"
+                .to_string(),
+        ));
+    }
     let (fit, enforcement) = match (args.enforce_passivity, parameter, &data) {
         (false, ..) => (fit, None),
         (true, Some(NetworkParameter::S), Fitted::Matrix(matrix)) => {
@@ -395,7 +406,9 @@ impl Report<'_> {
             w,
             "cost         {:.6e} ({}); rms error {:.6e}",
             fit.cost,
-            if fit.weighted {
+            if fit.correlated {
+                "weighted by the outputs' noise covariance, sum of r'C^-1 r per line"
+            } else if fit.weighted {
                 "weighted by the variances"
             } else {
                 "unweighted"
@@ -634,6 +647,13 @@ impl Report<'_> {
             },
             "cost": fit.cost,
             "weighted": fit.weighted,
+            "weighting": if fit.correlated {
+                "output_covariance"
+            } else if fit.weighted {
+                "variances"
+            } else {
+                "none"
+            },
             "noise": match self.data {
                 Fitted::Spectra(s) => noise_correlation(s).map(|(periods, rho)| {
                     json!({"periods": periods, "output_correlation": matrix_json(&rho)})

@@ -4,6 +4,8 @@
 use super::{FrequencyData, NoiseVariances};
 use crate::error::{FdidError, Result};
 use crate::scalar::{Complex, Real};
+use nalgebra::DMatrix;
+use num_traits::Float;
 
 /// An ny × nu frequency response matrix G_k per line ω_k (rad/s): entry (i, j) is the
 /// response of output i to input j. Entries are stored column by column — (1,1), (2,1), …,
@@ -29,6 +31,9 @@ pub struct FrfMatrix<T: Real> {
     ny: usize,
     nu: usize,
     entries: Vec<FrequencyData<T>>,
+    /// Per input column j and line k, the ny × ny covariance of the column's entries.
+    #[cfg_attr(feature = "serde", serde(default))]
+    covariances: Option<Vec<Vec<DMatrix<Complex<T>>>>>,
 }
 
 impl<T: Real> FrfMatrix<T> {
@@ -50,7 +55,12 @@ impl<T: Real> FrfMatrix<T> {
             .into_iter()
             .map(|g| FrequencyData::from_frf(omega.clone(), g, ts))
             .collect::<Result<Vec<_>>>()?;
-        Ok(Self { ny, nu, entries })
+        Ok(Self {
+            ny,
+            nu,
+            entries,
+            covariances: None,
+        })
     }
 
     /// Builds the matrix from single-channel data, one per entry (column by column), which
@@ -88,7 +98,12 @@ impl<T: Real> FrfMatrix<T> {
             }
             entries.push(entry);
         }
-        Ok(Self { ny, nu, entries })
+        Ok(Self {
+            ny,
+            nu,
+            entries,
+            covariances: None,
+        })
     }
 
     /// Attaches the noise variances of each entry's FRF (column by column, one per line).
@@ -100,7 +115,78 @@ impl<T: Real> FrfMatrix<T> {
         for (entry, var) in self.entries.iter_mut().zip(variances) {
             *entry = entry.clone().with_noise(NoiseVariances::output_only(var))?;
         }
+        self.covariances = None;
         Ok(self)
+    }
+
+    /// Attaches the noise covariance of each input column: `covariances[j][k]` is the
+    /// ny × ny covariance C_j(ω_k) of the column's entries (G_1j, …, G_nyj) at line k —
+    /// off the diagonal the correlation of the outputs' noise (one disturbance seen by
+    /// several sensors). The diagonals become the entries' variances; a common-pole fit
+    /// weights the residual vector r of each column and line by C⁻¹ (rᴴC⁻¹r), see
+    /// [`crate::mimo::CommonPoleOptions::full_covariance`].
+    ///
+    /// ```
+    /// use fdid::prelude::*;
+    /// use fdid::data::FrfMatrix;
+    /// use nalgebra::DMatrix;
+    ///
+    /// let c = Complex::new(1.0, 0.0);
+    /// let m = FrfMatrix::from_entries(vec![1.0, 2.0], 2, 1, vec![vec![c; 2]; 2], None)?;
+    /// // unit variances, correlation 0.8 between the two outputs
+    /// let cov = DMatrix::from_row_slice(2, 2, &[c, c * 0.8, c * 0.8, c]);
+    /// let m = m.with_covariances(vec![vec![cov.clone(), cov]])?;
+    /// assert!(m.has_variances());
+    /// assert_eq!(m.covariance(0, 1).unwrap()[(1, 0)].re, 0.8);
+    /// # Ok::<(), fdid::FdidError>(())
+    /// ```
+    ///
+    /// # Errors
+    /// Not nu columns of one matrix per line; a matrix not ny × ny, not finite, not
+    /// Hermitian (to 10⁻⁸ of its diagonal), or with a diagonal that is not positive.
+    pub fn with_covariances(mut self, covariances: Vec<Vec<DMatrix<Complex<T>>>>) -> Result<Self> {
+        let bad = |value: String, reason: &str| FdidError::InvalidArgument {
+            name: "covariances",
+            value,
+            reason: reason.into(),
+        };
+        if covariances.len() != self.nu {
+            return Err(bad(
+                format!("{} columns", covariances.len()),
+                &format!("one list of covariances per input ({})", self.nu),
+            ));
+        }
+        let lines = self.len();
+        for (j, column) in covariances.iter().enumerate() {
+            if column.len() != lines {
+                return Err(bad(
+                    format!("{} matrices for input {}", column.len(), j + 1),
+                    &format!("one ny × ny covariance per line ({lines})"),
+                ));
+            }
+            for (k, c) in column.iter().enumerate() {
+                check_covariance(c, self.ny)
+                    .map_err(|reason| bad(format!("input {}, line {}", j + 1, k + 1), &reason))?;
+            }
+        }
+        for (e, entry) in self.entries.iter_mut().enumerate() {
+            let (i, j) = (e % self.ny, e / self.ny);
+            let var = covariances[j].iter().map(|c| c[(i, i)].re).collect();
+            *entry = entry.clone().with_noise(NoiseVariances::output_only(var))?;
+        }
+        self.covariances = Some(covariances);
+        Ok(self)
+    }
+
+    /// The ny × ny noise covariance of input column j's entries at line k, when attached
+    /// by [`FrfMatrix::with_covariances`].
+    pub fn covariance(&self, j: usize, k: usize) -> Option<&DMatrix<Complex<T>>> {
+        self.covariances.as_ref().map(|c| &c[j][k])
+    }
+
+    /// True when the columns carry full ny × ny noise covariances.
+    pub fn has_covariances(&self) -> bool {
+        self.covariances.is_some()
     }
 
     /// Outputs ny.
@@ -167,12 +253,65 @@ impl<T: Real> FrfMatrix<T> {
             .iter()
             .map(|e| e.band_hz(f_min, f_max))
             .collect::<Result<Vec<_>>>()?;
+        // the kept lines are a run of the old ones: match them by frequency
+        let covariances = self.covariances.as_ref().map(|all| {
+            let first = self
+                .omega()
+                .iter()
+                .position(|w| *w == entries[0].omega()[0])
+                .unwrap_or(0);
+            all.iter()
+                .map(|column| column[first..first + entries[0].len()].to_vec())
+                .collect()
+        });
         Ok(Self {
             ny: self.ny,
             nu: self.nu,
             entries,
+            covariances,
         })
     }
+}
+
+/// Why `c` is not an ny × ny covariance, if it is not.
+fn check_covariance<T: Real>(
+    c: &DMatrix<Complex<T>>,
+    ny: usize,
+) -> std::result::Result<(), String> {
+    if c.shape() != (ny, ny) {
+        return Err(format!(
+            "a {}×{} matrix; an {ny}×{ny} one is needed",
+            c.nrows(),
+            c.ncols()
+        ));
+    }
+    if c.iter().any(|v| !(v.re.is_finite() && v.im.is_finite())) {
+        return Err("a value is not finite".into());
+    }
+    for i in 0..ny {
+        if !(c[(i, i)].re > T::zero()) {
+            return Err(format!(
+                "diagonal entry {} is {}, not positive",
+                i + 1,
+                c[(i, i)]
+            ));
+        }
+    }
+    for i in 0..ny {
+        for j in 0..i {
+            let scale = Float::sqrt(c[(i, i)].re * c[(j, j)].re);
+            if (c[(i, j)] - c[(j, i)].conj()).norm() > scale * T::lit(1e-8) {
+                return Err(format!(
+                    "entries ({}, {}) and ({}, {}) are not conjugate",
+                    i + 1,
+                    j + 1,
+                    j + 1,
+                    i + 1
+                ));
+            }
+        }
+    }
+    Ok(())
 }
 
 fn check_shape(ny: usize, nu: usize, entries: usize) -> Result<()> {

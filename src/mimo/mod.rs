@@ -35,6 +35,7 @@
 //! assert!((pair - p).norm() < 1e-8);
 //! ```
 
+mod correlated;
 mod matrix_fraction;
 mod model;
 mod passivity;
@@ -61,6 +62,7 @@ pub use state_space::StateSpace;
 use crate::data::{FrfMatrix, MimoSpectra};
 use crate::error::{FdidError, Result};
 use crate::model::Domain;
+use crate::problem::NonlinearProblem;
 use crate::scalar::Real;
 use crate::solver::{GramLevenbergMarquardt, LevenbergMarquardt, Solver};
 use nalgebra::DMatrix;
@@ -77,6 +79,20 @@ use vector_fit::{Weighted, model_of, relocation_loop};
 /// | `relocations` | 30 | cap on the pole relocations |
 /// | `ml` | true | refine by maximum likelihood (variable projection) |
 /// | `transient` | true | estimate the transient of a finite record ([`fit_common_poles_spectra`] only: an FRF matrix has none) |
+/// | `full_covariance` | false | weight by the outputs' full noise covariance when the data carry it (see below) |
+///
+/// With `full_covariance`, the maximum likelihood weights each line's residual vector r_k
+/// of correlated blocks by the inverse of their noise covariance, Σ_k r_kᴴ C_k⁻¹ r_k — the
+/// columns of an FRF matrix with [`FrfMatrix::with_covariances`], the outputs of a record
+/// averaged over P > ny + 1 periods ([`crate::data::MimoNoise`]) — and the blocks'
+/// residues are estimated jointly; otherwise (and in the relocation that starts it) by
+/// the diagonal of C_k alone. When the outputs' noise is correlated and the model is
+/// right this lowers the poles' variance (to 0.54 of the diagonal weighting's with
+/// ρ = 0.95 in the Monte Carlo test). It is off by default because on measured data
+/// model errors often dominate the residual and do not share the noise's correlation:
+/// on the F-16's three accelerometers (nonlinear distortion at 7.3 Hz) the weighting
+/// C⁻¹ magnifies them, and the common-pole `diagnose` keeps adding pairs at 7.1–7.6 Hz
+/// up to 30 poles instead of stopping at 20.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct CommonPoleOptions<T: Real> {
     /// s or z.
@@ -91,6 +107,8 @@ pub struct CommonPoleOptions<T: Real> {
     pub ml: bool,
     /// Estimate the transient term of a finite record (spectra only).
     pub transient: bool,
+    /// Weight by the full noise covariance of correlated outputs when the data carry it.
+    pub full_covariance: bool,
 }
 
 impl<T: Real> Default for CommonPoleOptions<T> {
@@ -102,6 +120,7 @@ impl<T: Real> Default for CommonPoleOptions<T> {
             relocations: 30,
             ml: true,
             transient: true,
+            full_covariance: false,
         }
     }
 }
@@ -138,6 +157,11 @@ pub struct CommonPoleFit<T: Real> {
     pub entries: usize,
     /// True when the entries' variances weighted the fit.
     pub weighted: bool,
+    /// True when the full noise covariance of correlated blocks weighted the fit
+    /// ([`CommonPoleOptions::full_covariance`]): `cost` is then Σ_k r_kᴴC_k⁻¹r_k and
+    /// `costs` splits it by the rows of the whitened residual (block i's residual given
+    /// the blocks before it in its column or record).
+    pub correlated: bool,
 }
 
 /// What became of the maximum-likelihood refinement.
@@ -389,6 +413,22 @@ fn fit_weighted<T: Real>(
         options.relocations,
         start.map(|p| p.scaled(T::one() / weighted.scale)),
     )?;
+    let whitening = weighted
+        .whitening
+        .as_ref()
+        .filter(|_| options.full_covariance);
+    let joint = whitening.map(|whitening| correlated::JointVarPro {
+        data: weighted,
+        whitening,
+        n_real: poles.real.len(),
+        order,
+    });
+    // with correlated blocks the relocation's diagonal weights only start the search:
+    // the cost is the full-covariance one
+    let (coeffs, costs) = match &joint {
+        Some(j) => j.linear_fit(&poles)?,
+        None => (coeffs, costs),
+    };
     let relocation_cost = vector_fit::total(&costs);
     let mut fit = CommonPoleFit {
         model: model_of(weighted, options.domain, &poles, &coeffs),
@@ -402,25 +442,34 @@ fn fit_weighted<T: Real>(
         lines,
         entries: weighted.ny * weighted.nu,
         weighted: weighted.w.is_some(),
+        correlated: joint.is_some(),
     };
     let mut final_poles = poles.clone();
     let mut final_coeffs = coeffs;
     if options.ml {
-        let problem = varpro::VarPro {
+        let separate = varpro::VarPro {
             data: weighted,
             n_real: poles.real.len(),
             order,
         };
+        let problem: &dyn NonlinearProblem<T> = match &joint {
+            Some(j) => j,
+            None => &separate,
+        };
+        let linear_fit = |p: &PoleSet<T>| match &joint {
+            Some(j) => j.linear_fit(p),
+            None => weighted.linear_fit(p),
+        };
         let start = poles.theta();
         let solved = GramLevenbergMarquardt::default()
-            .solve(&problem, Some(&start))
-            .or_else(|_| LevenbergMarquardt::default().solve(&problem, Some(&start)));
+            .solve(problem, Some(&start))
+            .or_else(|_| LevenbergMarquardt::default().solve(problem, Some(&start)));
         fit.ml = MlOutcome::Failed;
         if let Ok(solution) = solved {
             let candidate = PoleSet::from_theta(poles.real.len(), &solution.theta);
             if options.stable && !candidate.is_stable(unit(options.domain)) {
                 fit.ml = MlOutcome::Unstable;
-            } else if let Ok((c, costs)) = weighted.linear_fit(&candidate)
+            } else if let Ok((c, costs)) = linear_fit(&candidate)
                 && vector_fit::total(&costs) <= relocation_cost
             {
                 fit.model = model_of(weighted, options.domain, &candidate, &c);
@@ -433,7 +482,7 @@ fn fit_weighted<T: Real>(
                 final_poles = candidate;
             }
         }
-        fit.pole_covariance = covariance(&problem, &final_poles, &fit, weighted);
+        fit.pole_covariance = covariance(problem, order, &final_poles, &fit, weighted);
     }
     fit.residual_power = match weighted.w {
         None => fit.costs.clone(),
@@ -453,12 +502,12 @@ fn unit<T: Real>(domain: Domain<T>) -> Domain<T> {
 
 /// The poles' covariance s²(JᵀJ)⁻¹ at the final poles, in physical units.
 fn covariance<T: Real>(
-    problem: &varpro::VarPro<'_, T>,
+    problem: &dyn NonlinearProblem<T>,
+    order: usize,
     poles: &PoleSet<T>,
     fit: &CommonPoleFit<T>,
     data: &Weighted<T>,
 ) -> Option<DMatrix<T>> {
-    use crate::problem::NonlinearProblem;
     let theta = poles.theta();
     let m = problem.n_residuals();
     let mut r = vec![T::zero(); m];
@@ -468,7 +517,7 @@ fn covariance<T: Real>(
     if !problem.normal_equations_into(&theta, &mut r, &mut jac, &mut gram, &mut grad) {
         return None;
     }
-    let params = problem.order + data.h.len() * data.linear_parameters(problem.order);
+    let params = order + data.h.len() * data.linear_parameters(order);
     // V/(M − P): 1/2 when weighted by the true variances and the model fits to the noise
     // level, larger (and honest) when it does not
     if m <= params {

@@ -310,7 +310,8 @@ fn violation_peaks(triples: &[Triple]) -> Vec<usize> {
 impl CommonPoleFit<f64> {
     /// The fit with its model replaced by `model` (the enforced model of
     /// [`enforce_passivity`]: same poles, other residues), its costs recomputed on `data`
-    /// (weighted by the entries' variances when they carry them, as the fit was). The
+    /// (weighted by the entries' variances when they carry them; by their diagonal alone
+    /// when the fit weighted by full covariances, so `correlated` is false). The
     /// relocation figures, the ML outcome and the poles' covariance are the original fit's.
     ///
     /// # Errors
@@ -347,6 +348,7 @@ impl CommonPoleFit<f64> {
             cost: costs.iter().sum(),
             costs,
             residual_power: power,
+            correlated: false,
             ..self.clone()
         })
     }

@@ -797,3 +797,60 @@ fn enforce_passivity_makes_the_rlc_two_port_passive() {
     assert_eq!(one_port.status.code(), Some(2), "{}", stderr(&one_port));
     assert!(stderr(&one_port).contains("--enforce-passivity"));
 }
+
+/// `--full-covariance` on the F-16's three accelerometers (8 periods kept, 3 outputs):
+/// the fit is weighted by the outputs' noise covariance between periods (JSON
+/// `"weighting":"output_covariance"`), stable, with the 5.2 Hz wing bending and 7.32 Hz
+/// wing torsion modes of the data README; the flag is refused (exit 2) when the periods
+/// kept do not exceed the outputs by two.
+#[test]
+fn full_covariance_weights_the_f16_outputs_jointly() {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../shared/data/f16-gvt/F16Data_FullMSine_Level1.csv");
+    let args = |periods: &'static str, skip: &'static str| {
+        vec![
+            "fit",
+            path.to_str().unwrap(),
+            "--input",
+            "Force",
+            "--output",
+            "Acceleration1,Acceleration2,Acceleration3",
+            "--ts",
+            "0.0025",
+            "--periods",
+            periods,
+            "--skip-periods",
+            skip,
+            "--band",
+            "2:15",
+            "--domain",
+            "s",
+            "--na",
+            "20",
+            "--nb",
+            "20",
+            "--stable",
+            "--full-covariance",
+            "--json",
+        ]
+    };
+    let v = json_of(&fdid(&args("9", "1")));
+    assert_eq!(v["weighting"], "output_covariance");
+    assert_eq!(v["stable"], true);
+    let modes: Vec<f64> = v["modes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|m| m["f_n_hz"].as_f64().unwrap())
+        .collect();
+    for reference in [5.19, 7.32] {
+        assert!(
+            modes.iter().any(|f| (f - reference).abs() < 0.05),
+            "{reference} Hz among {modes:?}"
+        );
+    }
+    // 9 periods with 6 skipped leave 3: too few for a 3 × 3 covariance
+    let refused = fdid(&args("9", "6"));
+    assert_eq!(refused.status.code(), Some(2), "{}", stderr(&refused));
+    assert!(stderr(&refused).contains("--full-covariance needs"));
+}

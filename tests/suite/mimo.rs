@@ -95,13 +95,13 @@ impl Case {
     }
 }
 
-fn omega(lines: usize) -> Vec<f64> {
+pub(crate) fn omega(lines: usize) -> Vec<f64> {
     (0..lines)
         .map(|k| 0.05 * (400.0f64).powf(k as f64 / (lines - 1) as f64))
         .collect()
 }
 
-fn frf_matrix<T: Real>(model: &CommonPoleModel<f64>, omega: &[f64]) -> FrfMatrix<T> {
+pub(crate) fn frf_matrix<T: Real>(model: &CommonPoleModel<f64>, omega: &[f64]) -> FrfMatrix<T> {
     let g = model.response(omega);
     let (ny, nu) = (model.ny(), model.nu());
     let entries = (0..ny * nu)
