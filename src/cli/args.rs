@@ -487,6 +487,13 @@ pub struct FitArgs {
     #[arg(long)]
     pub full_covariance: bool,
 
+    /// Every entry of a frequency response matrix (n-port, matrix CSV, --output A,B,...)
+    /// in z as B_ij(z^-1)/A(z^-1) with one denominator A of degree --na and numerators
+    /// b0 + b1 z^-1 + ... + b_nb z^-nb of any degree --nb <= --na (the single-channel
+    /// structure), by Levy, Sanathanan-Koerner and maximum likelihood over A; --domain z
+    #[arg(long)]
+    pub common_denominator: bool,
+
     /// Lift the limits that keep a fit to about a minute: without it a delay search
     /// (--delay) or noise model (--noise-order) estimated to take longer is refused, and
     /// the iterative solvers stop at a work budget (with a note in the report)

@@ -1,7 +1,7 @@
 //! `fdid fit` on every entry of a multi-port file: a common-pole model ([`fdid::mimo`]),
 //! its modes, residue matrices, state-space realisation and per-entry errors.
 
-use super::args::{CommonArgs, CriterionArg, FitArgs, parse_band};
+use super::args::{CommonArgs, CriterionArg, DomainArg, FitArgs, parse_band};
 use super::{Failure, budget};
 use fdid::data::{FrfMatrix, MimoSpectra};
 use fdid::io::NetworkParameter;
@@ -38,7 +38,12 @@ pub(super) fn fit(args: &FitArgs, entries: Entries) -> Result<String, Failure> {
         full_covariance: args.full_covariance,
         ..options(c, data.ts(), args.stable)?
     };
-    let (fit, stopped) = budget::fit_common_poles(args.allow_long, || data.fit(c.na, &options))?;
+    let (fit, stopped) = match (&data, args.common_denominator) {
+        (Fitted::Matrix(m), true) => budget::fit_common_poles(args.allow_long, || {
+            fdid::mimo::fit_common_denominator(m, c.na, c.nb, &options)
+        })?,
+        _ => budget::fit_common_poles(args.allow_long, || data.fit(c.na, &options))?,
+    };
     if args.full_covariance && !fit.correlated {
         return Err(Failure::usage(
             "--full-covariance needs the outputs' noise covariance: several outputs of a \
@@ -80,6 +85,7 @@ pub(super) fn fit(args: &FitArgs, entries: Entries) -> Result<String, Failure> {
         parameter,
         stopped,
         enforcement: enforcement.as_ref(),
+        common_denominator: args.common_denominator.then_some(c.nb),
     };
     Ok(if args.json {
         report.json()?
@@ -260,10 +266,24 @@ fn check_flags(args: &FitArgs, spectra: bool) -> Result<(), Failure> {
             "{flag} is not available for a fit of every entry with common poles ({one_entry})"
         )));
     }
+    if args.common_denominator {
+        if spectra || c.domain != DomainArg::Z || c.nb > c.na || args.full_covariance {
+            return Err(Failure::usage(format!(
+                "--common-denominator fits a frequency response matrix (not a record with \
+                 several inputs) in z (--domain z) with --nb <= --na, weighted by the \
+                 variances (not --full-covariance); got --domain {} --na {} --nb {}",
+                if c.domain == DomainArg::Z { "z" } else { "s" },
+                c.na,
+                c.nb
+            )));
+        }
+        return Ok(());
+    }
     if c.nb + 1 != c.na && c.nb != c.na {
         return Err(Failure::usage(format!(
             "a fit of every entry with common poles is in partial fractions: --nb {} with \
-             --na {} must be {} (strictly proper) or {} (with a direct term)",
+             --na {} must be {} (strictly proper) or {} (with a direct term); in z, \
+             --common-denominator takes any --nb <= --na",
             c.nb,
             c.na,
             c.na.saturating_sub(1),
@@ -282,6 +302,8 @@ struct Report<'a> {
     stopped: Option<&'static str>,
     /// `--enforce-passivity`: the check before, and the change made.
     enforcement: Option<&'a Enforcement>,
+    /// `--common-denominator`: the numerators' degree nb.
+    common_denominator: Option<usize>,
 }
 
 /// The highest line's frequency (Hz): the passivity grid reaches 1.5 times it.
@@ -385,23 +407,35 @@ impl Report<'_> {
             fit.entries,
             fit.lines
         );
-        let _ = writeln!(
-            w,
-            "model        common poles, order {} in {}{}, {} relocations, ML {}",
-            model.order(),
-            if model.domain == Domain::Continuous {
-                "s"
-            } else {
-                "z"
-            },
-            if model.direct.is_some() {
-                " with a direct term"
-            } else {
-                ""
-            },
-            fit.relocations,
-            ml_text(fit.ml)
-        );
+        if let Some(nb) = self.common_denominator {
+            let _ = writeln!(
+                w,
+                "model        common denominator in z: B_ij(z^-1)/A(z^-1), na = {}, nb = {} \
+                 (shown in partial fractions below), {} SK iterations, ML {}",
+                model.order(),
+                nb,
+                fit.relocations,
+                ml_text(fit.ml)
+            );
+        } else {
+            let _ = writeln!(
+                w,
+                "model        common poles, order {} in {}{}, {} relocations, ML {}",
+                model.order(),
+                if model.domain == Domain::Continuous {
+                    "s"
+                } else {
+                    "z"
+                },
+                if model.direct.is_some() {
+                    " with a direct term"
+                } else {
+                    ""
+                },
+                fit.relocations,
+                ml_text(fit.ml)
+            );
+        }
         let _ = writeln!(
             w,
             "cost         {:.6e} ({}); rms error {:.6e}",
@@ -622,7 +656,12 @@ impl Report<'_> {
         });
         let v = json!({
             "file": self.file,
-            "model": "common_poles",
+            "model": if self.common_denominator.is_some() {
+                "common_denominator"
+            } else {
+                "common_poles"
+            },
+            "nb": self.common_denominator,
             "domain": if model.domain == Domain::Continuous { "s" } else { "z" },
             "order": model.order(),
             "outputs": model.ny(),

@@ -35,6 +35,7 @@
 //! assert!((pair - p).norm() < 1e-8);
 //! ```
 
+mod common_denominator;
 mod correlated;
 mod matrix_fraction;
 mod model;
@@ -48,6 +49,7 @@ mod thin_qr;
 mod varpro;
 mod vector_fit;
 
+pub use common_denominator::fit_common_denominator;
 pub use matrix_fraction::MatrixFraction;
 pub use model::{CommonPoleModel, Mode};
 pub use passivity::{PASSIVITY_TOLERANCE, Passivity, passivity};

@@ -56,6 +56,7 @@ mod ltv_lti;
 mod ltv_paper;
 mod ltv_varying;
 mod mimo;
+mod mimo_common_denominator;
 mod mimo_covariance;
 mod mimo_passivity;
 mod mimo_periodic;
