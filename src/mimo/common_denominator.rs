@@ -2,6 +2,7 @@
 //! response matrix is a ratio of polynomials in z⁻¹ with one denominator shared by all,
 //! of any numerator degree (the relative degrees of single-channel fits).
 
+use super::arc_basis::ArcBasis;
 use super::poles::PoleSet;
 use super::thin_qr::{ThinQr, at_b, r_factor};
 use super::vector_fit::Weighted;
@@ -23,24 +24,29 @@ use num_traits::Float;
 ///
 /// nb ≤ na — McKelvey's polynomial model (eq. 14) per entry with the denominator shared,
 /// the left matrix-fraction form A(z⁻¹)⁻¹B(z⁻¹) with A = a·I; the single-channel
-/// `--domain z --na N --nb M` structure for every entry. On the unit circle the powers of
-/// z⁻¹ are an orthogonal basis, so the monomial coefficients are well conditioned here
-/// (unlike in s).
+/// `--domain z --na N --nb M` structure for every entry. A and B are computed in the
+/// real polynomials q_j(ξ) orthonormal on the lines (ξ = z⁻¹, an Arnoldi recurrence):
+/// the powers ξʲ are orthogonal on the whole unit circle but nearly dependent on the short
+/// arc that a narrow band of oversampled data covers (the F-16's 2–15 Hz at 400 Hz).
 ///
 /// 1. **Levy and Sanathanan–Koerner** (McKelvey eqs. 39 and 41) with the fast block
-///    solution: per entry, the weighted equations v_k (B(ξ_k) − h_k A(ξ_k)) ≈ 0 (ξ = z⁻¹,
-///    v = w/|A_prev|) lose their b by one QR, leaving an (na + 1)-row block in a; the
-///    stacked blocks give a by one small least squares. Unstable roots of A are reflected
-///    (p → 1/p̄) at every iteration under `options.stable`.
+///    solution: per entry, the weighted equations v_k (B(ξ_k) − h_k A(ξ_k)) ≈ 0 (v =
+///    w/|A_prev|) lose their numerator by one QR, leaving an (na + 1)-row block in A's
+///    coefficients α; the stacked blocks give α (‖α‖ = 1) as the right singular vector
+///    of their least singular value. Unstable roots are reflected (p → 1/p̄) at every
+///    iteration under `options.stable`.
 /// 2. **Maximum likelihood** (eq. 23, weighted by the entries' variances) by variable
-///    projection over a: the numerators are eliminated, r_e = W(h_e − Φ b_e/A), and
-///    Kaufman's Jacobian column j is P⊥ W ξʲ ĥ_e/A (ĥ_e = Φb_e/A the model). The poles'
-///    covariance follows from that of a (eq. 32, s² = V/(M − P)) through the roots'
-///    sensitivities ∂p/∂a_j = −p^{na−j}/A_z′(p), A_z(z) = zⁿᵃA(z⁻¹).
+///    projection over α (its largest coefficient held, which fixes A's scale): the
+///    numerators are eliminated, r_e = W(h_e − Q_B β_e/A), and Kaufman's Jacobian column
+///    j is P⊥ W q_j ĥ_e/A (ĥ_e = Q_Bβ_e/A the model). The poles' covariance follows from
+///    α's (eq. 32, s² = V/(M − P)) through the roots' sensitivities: for a root ξ* of A
+///    and p = 1/ξ*, ∂p/∂α_j = q_j(ξ*)/(A′(ξ*) ξ*²).
 ///
-/// The fitted model is returned in partial fractions (its poles are the roots of A_z, its
-/// residues N(p)/A_z′(p), its direct term b_0): [`CommonPoleModel::matrix_fraction`]
-/// gives the polynomial form back, with b_{nb+1…na} zero to rounding.
+/// The roots of A are the eigenvalues of the recurrence's confederate matrix. The fitted
+/// model is returned in partial fractions: the poles p = 1/ξ*, the residues
+/// −B(ξ*)/(A′(ξ*) ξ*²) and the direct term B(0)/A(0);
+/// [`CommonPoleModel::matrix_fraction`] gives the polynomial form in z⁻¹ back, with
+/// b_{nb+1…na} zero to rounding.
 ///
 /// ```
 /// use fdid::data::FrfMatrix;
@@ -103,32 +109,46 @@ pub fn fit_common_denominator<T: Real>(
         });
     }
     let weighted = Weighted::new(data, options.domain, false)?;
-    let problem = Polynomial {
-        xi: weighted.x.iter().map(|x| x.conj()).collect(),
+    let xi: Vec<Complex<T>> = weighted.x.iter().map(|x| x.conj()).collect();
+    let mut problem = Polynomial {
+        basis: ArcBasis::new(&xi, na)?,
+        xi,
         data: &weighted,
         na,
         nb,
+        fixed: (0, T::one()),
     };
     let (a, relocations) = problem.sanathanan_koerner(options)?;
     let (b, costs) = problem.linear_fit(&a)?;
     let relocation_cost = super::vector_fit::total(&costs);
+    // the ML holds A's largest coefficient, which fixes the scale B/A leaves free
+    let held = (0..a.len())
+        .max_by(|i, j| {
+            Float::abs(a[*i])
+                .partial_cmp(&Float::abs(a[*j]))
+                .unwrap_or(std::cmp::Ordering::Equal)
+        })
+        .unwrap_or(0);
+    problem.fixed = (held, a[held]);
     let mut best = (a.clone(), b, costs, MlOutcome::Skipped);
     if options.ml {
+        let start = problem.theta(&a);
         let solved = GramLevenbergMarquardt::default()
-            .solve(&problem, Some(&a))
-            .or_else(|_| LevenbergMarquardt::default().solve(&problem, Some(&a)));
+            .solve(&problem, Some(&start))
+            .or_else(|_| LevenbergMarquardt::default().solve(&problem, Some(&start)));
         best.3 = MlOutcome::Failed;
         if let Ok(solution) = solved {
+            let alpha = problem.alpha(&solution.theta);
             let stable = problem
-                .poles(&solution.theta)
+                .poles(&alpha)
                 .is_ok_and(|p| p.is_stable(options.domain));
             if options.stable && !stable {
                 best.3 = MlOutcome::Unstable;
-            } else if let Ok((b, costs)) = problem.linear_fit(&solution.theta)
+            } else if let Ok((b, costs)) = problem.linear_fit(&alpha)
                 && super::vector_fit::total(&costs) <= relocation_cost
             {
                 best = (
-                    solution.theta.clone(),
+                    alpha,
                     b,
                     costs,
                     MlOutcome::Kept {
@@ -166,34 +186,30 @@ pub fn fit_common_denominator<T: Real>(
     })
 }
 
-/// The polynomial model's data: ξ_k = z_k⁻¹ on the unit circle, the entries' responses
-/// and weights, and the degrees.
+/// The polynomial model's data: the lines' ξ = z⁻¹, the orthonormal basis on them, the
+/// entries' responses and weights, the degrees, and the coefficient of A held fixed in
+/// the maximum likelihood (index, value).
 struct Polynomial<'a, T: Real> {
     xi: Vec<Complex<T>>,
+    basis: ArcBasis<T>,
     data: &'a Weighted<T>,
     na: usize,
     nb: usize,
+    fixed: (usize, T),
 }
 
 impl<T: Real> Polynomial<'_, T> {
-    /// ξ_kʲ for j in `from..=to`, one row per line.
-    fn powers(&self, from: usize, to: usize) -> DMatrix<Complex<T>> {
-        DMatrix::from_fn(self.xi.len(), to + 1 - from, |k, j| {
-            powi(self.xi[k], from + j)
-        })
-    }
-
-    /// A(ξ_k) = 1 + Σ a_j ξ_kʲ on every line.
-    fn denominator(&self, a: &[T]) -> Vec<Complex<T>> {
-        self.xi
-            .iter()
-            .map(|x| {
-                // Horner in ξ: ((a_na ξ + a_{na−1}) ξ + …) ξ + 1
-                let mut v = Complex::new(T::zero(), T::zero());
-                for c in a.iter().rev() {
-                    v = (v + *c) * *x;
-                }
-                v + T::one()
+    /// A(ξ_k) = Σ α_j q_j(ξ_k) on every line.
+    fn denominator(&self, alpha: &[T]) -> Vec<Complex<T>> {
+        let q = self.basis.on_lines(self.na);
+        (0..self.xi.len())
+            .map(|k| {
+                alpha
+                    .iter()
+                    .enumerate()
+                    .fold(Complex::new(T::zero(), T::zero()), |s, (j, a)| {
+                        s + q[(k, j)] * *a
+                    })
             })
             .collect()
     }
@@ -202,9 +218,13 @@ impl<T: Real> Polynomial<'_, T> {
         self.data.weight(e, k)
     }
 
-    /// The regressor Φ/A of the numerator (L × (nb + 1)) for denominator values `den`.
+    fn weights(&self, e: usize) -> Option<&[T]> {
+        self.data.w.as_ref().map(|w| w[e].as_slice())
+    }
+
+    /// The numerator's regressor Q_B/A (L × (nb + 1)) for denominator values `den`.
     fn regressor(&self, den: &[Complex<T>]) -> DMatrix<Complex<T>> {
-        let mut m = self.powers(0, self.nb);
+        let mut m = self.basis.on_lines(self.nb);
         for (k, mut row) in m.row_iter_mut().enumerate() {
             row /= den[k];
         }
@@ -212,27 +232,26 @@ impl<T: Real> Polynomial<'_, T> {
     }
 
     /// The weighted target of entry e, real-stacked.
-    fn target(&self, e: usize) -> DVector<T> {
-        DVector::from_fn(2 * self.xi.len(), |r, _| {
+    fn target(&self, e: usize) -> DMatrix<T> {
+        DMatrix::from_fn(2 * self.xi.len(), 1, |r, _| {
             let v = self.data.h[e][r / 2] * self.weight(e, r / 2);
             if r % 2 == 0 { v.re } else { v.im }
         })
     }
 
-    fn weights(&self, e: usize) -> Option<&[T]> {
-        self.data.w.as_ref().map(|w| w[e].as_slice())
-    }
-
-    /// Every entry's numerator for the denominator a, by least squares (one QR shared
-    /// without weights), and each entry's weighted cost.
-    fn linear_fit(&self, a: &[T]) -> Result<(Vec<DVector<T>>, Vec<T>)> {
-        let m = self.regressor(&self.denominator(a));
+    /// The least squares of each entry's numerator for the denominator values `den`: one
+    /// QR shared without weights, one per entry with them; hands each entry's factor,
+    /// coefficients and residual to `sink`.
+    fn each_entry(
+        &self,
+        den: &[Complex<T>],
+        mut sink: impl FnMut(usize, &ThinQr<T>, &DMatrix<T>, &DMatrix<T>),
+    ) -> Result<()> {
+        let m = self.regressor(den);
         let shared = match self.data.w {
             None => Some(ThinQr::new(crate::linalg::stack_rows(&m, None))?),
             Some(_) => None,
         };
-        let mut coeffs = Vec::with_capacity(self.data.h.len());
-        let mut costs = Vec::with_capacity(self.data.h.len());
         for e in 0..self.data.h.len() {
             let own;
             let qr = match &shared {
@@ -242,17 +261,27 @@ impl<T: Real> Polynomial<'_, T> {
                     &own
                 }
             };
-            let t = self.target(e);
-            let (x, r) = qr.least_squares(&DMatrix::from_column_slice(t.len(), 1, t.as_slice()))?;
+            let (x, r) = qr.least_squares(&self.target(e))?;
+            sink(e, qr, &x, &r);
+        }
+        Ok(())
+    }
+
+    /// Every entry's numerator coefficients β_e for A's coefficients α, and each entry's
+    /// weighted cost.
+    fn linear_fit(&self, alpha: &[T]) -> Result<(Vec<DVector<T>>, Vec<T>)> {
+        let mut coeffs = Vec::with_capacity(self.data.h.len());
+        let mut costs = Vec::with_capacity(self.data.h.len());
+        self.each_entry(&self.denominator(alpha), |_, _, x, r| {
             coeffs.push(x.column(0).into_owned());
             costs.push(r.norm_squared());
-        }
+        })?;
         Ok((coeffs, costs))
     }
 
     /// Each entry's residual power without the weights.
-    fn residual_power(&self, a: &[T], b: &[DVector<T>]) -> Vec<T> {
-        let m = self.regressor(&self.denominator(a));
+    fn residual_power(&self, alpha: &[T], b: &[DVector<T>]) -> Vec<T> {
+        let m = self.regressor(&self.denominator(alpha));
         b.iter()
             .zip(&self.data.h)
             .map(|(b, h)| {
@@ -264,7 +293,7 @@ impl<T: Real> Polynomial<'_, T> {
             .collect()
     }
 
-    /// One Levy (no previous denominator) or Sanathanan–Koerner step: the new a.
+    /// One Levy (no previous denominator) or Sanathanan–Koerner step: the new α, ‖α‖ = 1.
     fn linearised_step(&self, previous: Option<&[T]>) -> Result<Vec<T>> {
         let na = self.na;
         let sk: Vec<T> = match previous {
@@ -275,24 +304,17 @@ impl<T: Real> Polynomial<'_, T> {
                 .collect(),
             None => vec![T::one(); self.xi.len()],
         };
-        let phi = self.powers(0, self.nb);
-        let psi = self.powers(1, na);
+        let qb = self.basis.on_lines(self.nb);
+        let qa = self.basis.on_lines(na);
         let mut blocks: Vec<DMatrix<T>> = Vec::with_capacity(self.data.h.len());
         for (e, h) in self.data.h.iter().enumerate() {
             let v: Vec<T> = (0..self.xi.len())
                 .map(|k| self.weight(e, k) * sk[k])
                 .collect();
-            let qr = ThinQr::new(crate::linalg::stack_rows(&phi, Some(&v)))?;
-            // −h A(ξ) = −h − Σ a_j h ξʲ: the a-columns and the right-hand side h
-            let mut x = DMatrix::from_fn(self.xi.len(), na + 1, |k, j| {
-                if j < na { -(h[k] * psi[(k, j)]) } else { h[k] }
-            });
-            for (k, mut row) in x.row_iter_mut().enumerate() {
-                row *= Complex::new(v[k], T::zero());
-            }
-            let x = crate::linalg::stack_rows(&x, None);
-            let projected = &x - &qr.q * at_b(&qr.q, &x);
-            blocks.push(r_factor(projected));
+            let qr = ThinQr::new(crate::linalg::stack_rows(&qb, Some(&v)))?;
+            let x = DMatrix::from_fn(self.xi.len(), na + 1, |k, j| -(h[k] * qa[(k, j)]));
+            let x = crate::linalg::stack_rows(&x, Some(&v));
+            blocks.push(r_factor(&x - &qr.q * at_b(&qr.q, &x)));
         }
         let rows: usize = blocks.iter().map(DMatrix::nrows).sum();
         let mut stacked = DMatrix::zeros(rows, na + 1);
@@ -301,26 +323,76 @@ impl<T: Real> Polynomial<'_, T> {
             stacked.view_mut((at, 0), b.shape()).copy_from(b);
             at += b.nrows();
         }
-        let lhs = stacked.columns(0, na).into_owned();
-        let rhs = stacked.columns(na, 1).into_owned();
-        let (x, _) = ThinQr::new(lhs)?.least_squares(&rhs)?;
-        Ok(x.column(0).iter().copied().collect())
+        let r = if stacked.nrows() > na + 1 {
+            r_factor(stacked)
+        } else {
+            stacked
+        };
+        let svd = crate::linalg::try_svd(r, false, true, 200 * (na + 1).max(10)).ok_or(
+            FdidError::NotConverged {
+                method: "SVD",
+                reason: "no convergence for the common denominator's linearised problem".into(),
+            },
+        )?;
+        let v_t = svd.v_t.as_ref().ok_or(FdidError::Numerical {
+            what: "SVD without right singular vectors".into(),
+        })?;
+        let least = (0..svd.singular_values.len())
+            .min_by(|a, b| {
+                svd.singular_values[*a]
+                    .partial_cmp(&svd.singular_values[*b])
+                    .unwrap_or(std::cmp::Ordering::Equal)
+            })
+            .ok_or(FdidError::Numerical {
+                what: "empty SVD".into(),
+            })?;
+        Ok(v_t.row(least).iter().copied().collect())
+    }
+
+    /// α (‖α‖ = 1) of the polynomial with the roots ξ*: the product of the factors
+    /// ξ − ξ* (or 1 − ξ/ξ* when |ξ*| > 1, to keep it in range) on the lines, projected.
+    fn with_roots(&self, roots: &[Complex<T>]) -> Vec<T> {
+        let one = Complex::new(T::one(), T::zero());
+        let f: Vec<Complex<T>> = self
+            .xi
+            .iter()
+            .map(|x| {
+                roots.iter().fold(one, |v, r| {
+                    v * if r.norm() > T::one() {
+                        one - *x / *r
+                    } else {
+                        *x - *r
+                    }
+                })
+            })
+            .collect();
+        normalised(self.basis.project(&f, self.na))
     }
 
     /// Levy, then SK iterations (unstable roots reflected under `stable`) until the
     /// output-error cost changes by less than 10⁻⁹ relatively or `options.relocations`
-    /// iterations; the a of least cost and the iterations made.
+    /// iterations; the α of least cost and the iterations made.
     fn sanathanan_koerner(&self, options: &CommonPoleOptions<T>) -> Result<(Vec<T>, usize)> {
         let stabilise = |a: Vec<T>| -> Result<Vec<T>> {
             if !options.stable {
                 return Ok(a);
             }
-            let poles = self.poles(&a)?;
-            Ok(if poles.is_stable(options.domain) {
-                a
-            } else {
-                coefficients_of(&poles.reflected(options.domain))
-            })
+            let roots = self.basis.roots(&a)?;
+            if roots.iter().all(|r| r.norm() > T::one()) {
+                return Ok(a);
+            }
+            // |p| > 1 ⇔ |ξ*| < 1: p → 1/p̄ is ξ* → 1/ξ̄*
+            let reflected: Vec<Complex<T>> = roots
+                .iter()
+                .map(|r| {
+                    if r.norm() < T::one() {
+                        crate::scalar::recip(r.conj())
+                    } else {
+                        *r
+                    }
+                })
+                .collect();
+            Ok(self.with_roots(&reflected))
         };
         let mut a = stabilise(self.linearised_step(None)?)?;
         let cost_of = |a: &[T]| {
@@ -340,7 +412,11 @@ impl<T: Real> Polynomial<'_, T> {
             done += 1;
             let previous = cost;
             a = next;
-            cost = cost_of(&a)?;
+            cost = match cost_of(&a) {
+                Ok(c) => c,
+                Err(FdidError::Singular { .. }) => break,
+                Err(e) => return Err(e),
+            };
             if cost < best.1 {
                 best = (a.clone(), cost);
             }
@@ -352,27 +428,48 @@ impl<T: Real> Polynomial<'_, T> {
         Ok((best.0, done))
     }
 
-    /// The roots of A_z(z) = zⁿᵃ + a_1 zⁿᵃ⁻¹ + … + a_na: the eigenvalues of its companion.
-    fn poles(&self, a: &[T]) -> Result<PoleSet<T>> {
-        let n = a.len();
-        let companion = DMatrix::from_fn(n, n, |i, j| {
-            if i == 0 {
-                -a[j]
-            } else if i == j + 1 {
-                T::one()
-            } else {
-                T::zero()
-            }
-        });
-        let poles = PoleSet::from_eigenvalues(&crate::roots::eigenvalues(companion)?);
-        poles.check_finite()?;
-        Ok(poles)
+    /// α from the ML parameters (the free coefficients) and the held one.
+    fn alpha(&self, theta: &[T]) -> Vec<T> {
+        let mut a = theta.to_vec();
+        a.insert(self.fixed.0, self.fixed.1);
+        a
     }
 
-    /// The model in partial fractions: the roots p of A_z, the residues N(p)/A_z′(p) with
-    /// N(z) = b_0 zⁿᵃ + … + b_nb zⁿᵃ⁻ⁿᵇ, and the direct term b_0.
-    fn model(&self, a: &[T], b: &[DVector<T>], domain: Domain<T>) -> Result<CommonPoleModel<T>> {
-        let poles = self.poles(a)?;
+    /// The ML parameters of α: every coefficient but the held one.
+    fn theta(&self, alpha: &[T]) -> Vec<T> {
+        let mut t = alpha.to_vec();
+        t.remove(self.fixed.0);
+        t
+    }
+
+    /// The poles p = 1/ξ* with the roots ξ* of A (each pole with its root).
+    fn poles(&self, alpha: &[T]) -> Result<PoleSet<T>> {
+        let roots = self.basis.roots(alpha)?;
+        let poles: Vec<Complex<T>> = roots.iter().map(|r| crate::scalar::recip(*r)).collect();
+        let set = PoleSet::from_eigenvalues(&poles);
+        set.check_finite()?;
+        Ok(set)
+    }
+
+    /// A′(ξ) and the basis q_j(ξ) at ξ.
+    fn at(&self, alpha: &[T], xi: Complex<T>) -> (Vec<Complex<T>>, Complex<T>) {
+        let (q, dq) = self.basis.at(xi, self.na);
+        let slope = alpha
+            .iter()
+            .zip(&dq)
+            .fold(Complex::new(T::zero(), T::zero()), |s, (a, d)| s + *d * *a);
+        (q, slope)
+    }
+
+    /// The model in partial fractions: poles p = 1/ξ*, residues −B(ξ*)/(A′(ξ*) ξ*²),
+    /// direct term B(0)/A(0).
+    fn model(
+        &self,
+        alpha: &[T],
+        b: &[DVector<T>],
+        domain: Domain<T>,
+    ) -> Result<CommonPoleModel<T>> {
+        let poles = self.poles(alpha)?;
         if poles.order() != self.na {
             return Err(FdidError::Numerical {
                 what: "roots of the common denominator".into(),
@@ -380,19 +477,17 @@ impl<T: Real> Polynomial<'_, T> {
         }
         let (ny, nu) = (self.data.ny, self.data.nu);
         let zero = Complex::new(T::zero(), T::zero());
-        let na = self.na;
-        let numerator = |b: &DVector<T>, p: Complex<T>| {
-            b.iter()
-                .enumerate()
-                .fold(zero, |s, (j, c)| s + powi(p, na - j) * *c)
-        };
+        let value =
+            |c: &DVector<T>, q: &[Complex<T>]| c.iter().zip(q).fold(zero, |s, (c, q)| s + *q * *c);
         let residues = poles
             .slots()
             .iter()
             .map(|p| {
-                let d = slope(a, *p);
+                let xi = crate::scalar::recip(*p);
+                let (q, slope) = self.at(alpha, xi);
+                let d = slope * xi * xi;
                 DMatrix::from_fn(ny, nu, |i, j| {
-                    let r = numerator(&b[j * ny + i], *p) / d;
+                    let r = -value(&b[j * ny + i], &q) / d;
                     if p.im == T::zero() {
                         Complex::new(r.re, T::zero())
                     } else {
@@ -401,7 +496,9 @@ impl<T: Real> Polynomial<'_, T> {
                 })
             })
             .collect();
-        let direct = DMatrix::from_fn(ny, nu, |i, j| b[j * ny + i][0]);
+        let (q0, _) = self.basis.at(zero, self.na);
+        let a0 = alpha.iter().zip(&q0).fold(zero, |s, (a, q)| s + *q * *a);
+        let direct = DMatrix::from_fn(ny, nu, |i, j| (value(&b[j * ny + i], &q0) / a0).re);
         Ok(CommonPoleModel {
             domain,
             poles,
@@ -410,77 +507,76 @@ impl<T: Real> Polynomial<'_, T> {
         })
     }
 
-    /// The poles' covariance [real…, Re p, Im p of each pair…] from a's, s²(JᵀJ)⁻¹ with
-    /// s² = V/(M − P), through ∂p/∂a_j = −p^{na−j}/A_z′(p).
-    fn pole_covariance(&self, a: &[T], cost: T, entries: usize) -> Option<DMatrix<T>> {
+    /// The poles' covariance [real…, Re p, Im p of each pair…] from α's free part,
+    /// s²(JᵀJ)⁻¹ with s² = V/(M − P), through ∂p/∂α_j = q_j(ξ*)/(A′(ξ*) ξ*²).
+    fn pole_covariance(&self, alpha: &[T], cost: T, entries: usize) -> Option<DMatrix<T>> {
         let m = self.n_residuals();
-        let params = self.na + entries * (self.nb + 1);
+        let free = self.na;
+        let params = free + entries * (self.nb + 1);
         if m <= params {
             return None;
         }
         let mut r = vec![T::zero(); m];
-        let mut jac = DMatrix::zeros(m, self.na);
-        if !self.jacobian_into(a, &mut r, &mut jac) {
+        let mut jac = DMatrix::zeros(m, free);
+        if !self.jacobian_into(&self.theta(alpha), &mut r, &mut jac) {
             return None;
         }
         let s2 = cost / T::from_usize_lossy(m - params);
-        let cov_a = jac.tr_mul(&jac).try_inverse()? * s2;
-        let poles = self.poles(a).ok()?;
-        let na = self.na;
-        let mut g = DMatrix::zeros(poles.order(), na);
+        let cov_free = jac.tr_mul(&jac).try_inverse()? * s2;
+        let poles = self.poles(alpha).ok()?;
+        let mut g = DMatrix::zeros(poles.order(), free);
         let mut row = 0;
         for p in poles.slots() {
-            let d = slope(a, p);
-            for j in 0..na {
-                let dp = -powi(p, na - j - 1) / d;
-                g[(row, j)] = dp.re;
+            let xi = crate::scalar::recip(p);
+            let (q, slope) = self.at(alpha, xi);
+            let d = slope * xi * xi;
+            let columns = (0..=self.na).filter(|j| *j != self.fixed.0);
+            for (c, j) in columns.enumerate() {
+                let dp = q[j] / d;
+                g[(row, c)] = dp.re;
                 if p.im != T::zero() {
-                    g[(row + 1, j)] = dp.im;
+                    g[(row + 1, c)] = dp.im;
                 }
             }
             row += if p.im == T::zero() { 1 } else { 2 };
         }
-        let cov = &g * cov_a * g.transpose();
+        let cov = &g * cov_free * g.transpose();
         cov.iter().all(|v| Float::is_finite(*v)).then_some(cov)
     }
+
+    /// r(θ) and, when asked, Kaufman's Jacobian, entry by entry; false when singular or
+    /// not finite.
+    fn evaluate(&self, theta: &[T], r: &mut [T], mut jac: Option<&mut DMatrix<T>>) -> bool {
+        let alpha = self.alpha(theta);
+        let den = self.denominator(&alpha);
+        let rows = 2 * self.xi.len();
+        let qa = self.basis.on_lines(self.na);
+        let m = self.regressor(&den);
+        let fixed = self.fixed.0;
+        let outcome = self.each_entry(&den, |e, qr, x, res| {
+            r[e * rows..(e + 1) * rows].copy_from_slice(res.as_slice());
+            let Some(jac) = jac.as_mut() else { return };
+            // ĥ = Q_Bβ/A; column j: P⊥ W q_j ĥ/A
+            let model = &m * x.column(0).map(|v| Complex::new(v, T::zero()));
+            let d = DMatrix::from_fn(self.xi.len(), self.na, |k, c| {
+                let j = if c < fixed { c } else { c + 1 };
+                qa[(k, j)] * model[k] / den[k]
+            });
+            let d = crate::linalg::stack_rows(&d, self.weights(e));
+            let projected = &d - &qr.q * at_b(&qr.q, &d);
+            jac.view_mut((e * rows, 0), (rows, self.na))
+                .copy_from(&projected);
+        });
+        outcome.is_ok()
+            && r.iter().all(|v| Float::is_finite(*v))
+            && jac.is_none_or(|j| j.iter().all(|v| Float::is_finite(*v)))
+    }
 }
 
-/// zⁿ for n ≥ 0.
-fn powi<T: Real>(z: Complex<T>, n: usize) -> Complex<T> {
-    (0..n).fold(Complex::new(T::one(), T::zero()), |v, _| v * z)
-}
-
-/// A_z′(p) = na pⁿᵃ⁻¹ + Σ_{j<na} (na − j) a_j pⁿᵃ⁻ʲ⁻¹ for A_z(z) = zⁿᵃ + a_1 zⁿᵃ⁻¹ + … + a_na.
-fn slope<T: Real>(a: &[T], p: Complex<T>) -> Complex<T> {
-    let na = a.len();
-    let mut v = powi(p, na - 1) * T::from_usize_lossy(na);
-    for (j, c) in a.iter().enumerate().take(na - 1) {
-        let power = na - (j + 1);
-        v += powi(p, power - 1) * (*c * T::from_usize_lossy(power));
-    }
-    v
-}
-
-/// The monic A(z⁻¹) coefficients [a_1, …, a_n] of the poles: the product of their real
-/// factors z − p and z² − 2 Re p z + |p|².
-fn coefficients_of<T: Real>(poles: &PoleSet<T>) -> Vec<T> {
-    let mut c = vec![T::one()];
-    let mut times = |factor: &[T]| {
-        let mut next = vec![T::zero(); c.len() + factor.len() - 1];
-        for (i, x) in c.iter().enumerate() {
-            for (j, y) in factor.iter().enumerate() {
-                next[i + j] += *x * *y;
-            }
-        }
-        c = next;
-    };
-    for r in &poles.real {
-        times(&[T::one(), -*r]);
-    }
-    for p in &poles.pairs {
-        times(&[T::one(), -(p.re + p.re), p.norm_sqr()]);
-    }
-    c[1..].to_vec()
+/// `v` scaled to unit norm.
+fn normalised<T: Real>(v: Vec<T>) -> Vec<T> {
+    let norm = Float::sqrt(v.iter().fold(T::zero(), |s, x| s + *x * *x));
+    v.into_iter().map(|x| x / norm).collect()
 }
 
 impl<T: Real> NonlinearProblem<T> for Polynomial<'_, T> {
@@ -498,54 +594,5 @@ impl<T: Real> NonlinearProblem<T> for Polynomial<'_, T> {
 
     fn jacobian_into(&self, theta: &[T], r: &mut [T], jac: &mut DMatrix<T>) -> bool {
         self.evaluate(theta, r, Some(jac))
-    }
-}
-
-impl<T: Real> Polynomial<'_, T> {
-    /// r(θ) and, when asked, Kaufman's Jacobian, entry by entry; false when singular or
-    /// not finite.
-    fn evaluate(&self, a: &[T], r: &mut [T], mut jac: Option<&mut DMatrix<T>>) -> bool {
-        let den = self.denominator(a);
-        let m = self.regressor(&den);
-        let rows = 2 * self.xi.len();
-        let psi = self.powers(1, self.na);
-        let shared = match self.data.w {
-            None => match ThinQr::new(crate::linalg::stack_rows(&m, None)) {
-                Ok(q) => Some(q),
-                Err(_) => return false,
-            },
-            Some(_) => None,
-        };
-        for e in 0..self.data.h.len() {
-            let own;
-            let qr = match &shared {
-                Some(q) => q,
-                None => match ThinQr::new(crate::linalg::stack_rows(&m, self.weights(e))) {
-                    Ok(q) => {
-                        own = q;
-                        &own
-                    }
-                    Err(_) => return false,
-                },
-            };
-            let t = DMatrix::from_column_slice(rows, 1, self.target(e).as_slice());
-            let Ok((x, res)) = qr.least_squares(&t) else {
-                return false;
-            };
-            r[e * rows..(e + 1) * rows].copy_from_slice(res.as_slice());
-            let Some(jac) = jac.as_mut() else { continue };
-            // ĥ = Φb/A; column j: P⊥ W ξʲ ĥ/A
-            let b = x.column(0).map(|v| Complex::new(v, T::zero()));
-            let model = &m * b;
-            let d = DMatrix::from_fn(self.xi.len(), self.na, |k, j| {
-                psi[(k, j)] * model[k] / den[k]
-            });
-            let d = crate::linalg::stack_rows(&d, self.weights(e));
-            let projected = &d - &qr.q * at_b(&qr.q, &d);
-            jac.view_mut((e * rows, 0), (rows, self.na))
-                .copy_from(&projected);
-        }
-        r.iter().all(|v| Float::is_finite(*v))
-            && jac.is_none_or(|j| j.iter().all(|v| Float::is_finite(*v)))
     }
 }

@@ -35,6 +35,7 @@
 //! assert!((pair - p).norm() < 1e-8);
 //! ```
 
+mod arc_basis;
 mod common_denominator;
 mod correlated;
 mod matrix_fraction;

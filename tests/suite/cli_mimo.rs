@@ -854,3 +854,60 @@ fn full_covariance_weights_the_f16_outputs_jointly() {
     assert_eq!(refused.status.code(), Some(2), "{}", stderr(&refused));
     assert!(stderr(&refused).contains("--full-covariance needs"));
 }
+
+/// `--common-denominator` on the F-16's three accelerometers in z (the 2–15 Hz band of
+/// 400 Hz data: a short arc of the unit circle, where powers of z⁻¹ are nearly
+/// dependent): stable at na 12, with the 5.2 Hz wing bending and 7.32 Hz wing torsion
+/// modes of the data README; refused in s and with --nb > --na (exit 2).
+#[test]
+fn common_denominator_fits_the_f16_outputs_in_z() {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../shared/data/f16-gvt/F16Data_FullMSine_Level1.csv");
+    let args = |domain: &'static str, nb: &'static str| {
+        vec![
+            "fit",
+            path.to_str().unwrap(),
+            "--input",
+            "Force",
+            "--output",
+            "Acceleration1,Acceleration2,Acceleration3",
+            "--ts",
+            "0.0025",
+            "--periods",
+            "9",
+            "--skip-periods",
+            "1",
+            "--band",
+            "2:15",
+            "--domain",
+            domain,
+            "--na",
+            "12",
+            "--nb",
+            nb,
+            "--stable",
+            "--common-denominator",
+            "--json",
+        ]
+    };
+    let v = json_of(&fdid(&args("z", "12")));
+    assert_eq!(v["model"], "common_denominator");
+    assert_eq!(v["stable"], true);
+    let modes: Vec<f64> = v["modes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|m| m["f_n_hz"].as_f64().unwrap())
+        .collect();
+    for reference in [5.19, 7.32] {
+        assert!(
+            modes.iter().any(|f| (f - reference).abs() < 0.05),
+            "{reference} Hz among {modes:?}"
+        );
+    }
+    for (domain, nb) in [("s", "12"), ("z", "13")] {
+        let refused = fdid(&args(domain, nb));
+        assert_eq!(refused.status.code(), Some(2), "{}", stderr(&refused));
+        assert!(stderr(&refused).contains("--common-denominator fits"));
+    }
+}
