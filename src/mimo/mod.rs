@@ -15,6 +15,10 @@
 //!    variances): Levenberg–Marquardt over the poles alone with the residues eliminated
 //!    by variable projection, with the poles' asymptotic covariance (eq. 32).
 //!
+//! In z the common-denominator form B_ij(z⁻¹)/A(z⁻¹) with any numerator degree is fitted
+//! by [`fit_common_denominator`]; [`CommonPoleOptions::full_covariance`] weights by the
+//! outputs' full noise covariance.
+//!
 //! ```
 //! use fdid::prelude::*;
 //! use fdid::data::FrfMatrix;
