@@ -488,9 +488,9 @@ pub struct FitArgs {
     pub full_covariance: bool,
 
     /// Every entry of a frequency response matrix (n-port, matrix CSV, --output A,B,...)
-    /// in z as B_ij(z^-1)/A(z^-1) with one denominator A of degree --na and numerators
-    /// b0 + b1 z^-1 + ... + b_nb z^-nb of any degree --nb <= --na (the single-channel
-    /// structure), by Levy, Sanathanan-Koerner and maximum likelihood over A; --domain z
+    /// as B_ij/A with one denominator A of degree --na and numerators of any degree
+    /// --nb <= --na (the single-channel structure: in z polynomials in z^-1, in s any
+    /// relative degree), by Levy, Sanathanan-Koerner and maximum likelihood over A
     #[arg(long)]
     pub common_denominator: bool,
 

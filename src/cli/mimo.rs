@@ -1,7 +1,7 @@
 //! `fdid fit` on every entry of a multi-port file: a common-pole model ([`fdid::mimo`]),
 //! its modes, residue matrices, state-space realisation and per-entry errors.
 
-use super::args::{CommonArgs, CriterionArg, DomainArg, FitArgs, parse_band};
+use super::args::{CommonArgs, CriterionArg, FitArgs, parse_band};
 use super::{Failure, budget};
 use fdid::data::{FrfMatrix, MimoSpectra};
 use fdid::io::NetworkParameter;
@@ -267,14 +267,12 @@ fn check_flags(args: &FitArgs, spectra: bool) -> Result<(), Failure> {
         )));
     }
     if args.common_denominator {
-        if spectra || c.domain != DomainArg::Z || c.nb > c.na || args.full_covariance {
+        if spectra || c.nb > c.na || args.full_covariance {
             return Err(Failure::usage(format!(
                 "--common-denominator fits a frequency response matrix (not a record with \
-                 several inputs) in z (--domain z) with --nb <= --na, weighted by the \
-                 variances (not --full-covariance); got --domain {} --na {} --nb {}",
-                if c.domain == DomainArg::Z { "z" } else { "s" },
-                c.na,
-                c.nb
+                 several inputs) with --nb <= --na, weighted by the variances (not \
+                 --full-covariance); got --na {} --nb {}",
+                c.na, c.nb
             )));
         }
         return Ok(());
@@ -282,7 +280,7 @@ fn check_flags(args: &FitArgs, spectra: bool) -> Result<(), Failure> {
     if c.nb + 1 != c.na && c.nb != c.na {
         return Err(Failure::usage(format!(
             "a fit of every entry with common poles is in partial fractions: --nb {} with \
-             --na {} must be {} (strictly proper) or {} (with a direct term); in z, \
+             --na {} must be {} (strictly proper) or {} (with a direct term); \
              --common-denominator takes any --nb <= --na",
             c.nb,
             c.na,
@@ -410,8 +408,13 @@ impl Report<'_> {
         if let Some(nb) = self.common_denominator {
             let _ = writeln!(
                 w,
-                "model        common denominator in z: B_ij(z^-1)/A(z^-1), na = {}, nb = {} \
-                 (shown in partial fractions below), {} SK iterations, ML {}",
+                "model        common denominator in {}: B_ij/A, na = {}, nb = {} (shown in \
+                 partial fractions below), {} SK iterations, ML {}",
+                if model.domain == Domain::Continuous {
+                    "s"
+                } else {
+                    "z (polynomials in z^-1)"
+                },
                 model.order(),
                 nb,
                 fit.relocations,

@@ -1,6 +1,6 @@
-//! The common-denominator (matrix-fraction) estimator in z: every entry of a frequency
-//! response matrix is a ratio of polynomials in z⁻¹ with one denominator shared by all,
-//! of any numerator degree (the relative degrees of single-channel fits).
+//! The common-denominator (matrix-fraction) estimator: every entry of a frequency
+//! response matrix is a ratio of polynomials in z⁻¹ (or s) with one denominator shared
+//! by all, of any numerator degree (the relative degrees of single-channel fits).
 
 use super::arc_basis::ArcBasis;
 use super::poles::PoleSet;
@@ -16,37 +16,41 @@ use crate::solver::{GramLevenbergMarquardt, LevenbergMarquardt, Solver};
 use nalgebra::{DMatrix, DVector};
 use num_traits::Float;
 
-/// Fits G_ij(z) = B_ij(z⁻¹)/A(z⁻¹) to every entry of `data`, with
+/// Fits every entry of `data` with one denominator A of degree na and numerators of
+/// degree nb ≤ na, in z and in s:
 ///
 /// ```text
-/// A(z⁻¹) = 1 + a_1 z⁻¹ + … + a_na z⁻ⁿᵃ   (shared),   B_ij(z⁻¹) = b_0 + b_1 z⁻¹ + … + b_nb z⁻ⁿᵇ,
+/// G_ij(z) = B_ij(z⁻¹)/A(z⁻¹),  A = 1 + a_1 z⁻¹ + … + a_na z⁻ⁿᵃ,  B_ij = b_0 + … + b_nb z⁻ⁿᵇ;
+/// G_ij(s) = B_ij(s)/A(s),      deg A = na, deg B_ij = nb (relative degree na − nb),
 /// ```
 ///
-/// nb ≤ na — McKelvey's polynomial model (eq. 14) per entry with the denominator shared,
-/// the left matrix-fraction form A(z⁻¹)⁻¹B(z⁻¹) with A = a·I; the single-channel
-/// `--domain z --na N --nb M` structure for every entry. A and B are computed in the
-/// real polynomials q_j(ξ) orthonormal on the lines (ξ = z⁻¹, an Arnoldi recurrence):
-/// the powers ξʲ are orthogonal on the whole unit circle but nearly dependent on the short
-/// arc that a narrow band of oversampled data covers (the F-16's 2–15 Hz at 400 Hz).
+/// McKelvey's polynomial model (eq. 14) per entry with the denominator shared — the left
+/// matrix-fraction form A⁻¹B with A = a·I; the single-channel `--na N --nb M` structure
+/// for every entry (the partial fractions of [`super::fit_common_poles`] take relative
+/// degree 0 or 1 only). A and B are computed in real polynomials q_j(ξ) orthonormal on the
+/// lines (an Arnoldi recurrence; ξ = z⁻¹, or s/ω_s with ω_s the top line): the powers ξʲ
+/// are nearly dependent on the short arc of the unit circle that a narrow band of
+/// oversampled data covers (the F-16's 2–15 Hz at 400 Hz), and over decades in s.
 ///
 /// 1. **Levy and Sanathanan–Koerner** (McKelvey eqs. 39 and 41) with the fast block
 ///    solution: per entry, the weighted equations v_k (B(ξ_k) − h_k A(ξ_k)) ≈ 0 (v =
 ///    w/|A_prev|) lose their numerator by one QR, leaving an (na + 1)-row block in A's
 ///    coefficients α; the stacked blocks give α (‖α‖ = 1) as the right singular vector
-///    of their least singular value. Unstable roots are reflected (p → 1/p̄) at every
-///    iteration under `options.stable`.
+///    of their least singular value. Unstable roots are reflected (p → 1/p̄ in z, −p̄ in
+///    s) at every iteration under `options.stable`.
 /// 2. **Maximum likelihood** (eq. 23, weighted by the entries' variances) by variable
 ///    projection over α (its largest coefficient held, which fixes A's scale): the
 ///    numerators are eliminated, r_e = W(h_e − Q_B β_e/A), and Kaufman's Jacobian column
 ///    j is P⊥ W q_j ĥ_e/A (ĥ_e = Q_Bβ_e/A the model). The poles' covariance follows from
-///    α's (eq. 32, s² = V/(M − P)) through the roots' sensitivities: for a root ξ* of A
-///    and p = 1/ξ*, ∂p/∂α_j = q_j(ξ*)/(A′(ξ*) ξ*²).
+///    α's (eq. 32, s² = V/(M − P)) through the roots' sensitivities ∂r/∂α_j =
+///    −q_j(r)/A′(r) (p = 1/r in z, ω_s r in s).
 ///
 /// The roots of A are the eigenvalues of the recurrence's confederate matrix. The fitted
-/// model is returned in partial fractions: the poles p = 1/ξ*, the residues
-/// −B(ξ*)/(A′(ξ*) ξ*²) and the direct term B(0)/A(0);
-/// [`CommonPoleModel::matrix_fraction`] gives the polynomial form in z⁻¹ back, with
-/// b_{nb+1…na} zero to rounding.
+/// model is returned in partial fractions: in z the poles p = 1/ξ*, the residues
+/// −B(ξ*)/(A′(ξ*) ξ*²) and the direct term B(0)/A(0); in s the poles ω_s r, the residues
+/// ω_s B(r)/A′(r) and a direct term when nb = na (none otherwise).
+/// [`CommonPoleModel::matrix_fraction`] gives the polynomial form back: in z b_{nb+1…na}
+/// zero to rounding, in s the leading na − nb numerator coefficients.
 ///
 /// ```
 /// use fdid::data::FrfMatrix;
@@ -74,24 +78,14 @@ use num_traits::Float;
 /// ```
 ///
 /// # Errors
-/// A continuous-time domain, na = 0 or nb > na ([`FdidError::InvalidArgument`]); lines
-/// beyond Nyquist, too few lines (2L < na + nb + 2), non-positive variances; a singular
-/// least squares.
+/// na = 0 or nb > na ([`FdidError::InvalidArgument`]); lines beyond Nyquist, too few
+/// lines (2L < na + nb + 2), non-positive variances; a singular least squares.
 pub fn fit_common_denominator<T: Real>(
     data: &FrfMatrix<T>,
     na: usize,
     nb: usize,
     options: &CommonPoleOptions<T>,
 ) -> Result<CommonPoleFit<T>> {
-    let Domain::Discrete { .. } = options.domain else {
-        return Err(FdidError::InvalidArgument {
-            name: "domain",
-            value: "s".into(),
-            reason: "the common-denominator estimator is in z⁻¹ (in s use the partial \
-                     fractions of fit_common_poles)"
-                .into(),
-        });
-    };
     if nb > na {
         return Err(FdidError::InvalidArgument {
             name: "nb",
@@ -109,10 +103,15 @@ pub fn fit_common_denominator<T: Real>(
         });
     }
     let weighted = Weighted::new(data, options.domain, false)?;
-    let xi: Vec<Complex<T>> = weighted.x.iter().map(|x| x.conj()).collect();
+    // the variable of the polynomials: z⁻¹ on the unit circle, s/ω_s on the imaginary axis
+    let xi: Vec<Complex<T>> = match options.domain {
+        Domain::Discrete { .. } => weighted.x.iter().map(|x| x.conj()).collect(),
+        Domain::Continuous => weighted.x.clone(),
+    };
     let mut problem = Polynomial {
         basis: ArcBasis::new(&xi, na)?,
         xi,
+        domain: options.domain,
         data: &weighted,
         na,
         nb,
@@ -192,6 +191,7 @@ pub fn fit_common_denominator<T: Real>(
 struct Polynomial<'a, T: Real> {
     xi: Vec<Complex<T>>,
     basis: ArcBasis<T>,
+    domain: Domain<T>,
     data: &'a Weighted<T>,
     na: usize,
     nb: usize,
@@ -378,18 +378,17 @@ impl<T: Real> Polynomial<'_, T> {
                 return Ok(a);
             }
             let roots = self.basis.roots(&a)?;
-            if roots.iter().all(|r| r.norm() > T::one()) {
+            let stable = |r: &Complex<T>| super::poles::stable(self.pole_of_root(*r), self.domain);
+            if roots.iter().all(stable) {
                 return Ok(a);
             }
-            // |p| > 1 ⇔ |ξ*| < 1: p → 1/p̄ is ξ* → 1/ξ̄*
+            // p → 1/p̄ in z is ξ* → 1/ξ̄*; p → −p̄ in s is r → −r̄
             let reflected: Vec<Complex<T>> = roots
                 .iter()
-                .map(|r| {
-                    if r.norm() < T::one() {
-                        crate::scalar::recip(r.conj())
-                    } else {
-                        *r
-                    }
+                .map(|r| match (stable(r), self.domain) {
+                    (true, _) => *r,
+                    (false, Domain::Discrete { .. }) => crate::scalar::recip(r.conj()),
+                    (false, Domain::Continuous) => -r.conj(),
                 })
                 .collect();
             Ok(self.with_roots(&reflected))
@@ -442,27 +441,49 @@ impl<T: Real> Polynomial<'_, T> {
         t
     }
 
-    /// The poles p = 1/ξ* with the roots ξ* of A (each pole with its root).
+    /// The pole of a root r of A: 1/r in z (r = ξ* = 1/p), ω_s r in s.
+    fn pole_of_root(&self, r: Complex<T>) -> Complex<T> {
+        match self.domain {
+            Domain::Discrete { .. } => crate::scalar::recip(r),
+            Domain::Continuous => r * self.data.scale,
+        }
+    }
+
+    /// The root of A of a pole (the inverse of [`Polynomial::pole_of_root`]).
+    fn root_of_pole(&self, p: Complex<T>) -> Complex<T> {
+        match self.domain {
+            Domain::Discrete { .. } => crate::scalar::recip(p),
+            Domain::Continuous => p / self.data.scale,
+        }
+    }
+
+    /// At a root r of A: the basis q_j(r) and κ with the residue B(r)/κ and ∂p/∂α_j =
+    /// −q_j(r)/κ — κ = −A′(ξ*)ξ*² in z (p = 1/ξ*), A′(r)/ω_s in s (p = ω_s r).
+    fn at_root(&self, alpha: &[T], r: Complex<T>) -> (Vec<Complex<T>>, Complex<T>) {
+        let (q, dq) = self.basis.at(r, self.na);
+        let slope = alpha
+            .iter()
+            .zip(&dq)
+            .fold(Complex::new(T::zero(), T::zero()), |s, (a, d)| s + *d * *a);
+        let kappa = match self.domain {
+            Domain::Discrete { .. } => -(slope * r * r),
+            Domain::Continuous => slope / self.data.scale,
+        };
+        (q, kappa)
+    }
+
+    /// The poles of the roots of A.
     fn poles(&self, alpha: &[T]) -> Result<PoleSet<T>> {
         let roots = self.basis.roots(alpha)?;
-        let poles: Vec<Complex<T>> = roots.iter().map(|r| crate::scalar::recip(*r)).collect();
+        let poles: Vec<Complex<T>> = roots.iter().map(|r| self.pole_of_root(*r)).collect();
         let set = PoleSet::from_eigenvalues(&poles);
         set.check_finite()?;
         Ok(set)
     }
 
-    /// A′(ξ) and the basis q_j(ξ) at ξ.
-    fn at(&self, alpha: &[T], xi: Complex<T>) -> (Vec<Complex<T>>, Complex<T>) {
-        let (q, dq) = self.basis.at(xi, self.na);
-        let slope = alpha
-            .iter()
-            .zip(&dq)
-            .fold(Complex::new(T::zero(), T::zero()), |s, (a, d)| s + *d * *a);
-        (q, slope)
-    }
-
-    /// The model in partial fractions: poles p = 1/ξ*, residues −B(ξ*)/(A′(ξ*) ξ*²),
-    /// direct term B(0)/A(0).
+    /// The model in partial fractions: the poles of A's roots r, residues B(r)/κ
+    /// ([`Polynomial::at_root`]), and the direct term B(0)/A(0) in z (G at z = ∞), in s
+    /// β_na/α_na when nb = na (none for a strictly proper model).
     fn model(
         &self,
         alpha: &[T],
@@ -483,11 +504,9 @@ impl<T: Real> Polynomial<'_, T> {
             .slots()
             .iter()
             .map(|p| {
-                let xi = crate::scalar::recip(*p);
-                let (q, slope) = self.at(alpha, xi);
-                let d = slope * xi * xi;
+                let (q, kappa) = self.at_root(alpha, self.root_of_pole(*p));
                 DMatrix::from_fn(ny, nu, |i, j| {
-                    let r = -value(&b[j * ny + i], &q) / d;
+                    let r = value(&b[j * ny + i], &q) / kappa;
                     if p.im == T::zero() {
                         Complex::new(r.re, T::zero())
                     } else {
@@ -496,19 +515,29 @@ impl<T: Real> Polynomial<'_, T> {
                 })
             })
             .collect();
-        let (q0, _) = self.basis.at(zero, self.na);
-        let a0 = alpha.iter().zip(&q0).fold(zero, |s, (a, q)| s + *q * *a);
-        let direct = DMatrix::from_fn(ny, nu, |i, j| (value(&b[j * ny + i], &q0) / a0).re);
+        let direct = match domain {
+            Domain::Discrete { .. } => {
+                let (q0, _) = self.basis.at(zero, self.na);
+                let a0 = alpha.iter().zip(&q0).fold(zero, |s, (a, q)| s + *q * *a);
+                Some(DMatrix::from_fn(ny, nu, |i, j| {
+                    (value(&b[j * ny + i], &q0) / a0).re
+                }))
+            }
+            // the leading coefficients of B and A multiply the same q_na
+            Domain::Continuous => (self.nb == self.na)
+                .then(|| DMatrix::from_fn(ny, nu, |i, j| b[j * ny + i][self.na] / alpha[self.na])),
+        };
         Ok(CommonPoleModel {
             domain,
             poles,
             residues,
-            direct: Some(direct),
+            direct,
         })
     }
 
     /// The poles' covariance [real…, Re p, Im p of each pair…] from α's free part,
-    /// s²(JᵀJ)⁻¹ with s² = V/(M − P), through ∂p/∂α_j = q_j(ξ*)/(A′(ξ*) ξ*²).
+    /// s²(JᵀJ)⁻¹ with s² = V/(M − P), through ∂p/∂α_j = −q_j(r)/κ
+    /// ([`Polynomial::at_root`]).
     fn pole_covariance(&self, alpha: &[T], cost: T, entries: usize) -> Option<DMatrix<T>> {
         let m = self.n_residuals();
         let free = self.na;
@@ -527,12 +556,10 @@ impl<T: Real> Polynomial<'_, T> {
         let mut g = DMatrix::zeros(poles.order(), free);
         let mut row = 0;
         for p in poles.slots() {
-            let xi = crate::scalar::recip(p);
-            let (q, slope) = self.at(alpha, xi);
-            let d = slope * xi * xi;
+            let (q, kappa) = self.at_root(alpha, self.root_of_pole(p));
             let columns = (0..=self.na).filter(|j| *j != self.fixed.0);
             for (c, j) in columns.enumerate() {
-                let dp = q[j] / d;
+                let dp = -q[j] / kappa;
                 g[(row, c)] = dp.re;
                 if p.im != T::zero() {
                     g[(row + 1, c)] = dp.im;
