@@ -10,6 +10,7 @@ use fdid::mimo::{CommonPoleModel, PoleSet};
 use fdid::prelude::*;
 use nalgebra::DMatrix;
 use serde_json::Value;
+use std::process::Output;
 
 /// The poles of data/rlc_bandpass.s2p, the series RLC (R = 5, L = 1e-6, C = 1e-9, Z0 =
 /// 50) between two ports: every S entry has the denominator L C s² + (R + 2 Z0) C s + 1.
@@ -798,6 +799,58 @@ fn enforce_passivity_makes_the_rlc_two_port_passive() {
     assert!(stderr(&one_port).contains("--enforce-passivity"));
 }
 
+/// `fdid fit` of the F-16's three accelerometers (Force input, 9 periods with `skip`
+/// skipped, 2–15 Hz, `--stable --json`) in `domain` with `--na na --nb nb` and `extra`.
+fn f16_outputs_fit(skip: &str, domain: &str, na: &str, nb: &str, extra: &str) -> Output {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../shared/data/f16-gvt/F16Data_FullMSine_Level1.csv");
+    fdid(&[
+        "fit",
+        path.to_str().unwrap(),
+        "--input",
+        "Force",
+        "--output",
+        "Acceleration1,Acceleration2,Acceleration3",
+        "--ts",
+        "0.0025",
+        "--periods",
+        "9",
+        "--skip-periods",
+        skip,
+        "--band",
+        "2:15",
+        "--domain",
+        domain,
+        "--na",
+        na,
+        "--nb",
+        nb,
+        "--stable",
+        extra,
+        "--json",
+    ])
+}
+
+/// The modes' natural frequencies (Hz) of a common-pole report.
+fn mode_frequencies(v: &Value) -> Vec<f64> {
+    v["modes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|m| m["f_n_hz"].as_f64().unwrap())
+        .collect()
+}
+
+/// The README's wing bending (5.2 Hz) and wing torsion (7.32 Hz) modes among `modes`.
+fn has_f16_reference_modes(modes: &[f64]) {
+    for reference in [5.19, 7.32] {
+        assert!(
+            modes.iter().any(|f| (f - reference).abs() < 0.05),
+            "{reference} Hz among {modes:?}"
+        );
+    }
+}
+
 /// `--full-covariance` on the F-16's three accelerometers (8 periods kept, 3 outputs):
 /// the fit is weighted by the outputs' noise covariance between periods (JSON
 /// `"weighting":"output_covariance"`), stable, with the 5.2 Hz wing bending and 7.32 Hz
@@ -805,52 +858,12 @@ fn enforce_passivity_makes_the_rlc_two_port_passive() {
 /// kept do not exceed the outputs by two.
 #[test]
 fn full_covariance_weights_the_f16_outputs_jointly() {
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../shared/data/f16-gvt/F16Data_FullMSine_Level1.csv");
-    let args = |periods: &'static str, skip: &'static str| {
-        vec![
-            "fit",
-            path.to_str().unwrap(),
-            "--input",
-            "Force",
-            "--output",
-            "Acceleration1,Acceleration2,Acceleration3",
-            "--ts",
-            "0.0025",
-            "--periods",
-            periods,
-            "--skip-periods",
-            skip,
-            "--band",
-            "2:15",
-            "--domain",
-            "s",
-            "--na",
-            "20",
-            "--nb",
-            "20",
-            "--stable",
-            "--full-covariance",
-            "--json",
-        ]
-    };
-    let v = json_of(&fdid(&args("9", "1")));
+    let v = json_of(&f16_outputs_fit("1", "s", "20", "20", "--full-covariance"));
     assert_eq!(v["weighting"], "output_covariance");
     assert_eq!(v["stable"], true);
-    let modes: Vec<f64> = v["modes"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|m| m["f_n_hz"].as_f64().unwrap())
-        .collect();
-    for reference in [5.19, 7.32] {
-        assert!(
-            modes.iter().any(|f| (f - reference).abs() < 0.05),
-            "{reference} Hz among {modes:?}"
-        );
-    }
+    has_f16_reference_modes(&mode_frequencies(&v));
     // 9 periods with 6 skipped leave 3: too few for a 3 × 3 covariance
-    let refused = fdid(&args("9", "6"));
+    let refused = f16_outputs_fit("6", "s", "20", "20", "--full-covariance");
     assert_eq!(refused.status.code(), Some(2), "{}", stderr(&refused));
     assert!(stderr(&refused).contains("--full-covariance needs"));
 }
@@ -858,63 +871,29 @@ fn full_covariance_weights_the_f16_outputs_jointly() {
 /// `--common-denominator` on the F-16's three accelerometers in z (the 2–15 Hz band of
 /// 400 Hz data: a short arc of the unit circle, where powers of z⁻¹ are nearly
 /// dependent): stable at na 12, with the 5.2 Hz wing bending and 7.32 Hz wing torsion
-/// modes of the data README; in s as well (na 20); refused with --nb > --na (exit 2).
+/// modes of the data README; in s as well; refused with --nb > --na (exit 2).
 #[test]
 fn common_denominator_fits_the_f16_outputs_in_z() {
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../shared/data/f16-gvt/F16Data_FullMSine_Level1.csv");
-    let args = |domain: &'static str, nb: &'static str| {
-        vec![
-            "fit",
-            path.to_str().unwrap(),
-            "--input",
-            "Force",
-            "--output",
-            "Acceleration1,Acceleration2,Acceleration3",
-            "--ts",
-            "0.0025",
-            "--periods",
-            "9",
-            "--skip-periods",
-            "1",
-            "--band",
-            "2:15",
-            "--domain",
-            domain,
-            "--na",
-            "12",
-            "--nb",
-            nb,
-            "--stable",
-            "--common-denominator",
-            "--json",
-        ]
-    };
-    let v = json_of(&fdid(&args("z", "12")));
+    let v = json_of(&f16_outputs_fit(
+        "1",
+        "z",
+        "12",
+        "12",
+        "--common-denominator",
+    ));
     assert_eq!(v["model"], "common_denominator");
     assert_eq!(v["stable"], true);
-    let modes: Vec<f64> = v["modes"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|m| m["f_n_hz"].as_f64().unwrap())
-        .collect();
-    for reference in [5.19, 7.32] {
-        assert!(
-            modes.iter().any(|f| (f - reference).abs() < 0.05),
-            "{reference} Hz among {modes:?}"
-        );
-    }
-    let v = json_of(&fdid(&args("s", "12")));
+    has_f16_reference_modes(&mode_frequencies(&v));
+    let v = json_of(&f16_outputs_fit(
+        "1",
+        "s",
+        "12",
+        "12",
+        "--common-denominator",
+    ));
     assert_eq!(v["model"], "common_denominator");
-    assert!(
-        v["modes"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .any(|m| { (m["f_n_hz"].as_f64().unwrap() - 5.19).abs() < 0.05 })
-    );
-    let refused = fdid(&args("z", "13"));
+    has_f16_reference_modes(&mode_frequencies(&v));
+    let refused = f16_outputs_fit("1", "z", "12", "13", "--common-denominator");
     assert_eq!(refused.status.code(), Some(2), "{}", stderr(&refused));
     assert!(stderr(&refused).contains("--common-denominator fits"));
 }

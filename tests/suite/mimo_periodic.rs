@@ -97,11 +97,12 @@ fn output_noise_covariance_between_periods() {
     );
 }
 
-/// The averaged record is fitted weighted by the output variances: the poles are found
-/// and the weighted cost per complex equation is near the 1.17 that the inverse of a
-/// variance estimated with 7 complex degrees of freedom gives (ν/(ν − 2), ν = 14).
-#[test]
-fn weighted_fit_of_the_averaged_record() {
+/// The record averaged over its periods (DC dropped) and its common-pole fit with a
+/// direct term (weighted by the full output covariance when `full_covariance`), whose
+/// poles are checked to 1 % of the truth.
+fn fit_averaged_record(
+    full_covariance: bool,
+) -> (MimoSpectra<f64>, fdid::mimo::CommonPoleFit<f64>) {
     let (u, y) = periodic_record();
     let s = MimoSpectra::from_periods(steady(&u), steady(&y), TS, PERIODS - 1).unwrap();
     let keep: Vec<bool> = s.omega().iter().map(|w| *w > 0.0).collect();
@@ -110,12 +111,22 @@ fn weighted_fit_of_the_averaged_record() {
     let options = CommonPoleOptions {
         domain: Domain::Discrete { ts: TS },
         direct: true,
+        full_covariance,
         ..CommonPoleOptions::default()
     };
     let fit = fit_common_poles_spectra(&s, model.order(), &options).unwrap();
-    assert!(fit.weighted);
     let err = pole_error(&model.poles, &fit.model.poles);
     assert!(err < 0.01, "pole error {err:e}");
+    (s, fit)
+}
+
+/// The averaged record is fitted weighted by the output variances: the poles are found
+/// and the weighted cost per complex equation is near the 1.17 that the inverse of a
+/// variance estimated with 7 complex degrees of freedom gives (ν/(ν − 2), ν = 14).
+#[test]
+fn weighted_fit_of_the_averaged_record() {
+    let (s, fit) = fit_averaged_record(false);
+    assert!(fit.weighted && !fit.correlated);
     let per_equation = fit.cost / (s.len() * s.ny()) as f64;
     // the unweighted residual power is the noise of the mean, σ²/8 per line and output
     let power = fit.residual_power.iter().sum::<f64>() / (s.len() * s.ny()) as f64;
@@ -138,21 +149,8 @@ fn weighted_fit_of_the_averaged_record() {
 /// spreads less).
 #[test]
 fn full_covariance_fit_of_the_averaged_record() {
-    let (u, y) = periodic_record();
-    let s = MimoSpectra::from_periods(steady(&u), steady(&y), TS, PERIODS - 1).unwrap();
-    let keep: Vec<bool> = s.omega().iter().map(|w| *w > 0.0).collect();
-    let s = s.select_lines(&keep).unwrap();
-    let model = z_model(&CASE, true);
-    let options = CommonPoleOptions {
-        domain: Domain::Discrete { ts: TS },
-        direct: true,
-        full_covariance: true,
-        ..CommonPoleOptions::default()
-    };
-    let fit = fit_common_poles_spectra(&s, model.order(), &options).unwrap();
+    let (s, fit) = fit_averaged_record(true);
     assert!(fit.correlated);
-    let err = pole_error(&model.poles, &fit.model.poles);
-    assert!(err < 0.01, "pole error {err:e}");
     let per_equation = fit.cost / (s.len() * s.ny()) as f64;
     assert!(
         (1.0..1.8).contains(&per_equation),
