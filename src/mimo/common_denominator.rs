@@ -77,6 +77,10 @@ use num_traits::Float;
 /// # Ok::<(), fdid::FdidError>(())
 /// ```
 ///
+/// Of `options`, `domain`, `stable`, `relocations` (the cap on SK iterations) and `ml`
+/// apply; the numerators' degree sets the direct term (`direct` is not used), and there is
+/// no transient or full-covariance weighting.
+///
 /// # Errors
 /// na = 0 or nb > na ([`FdidError::InvalidArgument`]); lines beyond Nyquist, too few
 /// lines (2L < na + nb + 2), non-positive variances; a singular least squares.
