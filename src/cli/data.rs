@@ -260,12 +260,10 @@ fn output_entries(args: &CommonArgs, list: &str) -> Result<super::mimo::Entries,
 
 /// The ny × ny noise covariance of the outputs' FRFs on each line of `matrix`, from the
 /// spread of the outputs' spectra between the periods of a periodic record with one named
-/// input (`--input U --periods P`, P > ny + 1 periods kept, no `--realisations`), to first
-/// order in the noise of the averaged spectra (δĜ ≈ (δY − Ĝ δU)/U):
-/// C_G = (C_Y − c_YU Ĝᴴ − Ĝ c_YUᴴ + Ĝ Ĝᴴ σ²_U)/|U|², with C_Y, c_YU and σ²_U the output,
-/// output–input and input covariances between periods ([`fdid::data::MimoNoise`]) — the
-/// input's noise included (errors in variables). `None` when the record is not of that
-/// kind.
+/// input (`--input U --periods P`, P > ny + 1 periods kept, no `--realisations`): C_G(ω_k) =
+/// C_Y(ω_k)/|U(ω_k)|² with C_Y the covariance of the averaged output spectra
+/// ([`fdid::data::MimoNoise`]); its diagonal is the variance each output's FRF carries
+/// alone. `None` when the record is not of that kind.
 fn output_covariances(
     args: &CommonArgs,
     names: &[&str],
@@ -297,18 +295,11 @@ fn output_covariances(
         else {
             return Ok(None);
         };
-        let u = spectra.u(0)[k];
-        let u2 = u.norm_sqr();
+        let u2 = spectra.u(0)[k].norm_sqr();
         if u2.is_nan() || u2 <= 0.0 {
             return Ok(None);
         }
-        // δĜ ≈ (δY − Ĝ δU)/U: C_Y − c_YU Ĝᴴ − Ĝ c_YUᴴ + Ĝ Ĝᴴ σ²_U, over |U|²
-        let g = nalgebra::DVector::from_fn(names.len(), |i, _| spectra.y(i)[k] / u);
-        let c_yu = noise.cross_covariance(k).column(0).into_owned();
-        let var_u = fdid::prelude::Complex::new(noise.input_variance(0)[k], 0.0);
-        let total = noise.output_covariance(k) - &c_yu * g.adjoint() - &g * c_yu.adjoint()
-            + &g * g.adjoint() * var_u;
-        covariances.push(total.map(|c| c / u2));
+        covariances.push(noise.output_covariance(k).map(|c| c / u2));
     }
     Ok(Some(covariances))
 }
