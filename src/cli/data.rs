@@ -189,13 +189,18 @@ fn normalise_extremes(
 
 /// The entries fitted with common poles: those of a Touchstone file of two or more ports
 /// read without `--port`, or the outputs of a table of channels that `--output` lists
-/// (each output's FRF prepared as [`prepare`] prepares one); `None` for one entry.
-pub(super) fn read_entries(args: &CommonArgs) -> Result<Option<super::mimo::Entries>, Failure> {
+/// (each output's FRF prepared as [`prepare`] prepares one, with the outputs' noise
+/// covariance between periods when `covariances`: `--full-covariance`); `None` for one
+/// entry.
+pub(super) fn read_entries(
+    args: &CommonArgs,
+    covariances: bool,
+) -> Result<Option<super::mimo::Entries>, Failure> {
     if let Some(list) = args.input.as_deref().filter(|i| i.contains(',')) {
         return input_spectra(args, list).map(Some);
     }
     if let Some(list) = args.output.as_deref().filter(|o| o.contains(',')) {
-        return output_entries(args, list).map(Some);
+        return output_entries(args, list, covariances).map(Some);
     }
     if args.port.is_some() || args.input.is_some() || args.output.is_some() {
         return Ok(None);
@@ -226,7 +231,11 @@ pub(super) fn read_entries(args: &CommonArgs) -> Result<Option<super::mimo::Entr
 
 /// The outputs of `list` (comma-separated) of a table of channels as one column of FRFs,
 /// each prepared alone with the same options; they must share their lines.
-fn output_entries(args: &CommonArgs, list: &str) -> Result<super::mimo::Entries, Failure> {
+fn output_entries(
+    args: &CommonArgs,
+    list: &str,
+    covariances: bool,
+) -> Result<super::mimo::Entries, Failure> {
     let names = column_list("--output", list)?;
     let mut data = Vec::with_capacity(names.len());
     for name in &names {
@@ -248,9 +257,12 @@ fn output_entries(args: &CommonArgs, list: &str) -> Result<super::mimo::Entries,
             "--output {list}: the outputs' FRFs are not on the same lines ({e})"
         ))
     })?;
-    let matrix = match output_covariances(args, &names, &matrix)? {
-        Some(covariances) => matrix.with_covariances(vec![covariances])?,
-        None => matrix,
+    let matrix = match covariances {
+        true => match output_covariances(args, &names, &matrix)? {
+            Some(covariances) => matrix.with_covariances(vec![covariances])?,
+            None => matrix,
+        },
+        false => matrix,
     };
     Ok(super::mimo::Entries::Matrix {
         matrix,

@@ -177,7 +177,7 @@ struct Diagnosis {
 pub fn diagnose(args: &DiagnoseArgs) -> Result<String, Failure> {
     let c = &args.common;
     check_usage(args)?;
-    if let Some(entries) = data::read_entries(c)? {
+    if let Some(entries) = data::read_entries(c, false)? {
         return super::mimo_diagnose::diagnose(args, entries);
     }
     let mut prepared = data::prepare(c, false, true)?;

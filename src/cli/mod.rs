@@ -109,7 +109,7 @@ fn fit(args: &FitArgs) -> Result<String, Failure> {
             refuse_overwrite(&c.data, out, flag)?;
         }
     }
-    if let Some(entries) = data::read_entries(c)? {
+    if let Some(entries) = data::read_entries(c, args.full_covariance)? {
         return mimo::fit(args, entries);
     }
     if args.enforce_passivity {

@@ -18,7 +18,7 @@ pub(super) fn stabilize(args: &StabilizeArgs) -> Result<String, Failure> {
         super::refuse_overwrite(&args.data, out, "--plot")?;
     }
     let common = common_args(args, orders[0]);
-    let entries = match data::read_entries(&common)? {
+    let entries = match data::read_entries(&common, false)? {
         Some(e) => e,
         None => {
             let prepared = data::prepare(&common, false, false)?;

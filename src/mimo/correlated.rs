@@ -6,6 +6,7 @@
 use super::poles::PoleSet;
 use super::thin_qr::{ThinQr, at_b};
 use super::vector_fit::Weighted;
+use crate::data::{FrfMatrix, MimoSpectra};
 use crate::error::Result;
 use crate::problem::NonlinearProblem;
 use crate::scalar::{Complex, Real};
@@ -64,6 +65,36 @@ impl<T: Real> Whitening<T> {
             factors.push(group?);
         }
         Some(Self { groups, factors })
+    }
+}
+
+impl<T: Real> Whitening<T> {
+    /// The whitening of an FRF matrix's columns (each column's ny entries), when it
+    /// carries covariances ([`FrfMatrix::with_covariances`]).
+    pub(crate) fn of_matrix(data: &FrfMatrix<T>) -> Option<Self> {
+        if !data.has_covariances() {
+            return None;
+        }
+        let ny = data.ny();
+        let groups = (0..data.nu())
+            .map(|j| (j * ny..(j + 1) * ny).collect())
+            .collect();
+        Self::new(groups, data.len(), |j, k| {
+            data.covariance(j, k).expect("checked")
+        })
+    }
+
+    /// The whitening of a record's outputs by their covariance between periods; only
+    /// when that sample covariance (rank P − 1 at most) is of full rank with room to
+    /// spare, P > ny + 1.
+    pub(crate) fn of_spectra(data: &MimoSpectra<T>) -> Option<Self> {
+        let noise = data.noise()?;
+        if noise.periods() <= data.ny() + 1 {
+            return None;
+        }
+        Self::new(vec![(0..data.ny()).collect()], data.len(), |_, k| {
+            noise.output_covariance(k)
+        })
     }
 }
 

@@ -252,7 +252,11 @@ pub fn fit_common_poles<T: Real>(
 ) -> Result<CommonPoleFit<T>> {
     check_order_and_grid(data.omega(), order, options)?;
     let weighted = Weighted::new(data, options.domain, options.direct)?;
-    fit_weighted(&weighted, order, options, None)
+    let whitening = options
+        .full_covariance
+        .then(|| correlated::Whitening::of_matrix(data))
+        .flatten();
+    fit_weighted(&weighted, order, options, None, whitening.as_ref())
 }
 
 /// [`fit_common_poles`] with the relocation started from the poles `start` (rad/s in s,
@@ -307,7 +311,11 @@ pub fn fit_common_poles_from<T: Real>(
         });
     }
     let weighted = Weighted::new(data, options.domain, options.direct)?;
-    fit_weighted(&weighted, order, options, Some(start))
+    let whitening = options
+        .full_covariance
+        .then(|| correlated::Whitening::of_matrix(data))
+        .flatten();
+    fit_weighted(&weighted, order, options, Some(start), whitening.as_ref())
 }
 
 /// Fits a common-pole model of `order` poles to the spectra of a record with several
@@ -357,7 +365,11 @@ pub fn fit_common_poles_spectra<T: Real>(
 ) -> Result<CommonPoleFit<T>> {
     check_order_and_grid(data.omega(), order, options)?;
     let weighted = Weighted::from_spectra(data, options.domain, options.direct, options.transient)?;
-    fit_weighted(&weighted, order, options, None)
+    let whitening = options
+        .full_covariance
+        .then(|| correlated::Whitening::of_spectra(data))
+        .flatten();
+    fit_weighted(&weighted, order, options, None, whitening.as_ref())
 }
 
 /// Checks the order (at least one pole) and, in z, that no line lies beyond Nyquist.
@@ -391,12 +403,14 @@ fn check_order_and_grid<T: Real>(
     Ok(())
 }
 
-/// Relocation and maximum likelihood on the weighted blocks.
+/// Relocation and maximum likelihood on the weighted blocks; with `whitening` (correlated
+/// blocks, [`CommonPoleOptions::full_covariance`]) the cost and ML are the joint ones.
 fn fit_weighted<T: Real>(
     weighted: &Weighted<T>,
     order: usize,
     options: &CommonPoleOptions<T>,
     start: Option<&PoleSet<T>>,
+    whitening: Option<&correlated::Whitening<T>>,
 ) -> Result<CommonPoleFit<T>> {
     let lines = weighted.lines();
     let needed = weighted.linear_parameters(order) + order + 1;
@@ -420,10 +434,6 @@ fn fit_weighted<T: Real>(
         options.relocations,
         start.map(|p| p.scaled(T::one() / weighted.scale)),
     )?;
-    let whitening = weighted
-        .whitening
-        .as_ref()
-        .filter(|_| options.full_covariance);
     let joint = whitening.map(|whitening| correlated::JointVarPro {
         data: weighted,
         whitening,

@@ -1,7 +1,6 @@
 //! Vector fitting with poles common to every entry: Sanathanan–Koerner pole relocation
 //! with the fast block solution, and the residue matrices by linear least squares.
 
-use super::correlated::Whitening;
 use super::model::CommonPoleModel;
 use super::poles::{PoleSet, basis, coefficient_matrix, derivative_basis, points, starting_poles};
 use super::thin_qr::{ThinQr, r_factor};
@@ -36,10 +35,6 @@ pub(crate) struct Weighted<T: Real> {
     pub inputs: Option<Vec<Vec<Complex<T>>>>,
     /// The factor x_T of the transient basis (`None`: no transient).
     pub transient: Option<Vec<Complex<T>>>,
-    /// The whitening of blocks with correlated noise (`None`: independent blocks): the
-    /// columns of an FRF matrix with covariances, a record's outputs averaged over
-    /// enough periods.
-    pub whitening: Option<Whitening<T>>,
 }
 
 impl<T: Real> Weighted<T> {
@@ -74,15 +69,6 @@ impl<T: Real> Weighted<T> {
             nu: data.nu(),
             inputs: None,
             transient: None,
-            whitening: data.has_covariances().then_some(()).and_then(|_| {
-                let ny = data.ny();
-                let groups = (0..data.nu())
-                    .map(|j| (j * ny..(j + 1) * ny).collect())
-                    .collect();
-                Whitening::new(groups, omega.len(), |j, k| {
-                    data.covariance(j, k).expect("checked")
-                })
-            }),
         })
     }
 
@@ -119,17 +105,6 @@ impl<T: Real> Weighted<T> {
             nu: data.nu(),
             inputs: Some((0..data.nu()).map(|j| data.u(j).to_vec()).collect()),
             transient,
-            whitening: data.noise().and_then(|noise| {
-                // a sample covariance of P periods has rank P − 1 at most: whiten only
-                // when it is of full rank with room to spare
-                (noise.periods() > data.ny() + 1)
-                    .then(|| {
-                        Whitening::new(vec![(0..data.ny()).collect()], data.len(), |_, k| {
-                            noise.output_covariance(k)
-                        })
-                    })
-                    .flatten()
-            }),
         })
     }
 
