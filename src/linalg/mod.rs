@@ -6,6 +6,7 @@
 pub(crate) mod gram;
 pub(crate) mod householder;
 mod lstsq;
+pub(crate) mod nonnegative_qp;
 pub(crate) mod parallel;
 
 pub use lstsq::least_squares;

@@ -31,8 +31,8 @@ impl<T: Real> Passivity<T> {
 }
 
 /// Checks σ_max(S(iω)) ≤ 1 for a scattering model on `points` evenly spaced frequencies
-/// from 0 to 1.5 times `f_max_hz` together with the natural frequency of every pole (where
-/// a violation peaks), the test of a passive n-port (a reciprocal lossless network has
+/// from 0 to 1.5 times `f_max_hz` together with the natural frequency of every pole and
+/// points on its flanks (where a violation peaks), the test of a passive n-port (a reciprocal lossless network has
 /// σ_max = 1). A sampled check: a violation narrower than the grid can escape it.
 pub fn passivity<T: Real>(model: &CommonPoleModel<T>, f_max_hz: T, points: usize) -> Passivity<T> {
     let omega = frequency_grid(model, f_max_hz, points);
@@ -72,7 +72,8 @@ pub fn passivity<T: Real>(model: &CommonPoleModel<T>, f_max_hz: T, points: usize
 }
 
 /// The check's frequencies (rad/s, ascending): `points` evenly spaced from 0 to 1.5 times
-/// `f_max_hz`, and the natural frequency of every pole.
+/// `f_max_hz`, the natural frequency of every pole and, within that range, 8 points on
+/// its flanks (±¼, ½, 1, 2 half-bandwidths).
 pub(crate) fn frequency_grid<T: Real>(
     model: &CommonPoleModel<T>,
     f_max_hz: T,
@@ -82,12 +83,26 @@ pub(crate) fn frequency_grid<T: Real>(
     let mut omega: Vec<T> = (0..points.max(2))
         .map(|k| top * T::from_usize_lossy(k) / T::from_usize_lossy(points.max(2) - 1))
         .collect();
+    // each resonance's peak and its flanks, at a quarter to twice its half-bandwidth
+    // |Re p| (in z, |ln|p||/ts) on either side: an evenly spaced grid over a wide band
+    // steps over the peak of a lightly damped low-frequency mode
     for p in model.poles.slots() {
-        let w = match model.domain {
-            crate::model::Domain::Continuous => Float::abs(p.im),
-            crate::model::Domain::Discrete { ts } => Float::abs(p.arg()) / ts,
+        let (w, half_width) = match model.domain {
+            crate::model::Domain::Continuous => (Float::abs(p.im), Float::abs(p.re)),
+            crate::model::Domain::Discrete { ts } => (
+                Float::abs(p.arg()) / ts,
+                Float::abs(Float::ln(p.norm())) / ts,
+            ),
         };
         omega.push(w);
+        for offset in [0.25, 0.5, 1.0, 2.0] {
+            for side in [-1.0, 1.0] {
+                let at = w + T::lit(side * offset) * half_width;
+                if at >= T::zero() && at <= top {
+                    omega.push(at);
+                }
+            }
+        }
     }
     omega.sort_by(|a, b| a.partial_cmp(b).unwrap_or(std::cmp::Ordering::Equal));
     omega

@@ -5,12 +5,18 @@ use super::model::CommonPoleModel;
 use super::passivity::{PASSIVITY_TOLERANCE, Passivity, frequency_grid, passivity};
 use crate::data::FrfMatrix;
 use crate::error::{FdidError, Result};
+use crate::linalg::nonnegative_qp::nonnegative_qp;
 use crate::scalar::Complex;
 use nalgebra::{DMatrix, DVector};
+use std::collections::BTreeSet;
 
 /// How far below 1 each enforced singular value is placed, so that the linearised step
 /// leaves the check's tolerance ([`PASSIVITY_TOLERANCE`]) to the second-order terms.
 const MARGIN: f64 = 1e-5;
+
+/// Singular values within this distance below 1 at a constrained frequency are
+/// constrained too (they would cross 1 under a step that lowers the largest).
+const NEAR: f64 = 1e-2;
 
 /// Iterations of [`enforce_passivity`] before it gives up.
 const MAX_ITERATIONS: usize = 40;
@@ -27,7 +33,8 @@ pub struct Enforcement {
     /// Linearised corrections made.
     pub iterations: usize,
     /// True when the returned model is S scaled by (1 − 10⁻⁵)/σ_max rather than the
-    /// perturbed one (a broad violation, see [`enforce_passivity`]).
+    /// perturbed one (the perturbation did not converge or changed more, see
+    /// [`enforce_passivity`]).
     pub scaled: bool,
     /// √(Σ‖ΔS‖²_F / Σ‖S‖²_F) over the lines given: how much the enforcement changed the
     /// model where it was fitted.
@@ -39,21 +46,26 @@ pub struct Enforcement {
 /// the least-squares sense over the fitted lines `omega` (rad/s): the residue
 /// perturbation of Gustavsen and Semlyen, with the poles kept.
 ///
-/// Each iteration linearises the largest singular value at every local maximum ω_k of
-/// σ_max above 1 on the grid, σ(S + ΔS) ≈ σ + Re(u₁ᴴ ΔS(iω_k) v₁) with the singular
-/// vectors u₁, v₁ of S(iω_k), and solves
+/// Each iteration adds the local maxima of σ_max above 1 on the grid to the constrained
+/// frequencies (those of earlier iterations stay, so that a violation pushed down stays
+/// down), linearises there every singular value above 0.99, σ_i(S + ΔS) ≈ σ_i +
+/// Re(u_iᴴ ΔS(iω_k) v_i) with the singular vectors u_i, v_i of S(iω_k), and solves the
+/// quadratic programme with inequality constraints
 ///
 /// ```text
-/// min Σ_l ‖ΔS(iω_l)‖²_F   subject to   σ_k + Re(u₁ᴴ ΔS(iω_k) v₁) = 1 − 10⁻⁵,
+/// min Σ_l ‖ΔS(iω_l)‖²_F   subject to   σ_i,k + Re(u_iᴴ ΔS(iω_k) v_i) ≤ 1 − 10⁻⁵,
 /// ΔS(x) = ΔD + Σ_m ΔR_m/(x − p_m) (+ conjugates),
 /// ```
 ///
-/// a least-norm problem in the real parameters of the ΔR_m (the objective's Gram matrix,
-/// over the lines and, with a total weight of a tenth of theirs, the check's grid, is the
-/// same for every entry: one Cholesky factor). Each step is halved until the largest
-/// singular value on the grid drops; the iterations stop when the grid has no violation,
-/// no step helps, or after 40. When the violation is broad the perturbation may change
-/// the model more than scaling S by (1 − 10⁻⁵)/σ_max, or not converge: then that scaled
+/// in the real parameters of the ΔR_m. The objective (over the lines and, with a total
+/// weight of a tenth of theirs, the check's grid) is the same for every entry: one QR
+/// factor R of the column-scaled basis, not its Gram matrix (a fitted model's basis is
+/// ill-conditioned). The programme is solved through its dual, a non-negative
+/// quadratic programme in the constraints' multipliers (active set), min_{λ≥0}
+/// ½λᵀ(FFᵀ)λ + dᵀλ with F the constraints in the orthonormal coordinates R·x. Each step is
+/// halved until the largest singular value on the grid drops; the iterations stop when
+/// the grid has no violation, no step helps, or after 40. Should the perturbation change
+/// the model more than scaling S by (1 − 10⁻⁵)/σ_max, or not converge, that scaled
 /// model, passive on the grid, is returned (the smaller of the two changes wins).
 ///
 /// ```
@@ -84,7 +96,7 @@ pub fn enforce_passivity(
     f_max_hz: f64,
     points: usize,
 ) -> Result<Enforcement> {
-    let (ny, nu) = (model.ny(), model.nu());
+    let ny = model.ny();
     if ny == 0 || omega.is_empty() {
         return Err(FdidError::InvalidArgument {
             name: "model",
@@ -95,67 +107,27 @@ pub fn enforce_passivity(
     crate::error::check_finite("omega", omega)?;
     let before = passivity(model, f_max_hz, points);
     let mut current = model.clone();
-    let lines = basis(&current, omega);
-    let nb = lines.ncols();
-    // the objective's Gram matrix Re(ΦᴴΦ) over the lines, plus the check's grid with a
-    // total weight of one line in ten (a change where no line was fitted is not free: it
-    // makes new violations there), and a relative ridge
     // the grid depends on the poles only, which the enforcement keeps
     let grid = frequency_grid(&current, f_max_hz, points);
-    let on_grid = basis(&current, &grid);
-    let out_of_band = 0.1 * omega.len() as f64 / on_grid.nrows().max(1) as f64;
-    let mut gram = (lines.adjoint() * &lines).map(|v| v.re)
-        + (on_grid.adjoint() * &on_grid).map(|v| v.re * out_of_band);
-    let ridge = 1e-12 * gram.trace().max(f64::MIN_POSITIVE) / nb as f64;
-    for i in 0..nb {
-        gram[(i, i)] += ridge;
-    }
-    let chol = gram.cholesky().ok_or(FdidError::Singular {
-        what: "the objective of the passivity enforcement",
-        condition: f64::INFINITY,
-    })?;
-    let entries = ny * nu;
+    let objective = Objective::new(&current, omega, &grid)?;
+    let nb = objective.scale.len();
     let mut iterations = 0;
+    // the grid points constrained so far: each iteration adds the peaks of the
+    // violations and keeps the earlier ones, so that a violation pushed down stays down
+    let mut constrained = BTreeSet::new();
     while iterations < MAX_ITERATIONS {
-        let triples = largest_triples(&current, &grid);
-        let peaks = violation_peaks(&triples);
+        let largest = largest_singular_values(&current, &grid);
+        let peaks = violation_peaks(&largest);
         if peaks.is_empty() {
             break;
         }
         iterations += 1;
-        // one row per peak: ∂σ/∂x for every entry's coefficients
-        let at: Vec<f64> = peaks.iter().map(|k| grid[*k]).collect();
-        let phi = basis(&current, &at);
-        let k_rows = peaks.len();
-        let mut c = DMatrix::<f64>::zeros(k_rows, entries * nb);
-        let mut rhs = DVector::<f64>::zeros(k_rows);
-        for (row, &k) in peaks.iter().enumerate() {
-            let (sigma, u, v) = &triples[k];
-            rhs[row] = 1.0 - MARGIN - sigma;
-            // entry e = i + j·ny (column by column)
-            for (j, vj) in v.iter().enumerate() {
-                for (i, ui) in u.iter().enumerate() {
-                    let w = ui.conj() * vj;
-                    let e = i + j * ny;
-                    for b in 0..nb {
-                        c[(row, e * nb + b)] = (w * phi[(row, b)]).re;
-                    }
-                }
-            }
-        }
-        // x = H⁻¹Cᵀ y with (C H⁻¹ Cᵀ) y = rhs, H = I ⊗ G
-        let mut h_inv_ct = DMatrix::<f64>::zeros(entries * nb, k_rows);
-        for e in 0..entries {
-            let block = c.columns(e * nb, nb).transpose();
-            let solved = chol.solve(&block);
-            h_inv_ct.rows_mut(e * nb, nb).copy_from(&solved);
-        }
-        let m = &c * &h_inv_ct;
-        let (y, _) = crate::linalg::least_squares(m, rhs, 1e3)?;
-        let x = h_inv_ct * y;
+        constrained.extend(peaks);
+        let (c, d) = constraints(&current, &grid, &constrained, nb);
+        let x = objective.least_change(&c, &d)?;
         // the linearised step, halved until the largest singular value on the grid
         // drops (at most 6 times); none that does ends the iterations
-        let worst = triples.iter().map(|t| t.0).fold(0.0, f64::max);
+        let worst = largest.iter().copied().fold(0.0, f64::max);
         let mut step = 1.0;
         let mut moved = false;
         for _ in 0..7 {
@@ -203,6 +175,87 @@ pub fn enforce_passivity(
         scaled: scaled_instead,
         relative_change,
     })
+}
+
+/// The objective of the enforcement, Σ_lines ‖ΔS‖²_F plus the check's grid with a total
+/// weight of one line in ten (a change where no line was fitted is not free: it makes
+/// new violations there), as ‖R D x_e‖² per entry: R the triangular factor of the real
+/// basis (lines and weighted grid stacked, columns scaled to unit norm by D⁻¹, with a
+/// ridge of 10⁻⁶ of a column's norm). The factor, not the Gram matrix: a fitted model's
+/// nearby poles make the basis ill-conditioned, and its Gram matrix loses the least
+/// change to rounding (on a 50-pole 4-port the Gram-form step changed the model more
+/// than a uniform scaling would).
+struct Objective {
+    r: DMatrix<f64>,
+    scale: Vec<f64>,
+}
+
+impl Objective {
+    fn new(model: &CommonPoleModel<f64>, omega: &[f64], grid: &[f64]) -> Result<Self> {
+        let lines = basis(model, omega);
+        let on_grid = basis(model, grid);
+        let nb = lines.ncols();
+        let out_of_band = (0.1 * omega.len() as f64 / grid.len().max(1) as f64).sqrt();
+        let weights = vec![out_of_band; grid.len()];
+        let mut a = DMatrix::<f64>::zeros(2 * (omega.len() + grid.len()) + nb, nb);
+        a.rows_mut(0, 2 * omega.len())
+            .copy_from(&crate::linalg::stack_rows(&lines, None));
+        a.rows_mut(2 * omega.len(), 2 * grid.len())
+            .copy_from(&crate::linalg::stack_rows(&on_grid, Some(&weights)));
+        let scale = crate::linalg::equilibrate_columns(&mut a);
+        let last = a.nrows() - nb;
+        for i in 0..nb {
+            a[(last + i, i)] = 1e-6;
+        }
+        let r = a.qr().r();
+        if (0..nb).any(|i| !(r[(i, i)].abs() > 0.0) || !r[(i, i)].is_finite()) {
+            return Err(FdidError::Singular {
+                what: "the objective of the passivity enforcement",
+                condition: f64::INFINITY,
+            });
+        }
+        Ok(Self { r, scale })
+    }
+
+    /// The least change x (every entry's `nb` coefficients) with C x ≤ d: in y_e = R D x_e
+    /// the objective is ‖y‖² and the constraints F y ≤ d with F_e = C_e D⁻¹R⁻¹, so
+    /// y = −Fᵀλ for the λ ≥ 0 minimising ½λᵀ(FFᵀ)λ + dᵀλ (the dual).
+    fn least_change(&self, c: &DMatrix<f64>, d: &DVector<f64>) -> Result<DVector<f64>> {
+        let nb = self.scale.len();
+        let entries = c.ncols() / nb;
+        // Fᵀ, entry by entry: R⁻ᵀ D⁻¹ C_eᵀ
+        let mut ft = DMatrix::<f64>::zeros(entries * nb, c.nrows());
+        for e in 0..entries {
+            let mut block = c.columns(e * nb, nb).transpose();
+            for (i, s) in self.scale.iter().enumerate() {
+                block.row_mut(i).unscale_mut(*s);
+            }
+            let solved = self
+                .r
+                .tr_solve_upper_triangular(&block)
+                .ok_or(FdidError::Singular {
+                    what: "the objective of the passivity enforcement",
+                    condition: f64::INFINITY,
+                })?;
+            ft.rows_mut(e * nb, nb).copy_from(&solved);
+        }
+        let lambda = nonnegative_qp(&ft.tr_mul(&ft), d)?;
+        let y = -(ft * lambda);
+        let mut x = DVector::<f64>::zeros(entries * nb);
+        for e in 0..entries {
+            let solved = self
+                .r
+                .solve_upper_triangular(&y.rows(e * nb, nb).into_owned())
+                .ok_or(FdidError::Singular {
+                    what: "the objective of the passivity enforcement",
+                    condition: f64::INFINITY,
+                })?;
+            for i in 0..nb {
+                x[e * nb + i] = solved[i] / self.scale[i];
+            }
+        }
+        Ok(x)
+    }
 }
 
 /// √(Σ‖S₁ − S₀‖²_F / Σ‖S₀‖²_F) over `omega`.
@@ -272,32 +325,69 @@ fn apply(model: &mut CommonPoleModel<f64>, x: &DVector<f64>, nb: usize) {
     }
 }
 
-/// The largest singular value of S(iω) at each grid frequency with its left and right
-/// singular vectors.
-type Triple = (f64, Vec<Complex<f64>>, Vec<Complex<f64>>);
-
-fn largest_triples(model: &CommonPoleModel<f64>, grid: &[f64]) -> Vec<Triple> {
+/// σ_max(S(iω)) at each grid frequency.
+fn largest_singular_values(model: &CommonPoleModel<f64>, grid: &[f64]) -> Vec<f64> {
     let responses = model.response(grid);
     crate::linalg::parallel::map_indices(responses.len(), |k| {
-        let svd = nalgebra::SVD::new(responses[k].clone(), true, true);
-        let (Some(u), Some(vt)) = (svd.u.as_ref(), svd.v_t.as_ref()) else {
-            return (0.0, vec![], vec![]);
-        };
-        let best = (0..svd.singular_values.len())
-            .max_by(|a, b| svd.singular_values[*a].total_cmp(&svd.singular_values[*b]))
-            .unwrap_or(0);
-        let left = u.column(best).iter().copied().collect();
-        // v = (vᴴ)ᴴ: the conjugate of the row of V^H
-        let right = vt.row(best).iter().map(|v| v.conj()).collect();
-        (svd.singular_values[best], left, right)
+        responses[k]
+            .singular_values_unordered()
+            .iter()
+            .copied()
+            .fold(0.0, f64::max)
     })
+}
+
+/// The linearised constraints at the grid points `at` (indices into `grid`): one row per
+/// singular value σ_i above 1 − [`NEAR`] at each point, σ_i(S + ΔS) ≈ σ_i +
+/// Re(u_iᴴ ΔS v_i) ≤ 1 − [`MARGIN`], as C x ≤ d over every entry's `nb` coefficients
+/// (entry e = i + j·ny, column by column).
+fn constraints(
+    model: &CommonPoleModel<f64>,
+    grid: &[f64],
+    at: &BTreeSet<usize>,
+    nb: usize,
+) -> (DMatrix<f64>, DVector<f64>) {
+    let ny = model.ny();
+    let entries = ny * model.nu();
+    let omega: Vec<f64> = at.iter().map(|k| grid[*k]).collect();
+    let responses = model.response(&omega);
+    let phi = basis(model, &omega);
+    let svds = crate::linalg::parallel::map_indices(responses.len(), |k| {
+        nalgebra::SVD::new(responses[k].clone(), true, true)
+    });
+    let mut rows: Vec<Vec<f64>> = vec![];
+    let mut bounds = vec![];
+    for (point, svd) in svds.iter().enumerate() {
+        let (Some(u), Some(vt)) = (svd.u.as_ref(), svd.v_t.as_ref()) else {
+            continue;
+        };
+        for (s, sigma) in svd.singular_values.iter().enumerate() {
+            if *sigma <= 1.0 - NEAR {
+                continue;
+            }
+            let mut row = vec![0.0; entries * nb];
+            // v = (vᴴ)ᴴ: the conjugate of the row of Vᴴ
+            for (j, vj) in vt.row(s).iter().map(|v| v.conj()).enumerate() {
+                for (i, ui) in u.column(s).iter().enumerate() {
+                    let w = ui.conj() * vj;
+                    let e = i + j * ny;
+                    for b in 0..nb {
+                        row[e * nb + b] = (w * phi[(point, b)]).re;
+                    }
+                }
+            }
+            rows.push(row);
+            bounds.push(1.0 - MARGIN - sigma);
+        }
+    }
+    let c = DMatrix::from_fn(rows.len(), entries * nb, |r, col| rows[r][col]);
+    (c, DVector::from_vec(bounds))
 }
 
 /// The grid indices where σ_max exceeds 1 + tolerance and is a local maximum along the
 /// grid (the peak of each violation band).
-fn violation_peaks(triples: &[Triple]) -> Vec<usize> {
+fn violation_peaks(s: &[f64]) -> Vec<usize> {
     let limit = 1.0 + PASSIVITY_TOLERANCE;
-    let s: Vec<f64> = triples.iter().map(|t| t.0).collect();
     (0..s.len())
         .filter(|k| {
             s[*k] > limit
