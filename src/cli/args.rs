@@ -479,9 +479,10 @@ pub struct FitArgs {
 
     /// Several outputs fitted with common poles from a periodic record (--output A,B,...
     /// with --periods P, P minus the skipped periods > outputs + 1): weight each line's
-    /// residual vector r by the inverse of the outputs' noise covariance C between periods
-    /// (r'C^-1 r, the maximum likelihood when the sensors' noise is correlated) instead of
-    /// by their variances alone. It lowers the poles' variance when the model is right;
+    /// residual vector r by the inverse of the noise covariance C between periods (r'C^-1
+    /// r, the maximum likelihood when the sensors' noise is correlated) instead of by the
+    /// outputs' variances alone; C includes the input's noise (errors in variables, at the
+    /// model's response, by reweighting). It lowers the poles' variance when the model is right;
     /// when model errors (e.g. nonlinear distortion) dominate the residual it weights
     /// them by a noise correlation they do not share
     #[arg(long)]

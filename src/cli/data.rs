@@ -4,8 +4,8 @@ use super::Failure;
 use super::args::{CommonArgs, DomainArg, LinesArg, parse_band, parse_port};
 use fdid::criterion::interior_lines;
 use fdid::data::{
-    EXCITATION_FRACTION, ExcitationRule, FrfMatrix, Normalisation, PERIODICITY_TOLERANCE,
-    RealisationBla, UNEXCITED_NEIGHBOURS,
+    EXCITATION_FRACTION, ExcitationRule, FrfMatrix, InputNoise, Normalisation,
+    PERIODICITY_TOLERANCE, RealisationBla, UNEXCITED_NEIGHBOURS,
 };
 use fdid::io::{
     ChannelSelection, Column, Measurement, MultiChannelSelection, TouchstoneVersion,
@@ -259,7 +259,9 @@ fn output_entries(
     })?;
     let matrix = match covariances {
         true => match output_covariances(args, &names, &matrix)? {
-            Some(covariances) => matrix.with_covariances(vec![covariances])?,
+            Some(noise) => matrix
+                .with_covariances(vec![noise.covariances])?
+                .with_input_noise(vec![noise.input])?,
             None => matrix,
         },
         false => matrix,
@@ -270,17 +272,19 @@ fn output_entries(
     })
 }
 
-/// The ny × ny noise covariance of the outputs' FRFs on each line of `matrix`, from the
-/// spread of the outputs' spectra between the periods of a periodic record with one named
-/// input (`--input U --periods P`, P > ny + 1 periods kept, no `--realisations`): C_G(ω_k) =
-/// C_Y(ω_k)/|U(ω_k)|² with C_Y the covariance of the averaged output spectra
-/// ([`fdid::data::MimoNoise`]); its diagonal is the variance each output's FRF carries
-/// alone. `None` when the record is not of that kind.
+/// The noise of the outputs' FRFs on each line of `matrix`, from the spread of the
+/// spectra between the periods of a periodic record with one named input (`--input U
+/// --periods P`, P > ny + 1 periods kept, no `--realisations`): the ny × ny covariance
+/// C_Y/|U|² and the input's terms c_YU/|U|² and σ²_U/|U|² ([`fdid::data::InputNoise`]), with
+/// C_Y, c_YU and σ²_U the output, output–input and input covariances of the averaged
+/// spectra ([`fdid::data::MimoNoise`]); the fit forms the errors-in-variables covariance
+/// C_Y − c_YU Gᴴ − G c_YUᴴ + GGᴴσ²_U (over |U|²) at its response. `None` when the record is
+/// not of that kind.
 fn output_covariances(
     args: &CommonArgs,
     names: &[&str],
     matrix: &FrfMatrix<f64>,
-) -> Result<Option<Vec<nalgebra::DMatrix<fdid::prelude::Complex<f64>>>>, Failure> {
+) -> Result<Option<OutputNoise>, Failure> {
     let (Some(input), Some(periods)) = (args.input.as_deref(), args.periods) else {
         return Ok(None);
     };
@@ -299,7 +303,10 @@ fn output_covariances(
         return Ok(None);
     };
     let omega = spectra.omega();
-    let mut covariances = Vec::with_capacity(matrix.len());
+    let mut out = OutputNoise {
+        covariances: Vec::with_capacity(matrix.len()),
+        input: Vec::with_capacity(matrix.len()),
+    };
     for w in matrix.omega() {
         let Some(k) = omega
             .iter()
@@ -311,9 +318,20 @@ fn output_covariances(
         if u2.is_nan() || u2 <= 0.0 {
             return Ok(None);
         }
-        covariances.push(noise.output_covariance(k).map(|c| c / u2));
+        out.covariances
+            .push(noise.output_covariance(k).map(|c| c / u2));
+        out.input.push(InputNoise {
+            cross: noise.cross_covariance(k).column(0).map(|c| c / u2),
+            relative_variance: noise.input_variance(0)[k] / u2,
+        });
     }
-    Ok(Some(covariances))
+    Ok(Some(out))
+}
+
+/// The outputs' FRF covariances and the input's noise terms, line by line.
+struct OutputNoise {
+    covariances: Vec<nalgebra::DMatrix<fdid::prelude::Complex<f64>>>,
+    input: Vec<InputNoise<f64>>,
 }
 
 /// The column names of a comma-separated list, refusing an empty name.

@@ -186,6 +186,11 @@ pub(super) enum Fitted {
 }
 
 impl Fitted {
+    /// True for an FRF matrix whose columns carry their input's noise.
+    fn has_input_noise(&self) -> bool {
+        matches!(self, Fitted::Matrix(m) if m.has_input_noise())
+    }
+
     /// The common-pole fit of `order` poles.
     pub(super) fn fit(
         &self,
@@ -443,7 +448,10 @@ impl Report<'_> {
             w,
             "cost         {:.6e} ({}); rms error {:.6e}",
             fit.cost,
-            if fit.correlated {
+            if fit.correlated && self.data.has_input_noise() {
+                "weighted by the noise covariance of outputs and input (errors in \
+                 variables, at the model's response), sum of r'C^-1 r per line"
+            } else if fit.correlated {
                 "weighted by the outputs' noise covariance, sum of r'C^-1 r per line"
             } else if fit.weighted {
                 "weighted by the variances"
@@ -689,7 +697,9 @@ impl Report<'_> {
             },
             "cost": fit.cost,
             "weighted": fit.weighted,
-            "weighting": if fit.correlated {
+            "weighting": if fit.correlated && self.data.has_input_noise() {
+                "errors_in_variables"
+            } else if fit.correlated {
                 "output_covariance"
             } else if fit.weighted {
                 "variances"

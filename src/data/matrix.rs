@@ -1,10 +1,10 @@
 //! Frequency response matrices: an ny × nu FRF per line, measured on one frequency grid,
 //! with optional per-entry noise variances.
 
-use super::{FrequencyData, NoiseVariances};
+use super::{FrequencyData, InputNoise, NoiseVariances};
 use crate::error::{FdidError, Result};
 use crate::scalar::{Complex, Real};
-use nalgebra::DMatrix;
+use nalgebra::{DMatrix, DVector};
 use num_traits::Float;
 
 /// An ny × nu frequency response matrix G_k per line ω_k (rad/s): entry (i, j) is the
@@ -34,6 +34,8 @@ pub struct FrfMatrix<T: Real> {
     /// Per input column j and line k, the ny × ny covariance of the column's entries.
     #[cfg_attr(feature = "serde", serde(default))]
     covariances: Option<Vec<Vec<DMatrix<Complex<T>>>>>,
+    #[cfg_attr(feature = "serde", serde(default))]
+    input_noise: Option<Vec<Vec<InputNoise<T>>>>,
 }
 
 impl<T: Real> FrfMatrix<T> {
@@ -60,6 +62,7 @@ impl<T: Real> FrfMatrix<T> {
             nu,
             entries,
             covariances: None,
+            input_noise: None,
         })
     }
 
@@ -103,6 +106,7 @@ impl<T: Real> FrfMatrix<T> {
             nu,
             entries,
             covariances: None,
+            input_noise: None,
         })
     }
 
@@ -189,6 +193,110 @@ impl<T: Real> FrfMatrix<T> {
         self.covariances.is_some()
     }
 
+    /// Attaches the noise of each column's measured input (errors in variables):
+    /// `noise[j][k]` for input j at line k, in FRF units ([`InputNoise`]). Needs the
+    /// output covariances ([`FrfMatrix::with_covariances`]); the variances and
+    /// covariances the fits weight by stay those of the outputs until
+    /// [`FrfMatrix::at_response`] forms the errors-in-variables covariance at a response.
+    ///
+    /// ```
+    /// use fdid::prelude::*;
+    /// use fdid::data::{FrfMatrix, InputNoise};
+    /// use nalgebra::{DMatrix, DVector};
+    ///
+    /// let g = Complex::new(2.0f64, 0.0);
+    /// let m = FrfMatrix::from_entries(vec![1.0], 1, 1, vec![vec![g]], None)?
+    ///     .with_covariances(vec![vec![DMatrix::from_element(1, 1, Complex::new(0.01, 0.0))]])?;
+    /// // an input sensor's noise of 1 % of |U|² in variance, uncorrelated with the output's
+    /// let input = InputNoise { cross: DVector::zeros(1), relative_variance: 0.01 };
+    /// let m = m.with_input_noise(vec![vec![input]])?;
+    /// // at G = 2: 0.01 + 4 × 0.01
+    /// let at = m.at_response(|_| DMatrix::from_element(1, 1, g))?;
+    /// assert!((at.covariance(0, 0).unwrap()[(0, 0)].re - 0.05).abs() < 1e-12);
+    /// # Ok::<(), fdid::FdidError>(())
+    /// ```
+    ///
+    /// # Errors
+    /// No output covariances attached; not nu columns of one term per line; a `cross`
+    /// not of length ny, or a value that is not finite or a negative variance.
+    pub fn with_input_noise(mut self, noise: Vec<Vec<InputNoise<T>>>) -> Result<Self> {
+        let bad = |value: String, reason: &str| FdidError::InvalidArgument {
+            name: "input_noise",
+            value,
+            reason: reason.into(),
+        };
+        if self.covariances.is_none() {
+            return Err(bad(
+                "no output covariances".into(),
+                "attach the outputs' covariances first (with_covariances)",
+            ));
+        }
+        if noise.len() != self.nu {
+            return Err(bad(
+                format!("{} columns", noise.len()),
+                &format!("one list per input ({})", self.nu),
+            ));
+        }
+        let lines = self.len();
+        for (j, column) in noise.iter().enumerate() {
+            if column.len() != lines {
+                return Err(bad(
+                    format!("{} terms for input {}", column.len(), j + 1),
+                    &format!("one per line ({lines})"),
+                ));
+            }
+            for (k, n) in column.iter().enumerate() {
+                let finite = n.cross.iter().all(|v| v.re.is_finite() && v.im.is_finite());
+                if n.cross.len() != self.ny || !finite || !(n.relative_variance >= T::zero()) {
+                    return Err(bad(
+                        format!("input {}, line {}", j + 1, k + 1),
+                        &format!(
+                            "a cross covariance of {} finite values and a variance ≥ 0",
+                            self.ny
+                        ),
+                    ));
+                }
+            }
+        }
+        self.input_noise = Some(noise);
+        Ok(self)
+    }
+
+    /// The input's noise of column j at line k, when attached.
+    pub fn input_noise(&self, j: usize, k: usize) -> Option<&InputNoise<T>> {
+        self.input_noise.as_ref().map(|n| &n[j][k])
+    }
+
+    /// True when the columns carry their input's noise.
+    pub fn has_input_noise(&self) -> bool {
+        self.input_noise.is_some()
+    }
+
+    /// The matrix with each column's covariance replaced by the errors-in-variables one
+    /// at the response `g(k)` (ny × nu at line k): C − c gᴴ − g cᴴ + g gᴴ s
+    /// ([`InputNoise::covariance_at`]), the variances its diagonal; the input's noise is
+    /// dropped (it is in the covariances now). Without input noise, a copy.
+    ///
+    /// # Errors
+    /// A covariance that is no longer one (a diagonal not positive: the input terms do
+    /// not come from the same periods as the outputs').
+    pub fn at_response(&self, g: impl Fn(usize) -> DMatrix<Complex<T>>) -> Result<Self> {
+        let (Some(covariances), Some(noise)) = (&self.covariances, &self.input_noise) else {
+            return Ok(self.clone());
+        };
+        let mut totals = vec![Vec::with_capacity(self.len()); self.nu];
+        for k in 0..self.len() {
+            let at = g(k);
+            for (j, total) in totals.iter_mut().enumerate() {
+                let column = DVector::from_fn(self.ny, |i, _| at[(i, j)]);
+                total.push(noise[j][k].covariance_at(&covariances[j][k], &column));
+            }
+        }
+        let mut out = self.clone();
+        out.input_noise = None;
+        out.with_covariances(totals)
+    }
+
     /// Outputs ny.
     pub fn ny(&self) -> usize {
         self.ny
@@ -254,14 +362,20 @@ impl<T: Real> FrfMatrix<T> {
             .map(|e| e.band_hz(f_min, f_max))
             .collect::<Result<Vec<_>>>()?;
         // the kept lines are a run of the old ones: match them by frequency
+        let first = self
+            .omega()
+            .iter()
+            .position(|w| *w == entries[0].omega()[0])
+            .unwrap_or(0);
+        let kept = first..first + entries[0].len();
         let covariances = self.covariances.as_ref().map(|all| {
-            let first = self
-                .omega()
-                .iter()
-                .position(|w| *w == entries[0].omega()[0])
-                .unwrap_or(0);
             all.iter()
-                .map(|column| column[first..first + entries[0].len()].to_vec())
+                .map(|column| column[kept.clone()].to_vec())
+                .collect()
+        });
+        let input_noise = self.input_noise.as_ref().map(|all| {
+            all.iter()
+                .map(|column| column[kept.clone()].to_vec())
                 .collect()
         });
         Ok(Self {
@@ -269,6 +383,7 @@ impl<T: Real> FrfMatrix<T> {
             nu: self.nu,
             entries,
             covariances,
+            input_noise,
         })
     }
 }

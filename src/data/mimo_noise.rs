@@ -14,19 +14,23 @@ use nalgebra::{DMatrix, DVector};
 /// ```text
 /// C_Y(k) = 1/(P(P − 1)) Σ_p d_p(k) d_p(k)ᴴ        (ny × ny, Hermitian)
 /// σ²_U,j(k) = 1/(P(P − 1)) Σ_p |U_j,p(k) − Ū_j(k)|²
+/// C_YU(k) = 1/(P(P − 1)) Σ_p d_p(k) e_p(k)ᴴ        (ny × nu)
 /// ```
 ///
-/// the covariances of the *means* (the sample covariance between periods divided by P),
-/// with P − 1 degrees of freedom. The off-diagonal entries of C_Y are the correlation of
-/// the outputs' noise (one disturbance seen by several sensors); the diagonal weights a
-/// fit of the outputs; the input variances are the errors-in-variables terms of the
-/// inputs.
+/// (e_p(k) the deviation of period p's input spectra), the covariances of the *means*
+/// (the sample covariance between periods divided by P), with P − 1 degrees of freedom.
+/// The off-diagonal entries of C_Y are the correlation of the outputs' noise (one
+/// disturbance seen by several sensors); the diagonal weights a fit of the outputs; the
+/// input variances and C_YU are the errors-in-variables terms of the inputs.
 #[derive(Debug, Clone, PartialEq)]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct MimoNoise<T: Real> {
     periods: usize,
     output_covariance: Vec<DMatrix<Complex<T>>>,
     input_variance: Vec<Vec<T>>,
+    /// C_YU per line (ny × nu).
+    #[cfg_attr(feature = "serde", serde(default))]
+    cross_covariance: Vec<DMatrix<Complex<T>>>,
 }
 
 impl<T: Real> MimoNoise<T> {
@@ -64,6 +68,17 @@ impl<T: Real> MimoNoise<T> {
                     .collect()
             })
             .collect();
+        let nu = inputs.len();
+        let cross_covariance: Vec<DMatrix<Complex<T>>> = (0..lines)
+            .map(|k| {
+                DMatrix::from_fn(ny, nu, |i, j| {
+                    (0..periods).fold(Complex::new(T::zero(), T::zero()), |s, p| {
+                        s + (outputs[i][p][k] - y_mean[i][k])
+                            * (inputs[j][p][k] - u_mean[j][k]).conj()
+                    }) / Complex::new(norm, T::zero())
+                })
+            })
+            .collect();
         let diagonal: Vec<T> = output_covariance
             .iter()
             .flat_map(|c| c.iter().map(|v| v.norm_sqr()))
@@ -76,6 +91,7 @@ impl<T: Real> MimoNoise<T> {
             periods,
             output_covariance,
             input_variance,
+            cross_covariance,
         })
     }
 
@@ -111,6 +127,15 @@ impl<T: Real> MimoNoise<T> {
         &self.input_variance[j]
     }
 
+    /// C_YU(ω_k), the ny × nu covariance between the averaged output and input spectra at
+    /// line k, 1/(P(P − 1)) Σ_p d_Y,p d_U,pᴴ (zero for a record saved without it).
+    ///
+    /// # Panics
+    /// When k is not a line of a record that has it.
+    pub fn cross_covariance(&self, k: usize) -> &DMatrix<Complex<T>> {
+        &self.cross_covariance[k]
+    }
+
     /// The noise on the lines where `keep` is true (`keep` as long as the lines).
     pub(crate) fn select(&self, keep: &[bool]) -> Self {
         let pick = |k: &usize| keep[*k];
@@ -125,6 +150,10 @@ impl<T: Real> MimoNoise<T> {
                 .input_variance
                 .iter()
                 .map(|v| lines.iter().map(|k| v[*k]).collect())
+                .collect(),
+            cross_covariance: lines
+                .iter()
+                .filter_map(|k| self.cross_covariance.get(*k).cloned())
                 .collect(),
         }
     }

@@ -6,6 +6,7 @@ mod excitation;
 mod excited;
 mod frequency;
 mod grid;
+mod input_noise;
 mod lpm;
 mod matrix;
 mod merge;
@@ -27,6 +28,7 @@ pub use excited::{
 };
 pub use frequency::{FrequencyData, NoiseVariances};
 pub use grid::{SAMPLE_TIME_TOLERANCE, nyquist_slack};
+pub use input_noise::InputNoise;
 pub use lpm::{Lpm, LpmEstimate, lpm};
 pub use matrix::FrfMatrix;
 pub use merge::merge;

@@ -42,6 +42,7 @@
 mod arc_basis;
 mod common_denominator;
 mod correlated;
+mod errors_in_variables;
 mod matrix_fraction;
 mod model;
 mod passivity;
@@ -251,12 +252,7 @@ pub fn fit_common_poles<T: Real>(
     options: &CommonPoleOptions<T>,
 ) -> Result<CommonPoleFit<T>> {
     check_order_and_grid(data.omega(), order, options)?;
-    let weighted = Weighted::new(data, options.domain, options.direct)?;
-    let whitening = options
-        .full_covariance
-        .then(|| correlated::Whitening::of_matrix(data))
-        .flatten();
-    fit_weighted(&weighted, order, options, None, whitening.as_ref())
+    errors_in_variables::reweighted(data, order, None, options)
 }
 
 /// [`fit_common_poles`] with the relocation started from the poles `start` (rad/s in s,
@@ -310,12 +306,23 @@ pub fn fit_common_poles_from<T: Real>(
             reason: "starting poles are finite, one member with Im p > 0 per pair".into(),
         });
     }
+    errors_in_variables::reweighted(data, order, Some(start), options)
+}
+
+/// One common-pole fit of an FRF matrix weighted as it stands (its variances, or its
+/// covariances under `full_covariance`), from `start` or from spread poles.
+fn fit_matrix<T: Real>(
+    data: &FrfMatrix<T>,
+    order: usize,
+    start: Option<&PoleSet<T>>,
+    options: &CommonPoleOptions<T>,
+) -> Result<CommonPoleFit<T>> {
     let weighted = Weighted::new(data, options.domain, options.direct)?;
     let whitening = options
         .full_covariance
         .then(|| correlated::Whitening::of_matrix(data))
         .flatten();
-    fit_weighted(&weighted, order, options, Some(start), whitening.as_ref())
+    fit_weighted(&weighted, order, options, start, whitening.as_ref())
 }
 
 /// Fits a common-pole model of `order` poles to the spectra of a record with several

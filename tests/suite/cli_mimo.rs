@@ -817,8 +817,8 @@ fn has_f16_reference_modes(modes: &[f64]) {
 }
 
 /// `--full-covariance` on the F-16's three accelerometers (8 periods kept, 3 outputs):
-/// the fit is weighted by the outputs' noise covariance between periods (JSON
-/// `"weighting":"output_covariance"`), stable, with the 5.2 Hz wing bending and 7.32 Hz
+/// the fit is weighted by the noise covariance between periods of the outputs and of the
+/// measured force (JSON `"weighting":"errors_in_variables"`), stable, with the 5.2 Hz wing bending and 7.32 Hz
 /// wing torsion modes of the data README; the flag is refused (exit 2) when the periods
 /// kept do not exceed the outputs by two.
 #[test]
@@ -830,7 +830,7 @@ fn full_covariance_weights_the_f16_outputs_jointly() {
         "20",
         &["--full-covariance"],
     ));
-    assert_eq!(v["weighting"], "output_covariance");
+    assert_eq!(v["weighting"], "errors_in_variables");
     assert_eq!(v["stable"], true);
     has_f16_reference_modes(&mode_frequencies(&v));
     // 9 periods with 6 skipped leave 3: too few for a 3 × 3 covariance

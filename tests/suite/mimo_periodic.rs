@@ -97,6 +97,47 @@ fn output_noise_covariance_between_periods() {
     );
 }
 
+/// Input noise seen by the output: one input, u = a repeating period + n, two outputs
+/// y₁ = 0.5 n + e₁ and y₂ = e₂ (e independent of n), 8 periods of 256 samples. The
+/// output–input cross covariance between periods, averaged over the lines, is 0.5 of the
+/// input variance for y₁ and zero for y₂ (within 0.05 of the input variance); band
+/// selection keeps it.
+#[test]
+fn output_input_cross_covariance_between_periods() {
+    let periods = 8;
+    let mut d = Draw(0x0dd_ba11);
+    let period: Vec<f64> = (0..M).map(|_| d.signed()).collect();
+    let n: Vec<f64> = (0..M * periods).map(|_| 0.1 * d.signed()).collect();
+    let u: Vec<f64> = (0..M * periods).map(|t| period[t % M] + n[t]).collect();
+    let y1: Vec<f64> = (0..M * periods)
+        .map(|t| 0.5 * n[t] + 0.05 * d.signed())
+        .collect();
+    let y2: Vec<f64> = (0..M * periods).map(|_| 0.05 * d.signed()).collect();
+    let s = MimoSpectra::from_periods(vec![u], vec![y1, y2], TS, periods).unwrap();
+    let noise = s.noise().unwrap();
+    let lines = 1..M / 2;
+    let count = lines.len() as f64;
+    let (mut ratio1, mut ratio2) = (0.0, 0.0);
+    for k in lines {
+        let c = noise.cross_covariance(k);
+        let var_u = noise.input_variance(0)[k];
+        ratio1 += c[(0, 0)].re / var_u / count;
+        ratio2 += c[(1, 0)].re / var_u / count;
+    }
+    assert!((ratio1 - 0.5).abs() < 0.05, "c_y1u / var_u = {ratio1}");
+    assert!(ratio2.abs() < 0.05, "c_y2u / var_u = {ratio2}");
+    let band = s.band_hz(0.2, 0.8).unwrap();
+    let first = s
+        .omega()
+        .iter()
+        .position(|w| *w == band.omega()[0])
+        .unwrap();
+    assert_eq!(
+        band.noise().unwrap().cross_covariance(0),
+        noise.cross_covariance(first)
+    );
+}
+
 /// The record averaged over its periods (DC dropped) and its common-pole fit with a
 /// direct term (weighted by the full output covariance when `full_covariance`), whose
 /// poles are checked to 1 % of the truth.
