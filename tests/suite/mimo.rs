@@ -95,6 +95,23 @@ impl Case {
     }
 }
 
+/// The Monte Carlo tests' system: two outputs of one input sharing two resonances, with
+/// its response on 150 lines.
+pub(crate) fn two_outputs_on_150_lines()
+-> (CommonPoleModel<f64>, Vec<f64>, Vec<DMatrix<Complex<f64>>>) {
+    let case = Case {
+        seed: 11,
+        ny: 2,
+        nu: 1,
+        pairs: 2,
+        real: 0,
+    };
+    let truth = case.model();
+    let w = omega(150);
+    let clean = truth.response(&w);
+    (truth, w, clean)
+}
+
 pub(crate) fn omega(lines: usize) -> Vec<f64> {
     (0..lines)
         .map(|k| 0.05 * (400.0f64).powf(k as f64 / (lines - 1) as f64))
@@ -401,16 +418,7 @@ pub(crate) fn noise(d: &mut Draw, var: f64) -> Complex<f64> {
 /// mean within 3 predicted standard errors of the truth.
 #[test]
 fn shared_poles_spread_as_predicted() {
-    let case = Case {
-        seed: 11,
-        ny: 2,
-        nu: 1,
-        pairs: 2,
-        real: 0,
-    };
-    let truth = case.model();
-    let w = omega(150);
-    let clean = truth.response(&w);
+    let (truth, w, clean) = two_outputs_on_150_lines();
     let var = 1e-4;
     let runs = 200;
     let mut d = Draw(0x9e37_79b9_7f4a_7c15);

@@ -6,7 +6,7 @@
 //! variances alone.
 
 use crate::common;
-use crate::mimo::{Case, Draw, frf_matrix, noise, omega, pole_error};
+use crate::mimo::{Case, Draw, frf_matrix, noise, omega, pole_error, two_outputs_on_150_lines};
 
 use fdid::data::{FrfMatrix, InputNoise};
 use fdid::mimo::{CommonPoleOptions, MlOutcome, fit_common_poles};
@@ -137,16 +137,7 @@ fn mean_sd(samples: &[Vec<f64>], t: usize) -> (f64, f64) {
 /// variance of the pole parameters at most 0.7 of that fit's (0.54 measured).
 #[test]
 fn correlated_output_noise_spread_as_predicted_and_below_the_diagonal_fit() {
-    let case = Case {
-        seed: 11,
-        ny: 2,
-        nu: 1,
-        pairs: 2,
-        real: 0,
-    };
-    let truth = case.model();
-    let w = omega(150);
-    let clean = truth.response(&w);
+    let (truth, w, clean) = two_outputs_on_150_lines();
     let (var, rho) = (1e-4, 0.95);
     let c = Complex::new(var, 0.0);
     let cov = DMatrix::from_row_slice(2, 2, &[c, c * rho, c * rho, c]);
@@ -220,16 +211,7 @@ fn correlated_output_noise_spread_as_predicted_and_below_the_diagonal_fit() {
 /// alone) the cost is over twice its expectation and the poles' summed variance larger.
 #[test]
 fn input_noise_weighting_spread_as_predicted() {
-    let case = Case {
-        seed: 11,
-        ny: 2,
-        nu: 1,
-        pairs: 2,
-        real: 0,
-    };
-    let truth = case.model();
-    let w = omega(150);
-    let clean = truth.response(&w);
+    let (truth, w, clean) = two_outputs_on_150_lines();
     let (var_y, var_u) = (1e-4, 1e-3);
     let output = DMatrix::from_diagonal_element(2, 2, Complex::new(var_y, 0.0));
     let runs = 200;

@@ -85,12 +85,7 @@ fn output_noise_covariance_between_periods() {
     // the inputs repeat exactly: no input noise
     assert!(noise.input_variance(0).iter().all(|v| *v < 1e-25));
     // the band keeps the noise of its lines
-    let band = s.band_hz(0.2, 0.8).unwrap();
-    let first = s
-        .omega()
-        .iter()
-        .position(|w| *w == band.omega()[0])
-        .unwrap();
+    let (band, first) = band_and_first_line(&s);
     assert_eq!(
         band.noise().unwrap().output_covariance(0),
         noise.output_covariance(first)
@@ -126,16 +121,22 @@ fn output_input_cross_covariance_between_periods() {
     }
     assert!((ratio1 - 0.5).abs() < 0.05, "c_y1u / var_u = {ratio1}");
     assert!(ratio2.abs() < 0.05, "c_y2u / var_u = {ratio2}");
+    let (band, first) = band_and_first_line(&s);
+    assert_eq!(
+        band.noise().unwrap().cross_covariance(0),
+        noise.cross_covariance(first)
+    );
+}
+
+/// The 0.2–0.8 Hz band of `s` and the index in `s` of its first line.
+fn band_and_first_line(s: &MimoSpectra<f64>) -> (MimoSpectra<f64>, usize) {
     let band = s.band_hz(0.2, 0.8).unwrap();
     let first = s
         .omega()
         .iter()
         .position(|w| *w == band.omega()[0])
         .unwrap();
-    assert_eq!(
-        band.noise().unwrap().cross_covariance(0),
-        noise.cross_covariance(first)
-    );
+    (band, first)
 }
 
 /// The record averaged over its periods (DC dropped) and its common-pole fit with a
