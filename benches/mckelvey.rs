@@ -3,6 +3,8 @@
 //! - `transient_dt_1024`: Levy → SK → ML with the transient term (eqs. 4–5), order 2/1,
 //!   a non-periodic record of 1024 samples;
 //! - `noise_model_2048`: ML with a noise model H = C/D of orders (1, 1) (eq. 26), N = 2048;
+//! - `noise_model_order{5,10,20}_4096`: the same noise (ARMA(1, 1)) with a noise model of
+//!   orders (n, n), N = 4096: over-parameterised, the case whose LM used to crawl;
 //! - `eiv_p8`: errors-in-variables ML (eq. 42), 8 periods of 256 samples, 100 lines;
 //! - `delay_ct4_400`: the delayed fit of a 4th-order continuous-time system on 400 lines
 //!   (delay search, pipeline, ML);
@@ -61,9 +63,8 @@ fn transient_data() -> FrequencyData<f64> {
     TimeData::new(u[pre..].to_vec(), ym, TS).unwrap().dft()
 }
 
-fn noise_model_data() -> FrequencyData<f64> {
+fn noise_model_data(n: usize) -> FrequencyData<f64> {
     let mut rng = StdRng::seed_from_u64(2);
-    let n = 2048;
     let one = gauss(&mut rng, n, 1.0);
     let u: Vec<f64> = (0..2 * n).map(|t| one[t % n]).collect();
     let e = gauss(&mut rng, 2 * n, 0.05);
@@ -155,11 +156,22 @@ fn mckelvey(c: &mut Criterion) {
     group.bench_function("transient_dt_1024", |b| {
         b.iter(|| Pipeline::default().fit(black_box(&model), &data).unwrap())
     });
-    let data = noise_model_data();
+    let data = noise_model_data(2048);
     let model = Rational::discrete(2, 1, TS).unwrap();
     group.bench_function("noise_model_2048", |b| {
         b.iter(|| fit_noise_model(&Pipeline::default(), black_box(&model), &data, 1, 1).unwrap())
     });
+    let data = noise_model_data(4096);
+    group.sample_size(10);
+    for order in [5, 10, 20] {
+        group.bench_function(format!("noise_model_order{order}_4096"), |b| {
+            b.iter(|| {
+                fit_noise_model(&Pipeline::default(), black_box(&model), &data, order, order)
+                    .unwrap()
+            })
+        });
+    }
+    group.sample_size(20);
     let data = eiv_data();
     group.bench_function("eiv_p8", |b| {
         b.iter(|| fit_eiv(&Pipeline::default(), black_box(&model), &data).unwrap())
