@@ -148,8 +148,8 @@ pub fn enforce_passivity(
     let mut relative_change = change(model, &current, omega);
     let mut scaled_instead = false;
     // S scaled by (1 − 10⁻⁵)/σ_max is passive on the grid with a relative change of
-    // 1 − (1 − 10⁻⁵)/σ_max: when the violation is broad (σ_max above 1 over most of the
-    // band) the perturbation can change the model more than that, or not converge
+    // 1 − (1 − 10⁻⁵)/σ_max: the fallback when the perturbation changed the model more
+    // than that, or did not converge
     if !before.passive() {
         let factor = (1.0 - MARGIN) / before.max_singular_value;
         let scaled_change = 1.0 - factor;
