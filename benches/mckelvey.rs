@@ -8,13 +8,17 @@
 //! - `eiv_p8`: errors-in-variables ML (eq. 42), 8 periods of 256 samples, 100 lines;
 //! - `delay_ct4_400`: the delayed fit of a 4th-order continuous-time system on 400 lines
 //!   (delay search, pipeline, ML);
+//! - `delay_dt6_4096` and `known_delay_dt6_4096`: a 6th-order discrete-time system with a
+//!   delay of 4.5 samples on 4 096 lines at 40 dB (the peers' `c_dt6_delay`), fitted with
+//!   the delay searched, and with the delay removed from the data beforehand (the fit the
+//!   peers are timed on); `known_delay_ct4_400` likewise for `delay_ct4_400`;
 //! - `modal_zoh_128`: the ZOH-sampled modal model with transient, N = 128.
 //!
 //! Run: `cargo bench --bench mckelvey`.
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use fdid::estimate::{ModalOptions, fit_modal};
-use fdid::model::Delayed;
+use fdid::model::{Delayed, remove_delay};
 use fdid::prelude::*;
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
@@ -123,6 +127,45 @@ fn delay_data() -> FrequencyData<f64> {
     FrequencyData::from_frf(omega, frf, None).unwrap()
 }
 
+/// The 6th-order system of `delay_dt6_4096` on 4 096 lines with the delay of 4.5 samples,
+/// complex noise at 1 % of the RMS response, and the delay.
+fn delay_dt_data() -> (FrequencyData<f64>, f64) {
+    let mut rng = StdRng::seed_from_u64(6);
+    let tau = 4.5;
+    let poles = [
+        Complex::from_polar(0.97, 0.25),
+        Complex::from_polar(0.93, 0.9),
+        Complex::from_polar(0.9, 2.1),
+    ];
+    let b = [0.2, 0.5, -0.3, 0.4, 0.1, 0.05];
+    let n = 4096;
+    let omega: Vec<f64> = (1..=n)
+        .map(|k| std::f64::consts::PI * k as f64 / (n + 1) as f64)
+        .collect();
+    let g: Vec<Complex<f64>> = omega
+        .iter()
+        .map(|w| {
+            let zi = Complex::from_polar(1.0, -w);
+            let num = b
+                .iter()
+                .rev()
+                .fold(Complex::new(0.0, 0.0), |s, c| s * zi + c);
+            let den = poles.iter().fold(Complex::new(1.0, 0.0), |s, p| {
+                s * (Complex::new(1.0, 0.0) - zi * p) * (Complex::new(1.0, 0.0) - zi * p.conj())
+            });
+            num / den * Complex::from_polar(1.0, -w * tau)
+        })
+        .collect();
+    let rms = (g.iter().map(|v| v.norm_sqr()).sum::<f64>() / n as f64).sqrt();
+    let noise = gauss(&mut rng, 2 * n, 0.01 * rms / 2f64.sqrt());
+    let frf = g
+        .iter()
+        .enumerate()
+        .map(|(k, v)| v + Complex::new(noise[2 * k], noise[2 * k + 1]))
+        .collect();
+    (FrequencyData::from_frf(omega, frf, Some(1.0)).unwrap(), tau)
+}
+
 fn modal_data() -> FrequencyData<f64> {
     let mut rng = StdRng::seed_from_u64(5);
     let (ts, n) = (0.7, 128);
@@ -180,6 +223,27 @@ fn mckelvey(c: &mut Criterion) {
     let model = Delayed::new(Rational::continuous(4, 2, data.omega()).unwrap());
     group.bench_function("delay_ct4_400", |b| {
         b.iter(|| black_box(&model).fit(&Pipeline::default(), &data).unwrap())
+    });
+    let known = remove_delay(&data, 0.37).unwrap();
+    group.bench_function("known_delay_ct4_400", |b| {
+        b.iter(|| {
+            Pipeline::default()
+                .fit(black_box(model.inner()), &known)
+                .unwrap()
+        })
+    });
+    let (data, tau) = delay_dt_data();
+    let model = Delayed::new(Rational::discrete(6, 5, 1.0).unwrap());
+    group.bench_function("delay_dt6_4096", |b| {
+        b.iter(|| black_box(&model).fit(&Pipeline::default(), &data).unwrap())
+    });
+    let known = remove_delay(&data, tau).unwrap();
+    group.bench_function("known_delay_dt6_4096", |b| {
+        b.iter(|| {
+            Pipeline::default()
+                .fit(black_box(model.inner()), &known)
+                .unwrap()
+        })
     });
     let data = modal_data();
     let opts = ModalOptions::zoh(0.7).with_direct().with_transient();

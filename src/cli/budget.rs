@@ -19,8 +19,10 @@ const STOPPED_NOTE: &str = "the fit was stopped at the work budget of about a mi
     (--allow-long lifts the budget; --band or lower orders make the fit cheaper)";
 
 /// `spec` fitted to `data`, with a note when the work budget stopped it. Unless
-/// `allow_long`: refused when the bound of its search stages ([`ModelSpec::search_work`])
-/// is beyond [`MAX_SECONDS`], and run within that much work ([`ModelSpec::fit_within`]).
+/// `allow_long`: refused when the work every fit of it makes
+/// ([`ModelSpec::least_search_work`]: a delay search up to its first candidate) is beyond
+/// [`MAX_SECONDS`], and run within that much work ([`ModelSpec::fit_within`]), which stops
+/// a delay search that has to scan further.
 pub(super) fn fit(
     spec: &ModelSpec,
     data: &FrequencyData<f64>,
@@ -34,16 +36,18 @@ pub(super) fn fit(
     Ok((fit, stopped.then_some(STOPPED_NOTE)))
 }
 
-/// Refuses `spec` on `data` when the bound of its search stages is beyond [`MAX_SECONDS`].
+/// Refuses `spec` on `data` when the least work of its search stages is beyond
+/// [`MAX_SECONDS`].
 fn check_search(spec: &ModelSpec, data: &FrequencyData<f64>) -> Result<(), Failure> {
-    let work = spec.search_work(data)?;
+    let work = spec.least_search_work(data)?;
     let seconds = work / WORK_PER_SECOND;
     if seconds <= MAX_SECONDS {
         return Ok(());
     }
     let mut options = vec![];
     if spec.delay {
-        options.push("--delay (a scan of up to 512 candidate delays, then ML)".to_string());
+        options
+            .push("--delay (the phase-slope delay refined by ML, then the joint ML)".to_string());
     }
     if let Some(n) = spec.noise_order {
         options.push(format!(

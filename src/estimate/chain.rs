@@ -45,7 +45,7 @@ where
 }
 
 /// ML from `start`: the guarded normal-equation LM first, the crate's LM when it fails.
-fn ml_solve<T: Real, P: NonlinearProblem<T> + ?Sized>(
+pub(crate) fn ml_solve<T: Real, P: NonlinearProblem<T> + ?Sized>(
     fast: &GramLevenbergMarquardt,
     lm: &LevenbergMarquardt,
     problem: &P,

@@ -2,7 +2,7 @@
 //! and a scan of candidates by output-error cost ([`delay_start`]), then the joint ML of
 //! G_M(θ) e^{−iωτ} ([`Delayed::fit`], [`fit_delayed`]).
 
-use super::{FurtherStarts, Pipeline, estimate};
+use super::{FurtherStarts, Pipeline};
 use crate::criterion::{Criterion, MaximumLikelihood};
 use crate::data::FrequencyData;
 use crate::error::{FdidError, Result};
@@ -10,7 +10,7 @@ use crate::fit::{Fit, Stage, StageKind};
 use crate::model::delay::delay_factor;
 use crate::model::{Delayed, ModelStructure, remove_delay};
 use crate::scalar::{Complex, Real};
-use crate::solver::{LevenbergMarquardt, Solution, Termination};
+use crate::solver::{GramLevenbergMarquardt, LevenbergMarquardt, Solution, Termination};
 use num_traits::Float;
 
 /// A starting delay from [`delay_start`], with what its search did.
@@ -64,7 +64,9 @@ pub(super) const CANDIDATE_ROUNDS: usize = 3;
 ///    regress the unwrapped phase of H_k e^{iω_kτ}/G_M(ω_k) (the phase of Y/U minus those
 ///    of the delay and of the delay-free fit) the same way and move τ by the remaining
 ///    slope; stop when the step is below δ/8 (δ below);
-/// 3. the phase slope is biased by the mean group delay of G_M (step 1), and a rational
+/// 3. the delay of step 2 is refined first (as in step 4); when that reaches the stopping
+///    cost (below) the search ends there. Otherwise: the phase slope is biased by the mean
+///    group delay of G_M (step 1), and a rational
 ///    fit absorbs much of a residual linear phase (a Padé-like approximation of a delay,
 ///    step 2), so a scan by cost follows: candidates τ_r + jδ, δ = π/(4 ω_max) — an eighth
 ///    of the period of the highest frequency, Ts/4 for discrete time up to Nyquist —
@@ -72,7 +74,7 @@ pub(super) const CANDIDATE_ROUNDS: usize = 3;
 ///    about p_M·π/2 over the band: a few samples for a low-order discrete model), each
 ///    screened by V(τ) after three SK iterations; with bounds the scan covers [lo, hi]
 ///    instead when that is no wider (at most 512 candidates, δ widened if needed);
-/// 4. the phase-slope estimate and the five lowest local minima of the scan are refined:
+/// 4. the five lowest local minima of the scan are refined:
 ///    each by three rounds of a delay-free fit at the current τ — in full (Levy → SK), by
 ///    Levy alone, and in full on the lower half of the band, whose phase error from a
 ///    small delay error is halved — followed by output-error ML ([`MaximumLikelihood`],
@@ -88,6 +90,12 @@ pub(super) const CANDIDATE_ROUNDS: usize = 3;
 ///    τ₀ is the refined delay of lowest ML cost V. V is jagged in τ (a wrong delay leaves
 ///    SK in different local solutions), which is why the search scans densely and
 ///    refines several minima rather than descending from one point.
+///
+/// The refinements stop as soon as the best ML cost reaches the stopping cost: the noise
+/// level — with noise variances its 99.95 % quantile N − p/2 + 3.3√N, without them the
+/// level estimated from the best fit's residuals by their second differences over the
+/// lines ([`noise_level_cost`]) — or round-off on noise-free data. No other delay can
+/// lower such a cost significantly.
 ///
 /// Every candidate is clamped into the model's bounds; without bounds τ may turn out
 /// negative (an advance).
@@ -122,17 +130,23 @@ pub fn delay_start<T: Real, M: FurtherStarts<T>>(
     );
     // 1. the slope of the raw phase
     let tau_r = search.raw_phase_slope(&h);
-    // 2. phase-slope iterations on delay-compensated fits
+    // 2. phase-slope iterations on delay-compensated fits, their delay refined first
     let phase_slope = search.phase_iterations(&h, tau_r);
+    search.refine(phase_slope);
+    if search.done() {
+        return search.finish(phase_slope);
+    }
     // 3. the screening scan
     let grid = search.scan_grid(tau_r);
     let scan = search.screen(grid);
-    // 4. the phase-slope estimate and the lowest local minima of the scan, refitted in
-    //    full and refined by ML on the delayed model
+    // 4. the lowest local minima of the scan, refitted in full and refined by ML on the
+    //    delayed model
     let candidates = search.candidates(phase_slope, &scan);
     search.refine_candidates(candidates);
     // 5. multiples of π/ω_max away from the best
     search.refine_sample_multiples();
+    // 6. between the two lowest minima
+    search.refine_between(&scan);
     search.finish(phase_slope)
 }
 
@@ -181,6 +195,58 @@ fn stopping_cost<T: Real, M: FurtherStarts<T>>(
     Float::max(good_enough, floor)
 }
 
+/// The fewest lines from which [`noise_level_cost`] estimates the noise level.
+const NOISE_LEVEL_LINES: usize = 32;
+
+/// The output-error cost at the noise level of unweighted data, estimated from the
+/// residuals of the fit θ of `model`: a cost the best delay cannot improve on
+/// significantly, `None` on fewer than 32 lines.
+///
+/// **Method.** The residual of the FRF, q_k = (Y_k − Ŷ_k)/U_k, is noise of variance
+/// σ²/|U_k|² plus the model's error, which is smooth in k wherever the lines resolve the
+/// response. Its second differences d_k = q_{k−1} − 2q_k + q_{k+1} cancel the smooth part
+/// and keep noise of variance σ² s_k, s_k = 1/|U_{k−1}|² + 4/|U_k|² + 1/|U_{k+1}|²
+/// (neighbouring lines' noise independent). |d_k|²/(σ² s_k) is then exponential of mean
+/// one, whose median is ln 2, so σ̂² = median_k(|d_k|²/s_k)/ln 2 — the median keeps the
+/// few lines where the model's error is not smooth (a missed resonance) from raising it.
+/// The returned cost is σ̂²(N − p/2 + 3.3√N)(1 + 6/√N): the 99.95 % quantile of the cost
+/// at the noise level (as [`stopping_cost`] with known variances), widened by three
+/// standard deviations of σ̂² (about 2/√N relative for the median of correlated
+/// differences). A wrong delay's systematic error is smooth, so its cost exceeds the level
+/// unless it is insignificant beside the noise.
+fn noise_level_cost<T: Real, M: FurtherStarts<T>>(
+    model: &Delayed<M>,
+    theta: &[T],
+    data: &FrequencyData<T>,
+) -> Option<T> {
+    let n = data.len();
+    if n < NOISE_LEVEL_LINES {
+        return None;
+    }
+    let mut out = crate::model::Output::new(n, ModelStructure::<T>::n_params(model));
+    out.evaluate(model, theta, data, false);
+    let (y, u) = (data.y(), data.u());
+    let q: Vec<Complex<T>> = (0..n).map(|k| (y[k] - out.yhat[k]) / u[k]).collect();
+    let inv: Vec<T> = u.iter().map(|u| T::one() / u.norm_sqr()).collect();
+    let mut ratios: Vec<T> = (1..n - 1)
+        .map(|k| {
+            let d = q[k - 1] - q[k] * T::lit(2.0) + q[k + 1];
+            d.norm_sqr() / (inv[k - 1] + inv[k] * T::lit(4.0) + inv[k + 1])
+        })
+        .filter(|r| Float::is_finite(*r))
+        .collect();
+    if ratios.len() < NOISE_LEVEL_LINES / 2 {
+        return None;
+    }
+    let sigma2 = median(&mut ratios) / T::lit(std::f64::consts::LN_2);
+    let nf = T::from_usize_lossy(n);
+    let p = T::from_usize_lossy(ModelStructure::<T>::n_params(model));
+    let root = Float::sqrt(nf);
+    let level =
+        sigma2 * (nf - p / T::lit(2.0) + T::lit(3.3) * root) * (T::one() + T::lit(6.0) / root);
+    Float::is_finite(level).then_some(level)
+}
+
 /// The local minima of the screening `scan` (τ, cost), lowest cost first.
 fn local_minima<T: Real>(scan: &[(T, T)]) -> Vec<(T, T)> {
     let mut minima: Vec<(T, T)> = (0..scan.len())
@@ -213,8 +279,15 @@ struct DelaySearch<'a, T: Real, M> {
     lm: LevenbergMarquardt,
     /// δ = π/(4 ω_max).
     step: T,
-    /// The ML cost at which the search stops ([`stopping_cost`]).
+    /// The ML cost at which the search stops ([`stopping_cost`]); without noise weights
+    /// the noise level estimated from the best round's own residuals may raise it
+    /// ([`Self::stop_cost`]).
     threshold: T,
+    /// The ML cost of the best round so far and the noise-level cost of its residuals
+    /// ([`noise_level_cost`], `None` with noise weights or too few lines).
+    best_round: Option<(T, Option<T>)>,
+    /// Whether the lines carry no noise weights (the noise level is then estimated).
+    flat: bool,
     /// Delay-free fits made.
     fits: usize,
     /// The first failure of a fit.
@@ -278,6 +351,8 @@ impl<'a, T: Real, M: FurtherStarts<T>> DelaySearch<'a, T, M> {
             },
             step: T::pi() / (T::lit(4.0) * w_max),
             threshold: stopping_cost(model, data, line_weights),
+            best_round: None,
+            flat: line_weights.is_none(),
             fits: 0,
             first_error: None,
             refined: vec![],
@@ -368,6 +443,9 @@ impl<'a, T: Real, M: FurtherStarts<T>> DelaySearch<'a, T, M> {
         let mut scan: Vec<(T, T)> = vec![];
         let n = grid.len();
         for (i, t) in grid.into_iter().enumerate() {
+            if crate::solver::work::spent() {
+                break;
+            }
             if i % 32 == 0 {
                 crate::progress::report(|| format!("delay search: candidate {} of {n}", i + 1));
             }
@@ -398,6 +476,8 @@ impl<'a, T: Real, M: FurtherStarts<T>> DelaySearch<'a, T, M> {
                 candidates.push(t);
             }
         }
+        // the phase-slope estimate is refined before the scan
+        candidates.remove(0);
         candidates
     }
 
@@ -460,9 +540,78 @@ impl<'a, T: Real, M: FurtherStarts<T>> DelaySearch<'a, T, M> {
         }
     }
 
-    /// Whether the best refined delay reaches the threshold.
+    /// Step 6: unless the threshold is reached, refines the delays between minima: the
+    /// midpoint of the two lowest local minima of the screening `scan`, then the
+    /// midpoint and quarter points between the best refined delay and its nearest refined
+    /// neighbour on each side (at least δ/2 and at most 8δ away), until one reaches the
+    /// threshold. A rational model absorbs a small delay error on either side of the true
+    /// delay (zeros in the right or left half plane): the ML cost then has a local minimum
+    /// on each side, and the narrow global one between them is missed by refinements that
+    /// start at the flanks.
+    fn refine_between(&mut self, scan: &[(T, T)]) {
+        if self.done() {
+            return;
+        }
+        let step = self.step;
+        let apart = |a: T, b: T| {
+            let d = Float::abs(a - b);
+            d >= step / T::lit(2.0) && d <= step * T::lit(8.0)
+        };
+        let mut starts: Vec<T> = vec![];
+        let minima = local_minima(scan);
+        if let Some(a) = minima.first().map(|m| m.0)
+            && let Some(b) = minima.iter().skip(1).map(|m| m.0).find(|b| apart(a, *b))
+        {
+            starts.push((a + b) / T::lit(2.0));
+        }
+        if let Some((a, _)) = best(&self.refined) {
+            let neighbours = [true, false].map(|below| {
+                self.refined
+                    .iter()
+                    .filter(|(t, c)| Float::is_finite(*c) && (*t < a) == below && apart(a, *t))
+                    .map(|(t, _)| *t)
+                    .min_by(|x, y| {
+                        Float::abs(*x - a)
+                            .partial_cmp(&Float::abs(*y - a))
+                            .unwrap_or(std::cmp::Ordering::Equal)
+                    })
+            });
+            for b in neighbours.into_iter().flatten() {
+                starts.extend([0.5, 0.25, 0.75].iter().map(|f| a + (b - a) * T::lit(*f)));
+            }
+        }
+        let mut tried: Vec<T> = vec![];
+        for t in starts {
+            let t = self.model.clamp(t);
+            if tried
+                .iter()
+                .any(|r| Float::abs(*r - t) < step / T::lit(8.0))
+            {
+                continue;
+            }
+            tried.push(t);
+            self.refine(t);
+            if self.done() {
+                break;
+            }
+        }
+    }
+
+    /// Whether the best refined delay reaches the threshold, or the work budget
+    /// ([`crate::solver::work`]) is spent with a delay refined.
     fn done(&self) -> bool {
-        best(&self.refined).is_some_and(|b| b.1 <= self.threshold)
+        best(&self.refined).is_some_and(|b| b.1 <= self.stop_cost() || crate::solver::work::spent())
+    }
+
+    /// The cost at which the search stops: [`stopping_cost`], or the noise level estimated
+    /// from the residuals of the best round itself when that is higher. Only the best
+    /// round's own estimate counts: a worse fit's residuals (a wrong delay's error
+    /// varying from line to line near a resonance) overstate the noise.
+    fn stop_cost(&self) -> T {
+        match self.best_round {
+            Some((_, Some(level))) => Float::max(self.threshold, level),
+            _ => self.threshold,
+        }
     }
 
     /// Refines the candidate delay `t` by up to [`CANDIDATE_ROUNDS`] rounds
@@ -479,7 +628,7 @@ impl<'a, T: Real, M: FurtherStarts<T>> DelaySearch<'a, T, M> {
                 last = Some((tau, cost));
             }
             t = tau;
-            if cost <= self.threshold {
+            if cost <= self.stop_cost() {
                 break;
             }
         }
@@ -496,7 +645,10 @@ impl<'a, T: Real, M: FurtherStarts<T>> DelaySearch<'a, T, M> {
         }
         self.fits += 1;
         let outcome = match self.refine_round(t, round) {
-            Ok(sol) if Float::is_finite(sol.theta[sol.theta.len() - 1]) => {
+            Ok((sol, level)) if Float::is_finite(sol.theta[sol.theta.len() - 1]) => {
+                if self.best_round.is_none_or(|(c, _)| sol.cost < c) {
+                    self.best_round = Some((sol.cost, level));
+                }
                 Some((self.model.clamp(sol.theta[sol.theta.len() - 1]), sol.cost))
             }
             Ok(_) => None,
@@ -512,15 +664,24 @@ impl<'a, T: Real, M: FurtherStarts<T>> DelaySearch<'a, T, M> {
     /// One round of a refinement at τ = `t`: the delay-free fit at `t` (round 0: in full;
     /// round 1: Levy alone; round 2: in full on the lower half of the band), then ML on the
     /// delayed model from [θ_M, t]. A second round from the ML delay has a better inner
-    /// start when `t` was a fraction of δ off.
-    fn refine_round(&self, t: T, round: usize) -> Result<Solution<T>> {
+    /// start when `t` was a fraction of δ off. Without noise weights, the noise-level cost
+    /// of the fit's residuals ([`noise_level_cost`]) comes with the solution.
+    fn refine_round(&self, t: T, round: usize) -> Result<(Solution<T>, Option<T>)> {
         let inner_pipeline = if round == 1 { &self.levy } else { &self.full };
         self.search
             .fit_full(inner_pipeline, t, round == 2)
             .and_then(|(inner, theta)| {
                 let delayed = Delayed::new(inner);
                 let start = Delayed::<M>::theta(&theta, t);
-                estimate(&delayed, self.data, &self.ml, &self.lm, Some(&start))
+                let problem = self.ml.problem(&delayed, self.data)?;
+                let fast = GramLevenbergMarquardt::from(self.lm);
+                let sol = super::chain::ml_solve(&fast, &self.lm, &problem, &start)?;
+                let level = if self.flat {
+                    noise_level_cost(&delayed, &sol.theta, self.data)
+                } else {
+                    None
+                };
+                Ok((sol, level))
             })
     }
 
@@ -696,7 +857,9 @@ impl<M: Clone> Delayed<M> {
             weighting: pipeline.weighting,
         };
         let problem = ml.problem(&model, data)?;
-        let solution = super::chain::lm_solve_in(&lm, &model, &problem, &theta0, pipeline.stable)?;
+        let fast = GramLevenbergMarquardt::from(lm);
+        let solution =
+            super::chain::ml_solve_in(&fast, &lm, &model, &problem, &theta0, pipeline.stable)?;
         let theta = solution.theta.clone();
         stages.push(Stage {
             kind: StageKind::MlDelayed,

@@ -493,10 +493,44 @@ impl ModelSpec {
     /// # Errors
     /// As [`ModelSpec::model`].
     pub fn search_work(&self, data: &FrequencyData<f64>) -> Result<f64> {
+        self.search_work_of(data, super::work::delay_search)
+    }
+
+    /// The part of [`ModelSpec::search_work`] that every fit of the spec makes: the same
+    /// except that a delay search stops after its first candidate, as it does when that
+    /// candidate's ML cost reaches the noise level ([`crate::estimate::delay_start`]). A
+    /// caller that runs within a work budget ([`ModelSpec::fit_within`]) can refuse the
+    /// specs whose least work is already beyond it, and let the budget stop the rest.
+    ///
+    /// ```
+    /// use fdid::estimate::ModelSpec;
+    /// use fdid::prelude::*;
+    /// # fn main() -> fdid::Result<()> {
+    /// let omega: Vec<f64> = (1..=500).map(|k| k as f64 * std::f64::consts::PI / 501.0).collect();
+    /// let y = vec![Complex::new(1.0, 0.0); 500];
+    /// let data = FrequencyData::from_frf(omega, y, Some(1.0))?;
+    /// let delayed = ModelSpec { delay: true, ..ModelSpec::discrete(2, 2, 1.0) };
+    /// assert!(delayed.least_search_work(&data)? < delayed.search_work(&data)? / 10.0);
+    /// # Ok(())
+    /// # }
+    /// ```
+    ///
+    /// # Errors
+    /// As [`ModelSpec::model`].
+    pub fn least_search_work(&self, data: &FrequencyData<f64>) -> Result<f64> {
+        self.search_work_of(data, super::work::delay_search_least)
+    }
+
+    /// [`ModelSpec::search_work`] with the delay search's work from `delay_work(p, lines)`.
+    fn search_work_of(
+        &self,
+        data: &FrequencyData<f64>,
+        delay_work: fn(usize, usize) -> f64,
+    ) -> Result<f64> {
         let p = self.model(data)?.n_params();
         let lines = data.len();
         let delay = if self.delay {
-            super::work::delay_search(p, lines)
+            delay_work(p, lines)
         } else {
             0.0
         };

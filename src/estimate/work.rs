@@ -47,6 +47,19 @@ pub(super) fn delay_search(p: usize, lines: usize) -> f64 {
         + solves(lm_evaluations(q), lines, q)
 }
 
+/// The part of [`delay_search`] that every search makes: the phase iterations, the first
+/// refinement (its rounds of a delay-free fit and an ML with the search's budget) and the
+/// fits after the search. A search whose first refinement reaches the noise level stops
+/// there; the scan and the other refinements follow only when it does not.
+pub(super) fn delay_search_least(p: usize, lines: usize) -> f64 {
+    let q = p + 1;
+    let search_ml = SEARCH_EVALUATIONS.max(SEARCH_PATIENCE * (q + 1));
+    solves(PHASE_ITERATIONS * linear_fit(), lines, p)
+        + CANDIDATE_ROUNDS as f64 * (solves(linear_fit(), lines, p) + solves(search_ml, lines, q))
+        + solves(linear_fit() + lm_evaluations(p), lines, p)
+        + solves(lm_evaluations(q), lines, q)
+}
+
 /// The noise-model ML of [`super::refine_noise_model`] for a system of `p` parameters and
 /// `n` noise parameters on `lines` lines: one Levenberg–Marquardt run on p + n parameters
 /// at its full budget (the polish after H is stabilised, when a root was reflected, took

@@ -56,6 +56,12 @@ pub(crate) fn charge(work: f64) -> bool {
     }
 }
 
+/// Whether this thread runs within a budget that is spent: a search that makes many fits
+/// (each with non-iterative stages the budget does not stop) ends at its best so far.
+pub(crate) fn spent() -> bool {
+    LEFT.get().is_some_and(|left| left <= 0.0)
+}
+
 /// The cost of one solve of `rows` real equations in `p` unknowns.
 pub(crate) fn solve_cost(rows: usize, p: usize) -> f64 {
     rows as f64 * (p * p) as f64
@@ -72,6 +78,7 @@ mod tests {
             assert!(charge(4.0) && charge(4.0));
             assert!(!charge(4.0));
             assert!(!charge(1.0), "stays spent");
+            assert!(spent());
         });
         assert!(stopped);
         let ((), stopped) = within(10.0, || {

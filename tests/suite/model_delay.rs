@@ -576,16 +576,19 @@ fn dt_f64_known_failure() {
     assert!(!r.is_failure(), "{r:?}");
 }
 
-/// Survey: failure counts over 200 random cases per kind (prints the failures). Run with
-/// `cargo test --release --all-features --test suite model_delay::survey -- --ignored --nocapture`.
+/// Survey: failure counts over 500 random noise-free cases per kind (CT and DT, f64 and
+/// f32, orders 1–6, delays of 0–8 units of π/ω_max; prints the failures), at most one
+/// failure per kind (the right minimum on ≥ 499 of 500). Run with
+/// `cargo test --release --all-features --test suite model_delay::survey -- --ignored --nocapture`
+/// (about a minute; `FDID_QC_SEED` changes the cases).
 #[test]
 #[ignore]
 fn survey() {
-    fn run<T: Real, const DT: bool>(label: &str) {
-        let mut g = Gen::from_size_and_seed(100, 99);
+    fn run<T: Real, const DT: bool>(label: &str) -> usize {
+        let mut g = Gen::from_size_and_seed(100, qc_seed(99));
         let (mut fails, mut worst_t, mut worst_g) = (0, 0.0f64, 0.0f64);
         let t = std::time::Instant::now();
-        for _ in 0..200 {
+        for _ in 0..500 {
             let case = Case::<DT, 6>::arbitrary(&mut g);
             match recovery::<T, DT, 6>(&case) {
                 Ok((et, eg)) => {
@@ -604,14 +607,18 @@ fn survey() {
             }
         }
         eprintln!(
-            "{label}: {fails}/200 failures; passing worst τ {worst_t:.1e}, FRF {worst_g:.1e}; {:.1?}",
+            "{label}: {fails}/500 failures; passing worst τ {worst_t:.1e}, FRF {worst_g:.1e}; {:.1?}",
             t.elapsed()
         );
+        fails
     }
-    run::<f64, false>("CT f64");
-    run::<f64, true>("DT f64");
-    run::<f32, false>("CT f32");
-    run::<f32, true>("DT f32");
+    let fails = [
+        run::<f64, false>("CT f64"),
+        run::<f64, true>("DT f64"),
+        run::<f32, false>("CT f32"),
+        run::<f32, true>("DT f32"),
+    ];
+    assert!(fails.iter().all(|f| *f <= 1), "failures per kind {fails:?}");
 }
 
 // ---------------------------------------------------------------------------------------

@@ -293,7 +293,9 @@ mod command {
                 "{err}"
             );
         }
-        // 10⁶ samples: even the lowest orders of a delay or a noise model are refused
+        // 10⁶ samples: a noise model of the lowest orders is refused, and so is a delay
+        // whose search up to its first candidate alone would take longer (order 1/0 runs:
+        // its search stops at the work budget, `work_budget::a_spent_budget_ends_the_delay_search`)
         let dir = Scratch::new("million");
         let mut text = String::with_capacity(30_000_000);
         text.push_str("t,u,y\n");
@@ -305,9 +307,13 @@ mod command {
             y = [next, y[0]];
         }
         let file = dir.file("million.csv", &text);
-        let one = ["--domain", "z", "--ts", "1", "--na", "1", "--nb", "0"];
-        for extra in [&["--delay"][..], &["--noise-order", "3"][..]] {
-            let err = exits(&file, &[&one[..], extra].concat(), 2);
+        let zts = ["--domain", "z", "--ts", "1"];
+        let cases = [
+            (&["--na", "2", "--nb", "1", "--delay"][..]),
+            (&["--na", "1", "--nb", "0", "--noise-order", "3"][..]),
+        ];
+        for extra in cases {
+            let err = exits(&file, &[&zts[..], extra].concat(), 2);
             assert!(
                 err.contains("500000 lines") || err.contains("499999 lines"),
                 "{err}"

@@ -87,3 +87,46 @@ fn a_budget_must_be_positive() {
         assert!(err.to_string().contains("work"), "{err}");
     }
 }
+
+/// The delay search makes many delay-free fits whose linear stages the budget does not
+/// stop; once the budget is spent it ends at its best refined delay. An order-1 model of
+/// the delayed second-order system never reaches the noise level, so without a budget the
+/// search scans and refines every candidate.
+#[test]
+fn a_spent_budget_ends_the_delay_search() {
+    let data = second_order(4000);
+    let delayed: Vec<Complex<f64>> = data
+        .omega()
+        .iter()
+        .zip(data.y())
+        .map(|(w, y)| y * Complex::new(0.0, -2.3 * w).exp())
+        .collect();
+    let data = FrequencyData::from_frf(data.omega().to_vec(), delayed, Some(1.0)).unwrap();
+    let spec = ModelSpec {
+        delay: true,
+        ..ModelSpec::discrete(1, 0, 1.0)
+    };
+    let search_fits = |fit: &RationalFit| {
+        let RationalFit::Delayed(fit) = fit else {
+            panic!("a delayed spec gives a delayed fit")
+        };
+        fit.stages()
+            .iter()
+            .find(|s| s.kind == StageKind::Delay)
+            .map(|s| s.solution.iterations)
+            .unwrap()
+    };
+    let full = spec.fit(&data).unwrap();
+    let least = spec.least_search_work(&data).unwrap();
+    assert!(least < spec.search_work(&data).unwrap());
+    // the bound counts every solver at its full evaluation budget: a hundredth of it is
+    // spent before the scan
+    let (within, stopped) = spec.fit_within(&data, least / 100.0).unwrap();
+    assert!(stopped);
+    assert!(within.cost().is_finite());
+    let (n_full, n_within) = (search_fits(&full), search_fits(&within));
+    assert!(
+        4 * n_within < n_full,
+        "{n_within} fits within the budget, {n_full} without"
+    );
+}
