@@ -45,6 +45,10 @@ pub(super) const MAX_SCAN: usize = 512;
 /// The most delays a whole number of samples from the best refined one that are refined
 /// too (±1, ±2 sample periods from it; the nearest whole number of samples and ±1, ±2).
 pub(super) const SAMPLE_MULTIPLES: usize = 9;
+/// The most delays between minima that are refined (the midpoint of the scan's two lowest
+/// minima; the midpoint and quarter points towards the best delay's neighbour on each
+/// side).
+pub(super) const BETWEEN_STARTS: usize = 7;
 /// Rounds of (delay-free fit, ML on the delayed model) per refined candidate.
 pub(super) const CANDIDATE_ROUNDS: usize = 3;
 
@@ -87,15 +91,27 @@ pub(super) const CANDIDATE_ROUNDS: usize = 3;
 ///    the joint ML from one of them usually reaches the true delay;
 /// 5. the same refinement at ±1 and ±2 multiples of π/ω_max from the best refined delay
 ///    (a delay one sample off is the commonest wrong local minimum of a discrete model);
-///    τ₀ is the refined delay of lowest ML cost V. V is jagged in τ (a wrong delay leaves
-///    SK in different local solutions), which is why the search scans densely and
-///    refines several minima rather than descending from one point.
+/// 6. the same refinement between minima: the midpoint of the scan's two lowest local
+///    minima, and the midpoint and quarter points between the best refined delay and its
+///    nearest refined neighbour on either side within 8δ. A rational model absorbs a small
+///    delay error on either side of the true delay (zeros in the right or left half
+///    plane), so V has a local minimum on each flank of a narrow global one;
+///
+/// τ₀ is the refined delay of lowest ML cost V. V is jagged in τ (a wrong delay leaves
+/// SK in different local solutions), which is why the search scans densely and refines
+/// several minima rather than descending from one point.
 ///
 /// The refinements stop as soon as the best ML cost reaches the stopping cost: the noise
 /// level — with noise variances its 99.95 % quantile N − p/2 + 3.3√N, without them the
-/// level estimated from the best fit's residuals by their second differences over the
-/// lines ([`noise_level_cost`]) — or round-off on noise-free data. No other delay can
-/// lower such a cost significantly.
+/// level estimated from the residuals of that best round itself by their second
+/// differences over the lines ([`noise_level_cost`]; a worse round's residuals overstate
+/// the noise) — or round-off on noise-free data. No other delay can lower such a cost
+/// significantly. Once the work budget of [`crate::solver::work`] is spent the search
+/// ends at its best refined delay.
+///
+/// **Reliability** (`model_delay::survey`, 500 random noise-free systems of orders 1–6
+/// per kind, delays of 0–8 units of π/ω_max): the wrong minimum in 0 of 500 continuous-
+/// and 0 of 500 discrete-time cases in f64, 1 of 500 of each in f32.
 ///
 /// Every candidate is clamped into the model's bounds; without bounds τ may turn out
 /// negative (an advance).
@@ -557,7 +573,7 @@ impl<'a, T: Real, M: FurtherStarts<T>> DelaySearch<'a, T, M> {
             let d = Float::abs(a - b);
             d >= step / T::lit(2.0) && d <= step * T::lit(8.0)
         };
-        let mut starts: Vec<T> = vec![];
+        let mut starts: Vec<T> = Vec::with_capacity(BETWEEN_STARTS);
         let minima = local_minima(scan);
         if let Some(a) = minima.first().map(|m| m.0)
             && let Some(b) = minima.iter().skip(1).map(|m| m.0).find(|b| apart(a, *b))

@@ -6,8 +6,8 @@
 //! Jacobian, which dominates the evaluation).
 
 use super::delay::{
-    CANDIDATE_ROUNDS, MAX_SCAN, PHASE_ITERATIONS, REFINED_MINIMA, SAMPLE_MULTIPLES,
-    SCREEN_ITERATIONS, SEARCH_EVALUATIONS, SEARCH_PATIENCE,
+    BETWEEN_STARTS, CANDIDATE_ROUNDS, MAX_SCAN, PHASE_ITERATIONS, REFINED_MINIMA,
+    SAMPLE_MULTIPLES, SCREEN_ITERATIONS, SEARCH_EVALUATIONS, SEARCH_PATIENCE,
 };
 use crate::solver::work::solve_cost;
 use crate::solver::{FixedPoint, LevenbergMarquardt};
@@ -32,13 +32,13 @@ fn linear_fit() -> usize {
 /// The delay search of [`super::delay_start`] and the fits after it, for an inner model of
 /// `p` parameters on `lines` lines: the phase iterations (delay-free fits), the scan
 /// (Levy and three SK solves per candidate), the refinements (the local minima of the
-/// scan and up to nine delays a whole number of samples away, each in rounds of a
-/// delay-free fit and an ML with the search's budget), the inner model's full fit at the
-/// chosen delay and the joint ML on p + 1 parameters.
+/// scan, up to nine delays a whole number of samples away and seven between minima,
+/// each in rounds of a delay-free fit and an ML with the search's budget), the inner
+/// model's full fit at the chosen delay and the joint ML on p + 1 parameters.
 pub(super) fn delay_search(p: usize, lines: usize) -> f64 {
     let q = p + 1;
     let search_ml = SEARCH_EVALUATIONS.max(SEARCH_PATIENCE * (q + 1));
-    let refined = REFINED_MINIMA + SAMPLE_MULTIPLES;
+    let refined = REFINED_MINIMA + SAMPLE_MULTIPLES + BETWEEN_STARTS;
     solves(PHASE_ITERATIONS * linear_fit(), lines, p)
         + solves(MAX_SCAN * (1 + SCREEN_ITERATIONS), lines, p)
         + (refined * CANDIDATE_ROUNDS) as f64
