@@ -9,7 +9,7 @@
 //! - `delay_ct4_400`: the delayed fit of a 4th-order continuous-time system on 400 lines
 //!   (delay search, pipeline, ML);
 //! - `delay_dt6_4096` and `known_delay_dt6_4096`: a 6th-order discrete-time system with a
-//!   delay of 4.5 samples on 4 096 lines at 40 dB (the peers' `c_dt6_delay`), fitted with
+//!   delay of 4.5 samples on 4 096 lines at 40 dB (shaped like the peers' `c_dt6_delay`), fitted with
 //!   the delay searched, and with the delay removed from the data beforehand (the fit the
 //!   peers are timed on); `known_delay_ct4_400` likewise for `delay_ct4_400`;
 //! - `modal_zoh_128`: the ZOH-sampled modal model with transient, N = 128.

@@ -104,8 +104,7 @@ pub(super) const CANDIDATE_ROUNDS: usize = 3;
 /// The refinements stop as soon as the best ML cost reaches the stopping cost: the noise
 /// level — with noise variances its 99.95 % quantile N − p/2 + 3.3√N, without them the
 /// level estimated from the residuals of that best round itself by their second
-/// differences over the lines ([`noise_level_cost`]; a worse round's residuals overstate
-/// the noise) — or round-off on noise-free data. No other delay can lower such a cost
+/// differences over the lines (a worse round's residuals overstate the noise) — or round-off on noise-free data. No other delay can lower such a cost
 /// significantly. Once the work budget of [`crate::solver::work`] is spent the search
 /// ends at its best refined delay.
 ///
