@@ -76,7 +76,8 @@ mod tests {
     #[test]
     fn the_bounds_grow_with_the_lines_and_the_order() {
         assert_eq!(delay_search(5, 2000), 2.0 * delay_search(5, 1000));
-        assert!(delay_search(21, 500) > 20.0 * delay_search(5, 500));
+        // every solve grows with the square of its parameters: (22/6)² ≈ 13.4 at least
+        assert!(delay_search(21, 500) > 13.4 * delay_search(5, 500));
         assert_eq!(noise_model(5, 4, 1000), 2.0 * noise_model(5, 4, 500));
         // order 30 (60 noise parameters) against order 2: (65/9)³ ≈ 380 times more
         let ratio = noise_model(5, 60, 500) / noise_model(5, 4, 500);
