@@ -4,6 +4,7 @@ table beside the peers' results (from the same machine, written by peers.py), an
 the Rust peers' (written by score_rs.py) when $PEERS_WORK/results_rs.json exists.
 
 Usage: score_fdid.py PEERS_DIR   (PEERS_WORK must point at the cases and results)
+bench/perf_table.py imports it (with the same PEERS_DIR argument) for the README's table.
 """
 import json
 import os
@@ -33,12 +34,19 @@ def fdid_result(name):
     return r
 
 
-def main():
-    def load(path):
-        return json.load(open(path))["cases"] if os.path.exists(path) else {}
+def load_results(path):
+    """The `cases` of a results file in peers.py's layout, {} when it does not exist."""
+    return json.load(open(path))["cases"] if os.path.exists(path) else {}
 
-    theirs, rust = load(PEER_RESULTS), load(RUST_RESULTS)
-    names = sorted(f[:-5] for f in os.listdir(OUT) if f.endswith(".json"))
+
+def case_names():
+    """The cases fdid fitted (examples/peer_cases.rs wrote one JSON each)."""
+    return sorted(f[:-5] for f in os.listdir(OUT) if f.endswith(".json"))
+
+
+def main():
+    theirs, rust = load_results(PEER_RESULTS), load_results(RUST_RESULTS)
+    names = case_names()
     print(f"{'case':12s} {'method':14s} {'rel_rms':>9s} {'pole_err':>9s} {'time_ms':>9s} {'fdid x':>7s}")
     for name in names:
         ours = fdid_result(name)

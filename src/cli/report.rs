@@ -99,8 +99,9 @@ impl<'a> Parts<'a> {
 fn estimator(spec: &ModelSpec) -> (String, Option<String>) {
     let eiv = spec.criterion == Method::Eiv;
     let mut description = if spec.delay {
-        "delay from the phase slope, Levy -> Sanathanan-Koerner -> maximum likelihood on \
-         the delay-compensated lines, maximum likelihood of the delayed model (eq. 23)"
+        "delay from the phase slope and a search of candidates, each by Levy -> \
+         Sanathanan-Koerner on the delay-compensated lines and maximum likelihood of the \
+         delayed model, then maximum likelihood of the delayed model (eq. 23) from the best"
             .to_string()
     } else {
         CriterionArg::from(spec.criterion).description().to_string()

@@ -44,6 +44,17 @@ where
     solver.solve(&problem, start)
 }
 
+/// What the linear stages of the chain leave: the Levy estimate (in the model's original
+/// basis), the model after SK (relocated for a relocatable basis) with its estimate, the
+/// stages, and whether the basis was relocated.
+struct LinearStages<T: Real, M> {
+    levy: Solution<T>,
+    model: M,
+    current: Vec<T>,
+    stages: Vec<Stage<T>>,
+    relocated: bool,
+}
+
 /// ML from `start`: the guarded normal-equation LM first, the crate's LM when it fails.
 pub(crate) fn ml_solve<T: Real, P: NonlinearProblem<T> + ?Sized>(
     fast: &GramLevenbergMarquardt,
@@ -324,37 +335,15 @@ impl Pipeline {
         data: &FrequencyData<T>,
     ) -> Result<(Fit<T, M>, Option<bool>)> {
         let w = self.weighting;
-        let mut work = LevyWork::default();
-        let mut levy = self.levy_solve(model, data, &self.linear, &mut work)?;
         let stable = self.stable;
-        levy.theta = stable_start(model, levy.theta, stable)?;
-        let mut stages = vec![Stage {
-            kind: StageKind::Levy,
-            solution: levy.clone(),
-        }];
-        let mut current = levy.theta.clone();
         let original = model;
-        let mut model = model.clone();
-        let relocated = self.sk.is_some() && model.relocated(&levy.theta).is_some();
-        if let (Some(fp), true) = (&self.sk, relocated) {
-            let (m, sk) = self.relocate(model, data, levy.theta.clone(), fp, &mut work)?;
-            model = m;
-            current = sk.theta.clone();
-            stages.push(Stage {
-                kind: StageKind::Sk,
-                solution: sk,
-            });
-        } else if let Some(fp) = &self.sk {
-            let criterion = SanathananKoerner { weighting: w };
-            let problem = criterion.problem(&model, data)?;
-            let mut sk = fp.solve_with(&problem, Some(&levy.theta), self.ml.is_some())?;
-            sk.theta = stable_start(&model, sk.theta, stable)?;
-            current = sk.theta.clone();
-            stages.push(Stage {
-                kind: StageKind::Sk,
-                solution: sk,
-            });
-        }
+        let LinearStages {
+            levy,
+            model,
+            mut current,
+            mut stages,
+            relocated,
+        } = self.linear_stages(model, data, self.ml.is_some())?;
         if let Some(lm) = &self.ml {
             let ml = MaximumLikelihood { weighting: w };
             let fast = GramLevenbergMarquardt::from(*lm);
@@ -428,6 +417,100 @@ impl Pipeline {
         Ok((Fit::new(model, data, current, w, stages)?, None))
     }
 
+    /// Levy, then SK (by relocation for a relocatable basis) when the pipeline has it,
+    /// each estimate stabilised with `stable`; with `gram` every solve by the guarded
+    /// normal equations (QR/SVD when they are refused), else by QR/SVD.
+    fn linear_stages<T: Real, M: EquationError<T> + Clone>(
+        &self,
+        model: &M,
+        data: &FrequencyData<T>,
+        gram: bool,
+    ) -> Result<LinearStages<T, M>> {
+        let mut work = LevyWork::default();
+        let mut levy = self.levy_solve(model, data, &self.linear, &mut work, gram)?;
+        let stable = self.stable;
+        levy.theta = stable_start(model, levy.theta, stable)?;
+        let mut stages = vec![Stage {
+            kind: StageKind::Levy,
+            solution: levy.clone(),
+        }];
+        let mut current = levy.theta.clone();
+        let mut model = model.clone();
+        let relocated = self.sk.is_some() && model.relocated(&levy.theta).is_some();
+        if let (Some(fp), true) = (&self.sk, relocated) {
+            let (m, sk) = self.relocate(model, data, levy.theta.clone(), fp, &mut work, gram)?;
+            model = m;
+            current = sk.theta.clone();
+            stages.push(Stage {
+                kind: StageKind::Sk,
+                solution: sk,
+            });
+        } else if let Some(fp) = &self.sk {
+            let criterion = SanathananKoerner {
+                weighting: self.weighting,
+            };
+            let problem = criterion.problem(&model, data)?;
+            let mut sk = fp.solve_with(&problem, Some(&levy.theta), gram)?;
+            sk.theta = stable_start(&model, sk.theta, stable)?;
+            current = sk.theta.clone();
+            stages.push(Stage {
+                kind: StageKind::Sk,
+                solution: sk,
+            });
+        }
+        Ok(LinearStages {
+            levy,
+            model,
+            current,
+            stages,
+            relocated,
+        })
+    }
+
+    /// The pipeline's linear stages (Levy, then SK when it has them; its ML is not run) as
+    /// the start of another estimator: every solve by the guarded normal equations
+    /// (QR/SVD when they are refused) and no statistics of a [`Fit`]. Data far from order
+    /// one are normalised first as by [`Pipeline::fit`], and the estimates mapped back.
+    /// Returns the model (a partial-fraction basis relocated to the estimate's poles), θ
+    /// and the stages.
+    ///
+    /// # Errors
+    /// As [`Pipeline::fit`].
+    pub(crate) fn linear_start<T: Real, M: EquationError<T> + Clone>(
+        &self,
+        model: &M,
+        data: &FrequencyData<T>,
+    ) -> Result<(M, Vec<T>, Vec<Stage<T>>)> {
+        data.check_output()?;
+        model.check_data(data)?;
+        let n = Normalisation::of(data);
+        let map = (!n.is_identity())
+            .then(|| model.normalisation_map(n.output(), n.input()))
+            .flatten();
+        let Some(d) = map else {
+            let l = self.linear_stages(model, data, true)?;
+            return Ok((l.model, l.current, l.stages));
+        };
+        let mut l = self.linear_stages(model, &n.apply(data), true)?;
+        // the costs scale as the squared residuals: by 1/n_y² unless noise weights fix them
+        let residual = if self.weighting.weights(data)?.is_some() {
+            T::one()
+        } else {
+            T::one() / n.output()
+        };
+        let unscale = |theta: &mut [T]| {
+            for (t, f) in theta.iter_mut().zip(&d) {
+                *t *= *f;
+            }
+        };
+        unscale(&mut l.current);
+        for stage in &mut l.stages {
+            unscale(&mut stage.solution.theta);
+            stage.solution.cost *= residual * residual;
+        }
+        Ok((l.model, l.current, l.stages))
+    }
+
     /// One Levy solve: through the guarded normal equations when ML follows (falling back
     /// to `linear`'s QR/SVD when they are ill-conditioned), else by `linear`. `work` holds
     /// the regressor and the real-stacked system, reused across the relocations so that the
@@ -438,11 +521,12 @@ impl Pipeline {
         data: &FrequencyData<T>,
         linear: &LinearLeastSquares,
         work: &mut LevyWork<T>,
+        gram: bool,
     ) -> Result<Solution<T>> {
         let levy = Levy {
             weighting: self.weighting,
         };
-        if self.ml.is_none() {
+        if !gram {
             return estimate(model, data, &levy, linear, None);
         }
         let (theta, cost) = self.levy_normal_equations(model, data, linear, work, true)?;
@@ -526,6 +610,7 @@ impl Pipeline {
         mut theta: Vec<T>,
         fp: &FixedPoint,
         work: &mut LevyWork<T>,
+        gram: bool,
     ) -> Result<(M, Solution<T>)> {
         let w = self.weighting;
         let tol = fp
@@ -560,11 +645,11 @@ impl Pipeline {
                 break;
             };
             // only θ is needed: the SK cost is the output-error one
-            let next_theta = if self.ml.is_some() {
+            let next_theta = if gram {
                 self.levy_normal_equations(&next, data, &linear, work, false)?
                     .0
             } else {
-                self.levy_solve(&next, data, &linear, work)?.theta
+                self.levy_solve(&next, data, &linear, work, false)?.theta
             };
             let next_theta = stable_start(&next, next_theta, self.stable)?;
             let new_cost = oe_cost(&next, &next_theta, &mut g_new);

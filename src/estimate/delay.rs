@@ -3,12 +3,12 @@
 //! G_M(θ) e^{−iωτ} ([`Delayed::fit`], [`fit_delayed`]).
 
 use super::{FurtherStarts, Pipeline};
-use crate::criterion::{Criterion, MaximumLikelihood};
+use crate::criterion::{Criterion, MaximumLikelihood, output_error_cost_in};
 use crate::data::FrequencyData;
 use crate::error::{FdidError, Result};
 use crate::fit::{Fit, Stage, StageKind};
 use crate::model::delay::delay_factor;
-use crate::model::{Delayed, ModelStructure, remove_delay};
+use crate::model::{Delayed, ModelStructure, Output, remove_delay};
 use crate::scalar::{Complex, Real};
 use crate::solver::{GramLevenbergMarquardt, LevenbergMarquardt, Solution, Termination};
 use num_traits::Float;
@@ -40,6 +40,10 @@ pub(super) const REFINED_MINIMA: usize = 5;
 pub(super) const SEARCH_PATIENCE: usize = 4;
 /// The least evaluation budget of a refinement of the search, whatever the order.
 pub(super) const SEARCH_EVALUATIONS: usize = 100;
+/// Relative cost reduction below which an ML refinement of the search stops (unless the
+/// pipeline's ML tolerance is looser): a refinement crawling through a wrong delay's
+/// valley ends early, and the next round starts from where it went.
+pub(super) const SEARCH_COST_TOLERANCE: f64 = 1e-4;
 /// Cap on the candidates of the scan.
 pub(super) const MAX_SCAN: usize = 512;
 /// The most delays a whole number of samples from the best refined one that are refined
@@ -54,7 +58,8 @@ pub(super) const CANDIDATE_ROUNDS: usize = 3;
 
 /// A starting value τ₀ for the delay of `model` on `data`, from the phase slope and a scan
 /// of candidate delays by output-error cost, each delay-free fit made with `pipeline`
-/// without its ML stage (Levy → SK).
+/// without its ML stage (Levy → SK, every solve by the guarded normal equations — these
+/// fits only start the search's MLs — and without a fit's statistics).
 ///
 /// **Method.** With H_k = Y_k/U_k and weights w_k = |Y_k|²/σ_k² (σ_k² the output noise
 /// variance, 1 without variances or with flat weighting — the inverse variance of arg H_k
@@ -85,7 +90,8 @@ pub(super) const CANDIDATE_ROUNDS: usize = 3;
 ///    eq. 23) of the delayed model by Levenberg–Marquardt from [θ_M, τ], τ moving to the
 ///    ML delay. These MLs only rank the candidates: each stops after max(4(p + 1), 100)
 ///    residual evaluations (p parameters; a lightly damped high-order model crawls for
-///    thousands), and a round from a delay already tried (starts clamped to a bound
+///    thousands) or once an iteration lowers the cost by less than a relative 10⁻⁴, and a
+///    round from a delay already tried (starts clamped to a bound
 ///    coincide) is not repeated. The three delay-free fits fall into different local solutions when τ is
 ///    slightly wrong (a discrete model then often takes an unstable pole near z = −1), so
 ///    the joint ML from one of them usually reaches the true delay;
@@ -123,6 +129,15 @@ pub fn delay_start<T: Real, M: FurtherStarts<T>>(
     model: &Delayed<M>,
     data: &FrequencyData<T>,
 ) -> Result<DelayStart<T>> {
+    search_delay(pipeline, model, data).map(|(start, _)| start)
+}
+
+/// [`delay_start`], with the refinement round of lowest ML cost.
+fn search_delay<T: Real, M: FurtherStarts<T>>(
+    pipeline: &Pipeline,
+    model: &Delayed<M>,
+    data: &FrequencyData<T>,
+) -> Result<(DelayStart<T>, BestRound<T, M>)> {
     model.check_data(data)?;
     let h = data.etfe()?;
     let w_max = max_frequency(data.omega());
@@ -298,9 +313,8 @@ struct DelaySearch<'a, T: Real, M> {
     /// the noise level estimated from the best round's own residuals may raise it
     /// ([`Self::stop_cost`]).
     threshold: T,
-    /// The ML cost of the best round so far and the noise-level cost of its residuals
-    /// ([`noise_level_cost`], `None` with noise weights or too few lines).
-    best_round: Option<(T, Option<T>)>,
+    /// The round of lowest ML cost so far.
+    best_round: Option<BestRound<T, M>>,
     /// Whether the lines carry no noise weights (the noise level is then estimated).
     flat: bool,
     /// Delay-free fits made.
@@ -313,6 +327,24 @@ struct DelaySearch<'a, T: Real, M> {
     rounds: Vec<RoundMade<T>>,
 }
 
+/// The refinement round of lowest ML cost: the final ML of [`Delayed::fit`] continues from
+/// it rather than fitting the inner model again at τ₀.
+struct BestRound<T: Real, M> {
+    /// The delayed model with the inner model of the round's delay-free fit (a
+    /// partial-fraction basis relocated to its poles).
+    model: Delayed<M>,
+    /// The round's ML solution [θ_M, τ] on the delayed model.
+    solution: Solution<T>,
+    /// The noise-level cost of its residuals ([`noise_level_cost`], `None` with noise
+    /// weights or too few lines).
+    level: Option<T>,
+    /// The stages of the round's delay-free fit.
+    inner_stages: Vec<Stage<T>>,
+}
+
+/// An inner model, its estimate θ_M and the stages that made it.
+type InnerStart<T, M> = (M, Vec<T>, Vec<Stage<T>>);
+
 /// A refinement round made: its number, its start τ and its outcome (the ML delay and
 /// cost, `None` when it failed or diverged).
 type RoundMade<T> = (usize, T, Option<(T, T)>);
@@ -323,7 +355,7 @@ impl<'a, T: Real, M: FurtherStarts<T>> DelaySearch<'a, T, M> {
         model: &'a Delayed<M>,
         data: &'a FrequencyData<T>,
         phase_weight: &'a [T],
-        line_weights: Option<&[T]>,
+        line_weights: Option<&'a [T]>,
         w_max: T,
     ) -> Self {
         Self {
@@ -333,6 +365,7 @@ impl<'a, T: Real, M: FurtherStarts<T>> DelaySearch<'a, T, M> {
                 model: model.inner(),
                 data,
                 phase_weight,
+                weights: line_weights,
             },
             full: Pipeline {
                 ml: None,
@@ -361,6 +394,9 @@ impl<'a, T: Real, M: FurtherStarts<T>> DelaySearch<'a, T, M> {
                     patience: lm
                         .patience
                         .min(SEARCH_PATIENCE.max(SEARCH_EVALUATIONS.div_ceil(p))),
+                    cost_tolerance: Some(
+                        lm.cost_tolerance.unwrap_or(0.0).max(SEARCH_COST_TOLERANCE),
+                    ),
                     ..lm
                 }
             },
@@ -623,9 +659,9 @@ impl<'a, T: Real, M: FurtherStarts<T>> DelaySearch<'a, T, M> {
     /// round's own estimate counts: a worse fit's residuals (a wrong delay's error
     /// varying from line to line near a resonance) overstate the noise.
     fn stop_cost(&self) -> T {
-        match self.best_round {
-            Some((_, Some(level))) => Float::max(self.threshold, level),
-            _ => self.threshold,
+        match self.best_round.as_ref().and_then(|b| b.level) {
+            Some(level) => Float::max(self.threshold, level),
+            None => self.threshold,
         }
     }
 
@@ -660,11 +696,17 @@ impl<'a, T: Real, M: FurtherStarts<T>> DelaySearch<'a, T, M> {
         }
         self.fits += 1;
         let outcome = match self.refine_round(t, round) {
-            Ok((sol, level)) if Float::is_finite(sol.theta[sol.theta.len() - 1]) => {
-                if self.best_round.is_none_or(|(c, _)| sol.cost < c) {
-                    self.best_round = Some((sol.cost, level));
+            Ok(made) if Float::is_finite(made.solution.theta[made.solution.theta.len() - 1]) => {
+                let sol = &made.solution;
+                let outcome = Some((self.model.clamp(sol.theta[sol.theta.len() - 1]), sol.cost));
+                if self
+                    .best_round
+                    .as_ref()
+                    .is_none_or(|b| made.solution.cost < b.solution.cost)
+                {
+                    self.best_round = Some(made);
                 }
-                Some((self.model.clamp(sol.theta[sol.theta.len() - 1]), sol.cost))
+                outcome
             }
             Ok(_) => None,
             Err(e) => {
@@ -681,35 +723,44 @@ impl<'a, T: Real, M: FurtherStarts<T>> DelaySearch<'a, T, M> {
     /// delayed model from [θ_M, t]. A second round from the ML delay has a better inner
     /// start when `t` was a fraction of δ off. Without noise weights, the noise-level cost
     /// of the fit's residuals ([`noise_level_cost`]) comes with the solution.
-    fn refine_round(&self, t: T, round: usize) -> Result<(Solution<T>, Option<T>)> {
+    fn refine_round(&self, t: T, round: usize) -> Result<BestRound<T, M>> {
         let inner_pipeline = if round == 1 { &self.levy } else { &self.full };
-        self.search
-            .fit_full(inner_pipeline, t, round == 2)
-            .and_then(|(inner, theta)| {
-                let delayed = Delayed::new(inner);
-                let start = Delayed::<M>::theta(&theta, t);
-                let problem = self.ml.problem(&delayed, self.data)?;
-                let fast = GramLevenbergMarquardt::from(self.lm);
-                let sol = super::chain::ml_solve(&fast, &self.lm, &problem, &start)?;
-                let level = if self.flat {
-                    noise_level_cost(&delayed, &sol.theta, self.data)
-                } else {
-                    None
-                };
-                Ok((sol, level))
-            })
+        let (inner, theta, inner_stages) = self.search.fit_full(inner_pipeline, t, round == 2)?;
+        let model = Delayed {
+            inner,
+            bounds: self.model.bounds,
+        };
+        let start = Delayed::<M>::theta(&theta, t);
+        let problem = self.ml.problem(&model, self.data)?;
+        let fast = GramLevenbergMarquardt::from(self.lm);
+        let solution = super::chain::ml_solve(&fast, &self.lm, &problem, &start)?;
+        let level = if self.flat {
+            noise_level_cost(&model, &solution.theta, self.data)
+        } else {
+            None
+        };
+        Ok(BestRound {
+            model,
+            solution,
+            level,
+            inner_stages,
+        })
     }
 
-    /// The refined delay of lowest ML cost, or the first failure when none was refined.
-    fn finish(self, phase_slope: T) -> Result<DelayStart<T>> {
-        match best(&self.refined) {
-            Some((tau, cost)) => Ok(DelayStart {
-                tau,
-                cost,
-                phase_slope,
-                fits: self.fits,
-            }),
-            None => Err(self.first_error.unwrap_or(FdidError::Numerical {
+    /// The refined delay of lowest ML cost with the round that reached it, or the first
+    /// failure when none was refined.
+    fn finish(self, phase_slope: T) -> Result<(DelayStart<T>, BestRound<T, M>)> {
+        match (best(&self.refined), self.best_round) {
+            (Some((tau, cost)), Some(round)) => Ok((
+                DelayStart {
+                    tau,
+                    cost,
+                    phase_slope,
+                    fits: self.fits,
+                },
+                round,
+            )),
+            _ => Err(self.first_error.unwrap_or(FdidError::Numerical {
                 what: "delay-free fits of the delay search".into(),
             })),
         }
@@ -742,12 +793,15 @@ struct Search<'a, T: Real, M> {
     model: &'a M,
     data: &'a FrequencyData<T>,
     phase_weight: &'a [T],
+    /// The pipeline's line weights (`None`: unweighted).
+    weights: Option<&'a [T]>,
 }
 
 impl<T: Real, M: FurtherStarts<T>> Search<'_, T, M> {
-    /// Fits the inner model to the data with τ removed; returns the output-error cost of
-    /// the delayed model and G_M on the lines.
-    fn fit_full(&self, pipeline: &Pipeline, tau: T, lower_half: bool) -> Result<(M, Vec<T>)> {
+    /// The linear stages of `pipeline` ([`Pipeline::linear_start`]) for the inner model on
+    /// the data with τ removed (on the lower half of the band with `lower_half`, when that
+    /// leaves enough lines): the model, θ_M and the stages.
+    fn fit_full(&self, pipeline: &Pipeline, tau: T, lower_half: bool) -> Result<InnerStart<T, M>> {
         let mut compensated = remove_delay(self.data, tau)?;
         if lower_half {
             let w_max = max_frequency(self.data.omega());
@@ -756,14 +810,17 @@ impl<T: Real, M: FurtherStarts<T>> Search<'_, T, M> {
                 compensated = band;
             }
         }
-        let fit = pipeline.fit(self.model, &compensated)?;
-        Ok((fit.model().clone(), fit.theta().to_vec()))
+        pipeline.linear_start(self.model, &compensated)
     }
 
+    /// The linear stages of `pipeline` for the inner model on the data with τ removed:
+    /// the output-error cost V(τ) of the delayed model and G_M on the lines.
     fn fit(&self, pipeline: &Pipeline, tau: T) -> Result<(T, Vec<Complex<T>>)> {
         let compensated = remove_delay(self.data, tau)?;
-        let fit = pipeline.fit(self.model, &compensated)?;
-        Ok((fit.cost(), fit.response().to_vec()))
+        let (model, theta, _) = pipeline.linear_start(self.model, &compensated)?;
+        let mut out = Output::new(compensated.len(), model.n_params());
+        let cost = output_error_cost_in(&mut out, &model, &theta, &compensated, self.weights);
+        Ok((cost, out.g))
     }
 
     /// The slope of the weighted linear regression of the unwrapped phase of `ratio`
@@ -824,18 +881,20 @@ impl<T: Real, M: FurtherStarts<T>> Search<'_, T, M> {
 
 impl<M: Clone> Delayed<M> {
     /// Fits the delayed model end to end:
-    /// 1. τ₀ from [`delay_start`] (phase slope and candidate search, within the bounds);
-    /// 2. `pipeline` (Levy → SK → ML) for the inner model on the delay-compensated data
-    ///    Y e^{iωτ₀} ([`remove_delay`]), which gives θ_M (and, for a partial-fraction model,
-    ///    the basis relocated to its poles);
-    /// 3. output-error maximum likelihood ([`MaximumLikelihood`], McKelvey eq. 23, with the
+    /// 1. τ₀ from [`delay_start`] (phase slope and candidate search, within the bounds),
+    ///    whose best refinement round gives [θ_M, τ₀]: the inner model fitted by Levy → SK
+    ///    (or Levy) to the delay-compensated data Y e^{iωτ₀} ([`remove_delay`]; for a
+    ///    partial-fraction model, the basis relocated to its poles), then refined by an ML
+    ///    of the delayed model with a small evaluation budget;
+    /// 2. output-error maximum likelihood ([`MaximumLikelihood`], McKelvey eq. 23, with the
     ///    pipeline's weighting) of the full model G_M(θ_M) e^{−iωτ} on the original data by
-    ///    Levenberg–Marquardt (the pipeline's, or the default when it has none) from
-    ///    [θ_M, τ₀].
+    ///    Levenberg–Marquardt (the pipeline's, or the default when it has none) from that
+    ///    round's [θ_M, τ], continued to convergence.
     ///
     /// The statistics are those of [`Fit::new`] with the pipeline's weighting; the stages
-    /// are `delay` (θ = \[τ₀\], the search's cost, its number of fits), the inner pipeline's
-    /// stages on the compensated data, and `ml-delayed`.
+    /// are `delay` (θ = \[τ₀\], the search's cost, its number of fits), the stages of the
+    /// best round's delay-free fit on the compensated data (`levy`, `sk`), and
+    /// `ml-delayed`.
     ///
     /// # Errors
     /// As [`delay_start`] and [`Pipeline::fit`]; [`FdidError::InvalidArgument`] naming τ̂
@@ -848,7 +907,7 @@ impl<M: Clone> Delayed<M> {
     where
         M: FurtherStarts<T>,
     {
-        let start = delay_start(pipeline, self, data)?;
+        let (start, best) = search_delay(pipeline, self, data)?;
         let tau0 = start.tau;
         let mut stages = vec![Stage {
             kind: StageKind::Delay,
@@ -859,13 +918,11 @@ impl<M: Clone> Delayed<M> {
                 termination: Termination::Converged,
             },
         }];
-        let inner = pipeline.fit(&self.inner, &remove_delay(data, tau0)?)?;
-        stages.extend(inner.stages().iter().cloned());
-        let model = Delayed {
-            inner: inner.model().clone(),
-            bounds: self.bounds,
-        };
-        let theta0 = Delayed::<M>::theta(inner.theta(), tau0);
+        stages.extend(best.inner_stages);
+        let model = best.model;
+        let mut theta0 = best.solution.theta;
+        let last = theta0.len() - 1;
+        theta0[last] = self.clamp(theta0[last]);
         let theta0 = super::chain::stable_start(&model, theta0, pipeline.stable)?;
         let lm = pipeline.ml.unwrap_or_default();
         let ml = MaximumLikelihood {

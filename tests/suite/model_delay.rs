@@ -334,7 +334,15 @@ fn recovers_ct_a_ct4_with_delay() {
         assert!((p - q).norm() < 1e-9 * q.norm(), "pole {p} vs {q}");
     }
     let names: Vec<String> = fit.stages().iter().map(|s| s.kind.name()).collect();
-    assert_eq!(names, ["delay", "levy", "sk", "ml", "ml-delayed"]);
+    // the search's best round: its delay-free fit (Levy, then SK unless that round was
+    // Levy alone), then the joint ML continued from it
+    assert_eq!(names.first().map(String::as_str), Some("delay"));
+    assert_eq!(names.last().map(String::as_str), Some("ml-delayed"));
+    let inner = &names[1..names.len() - 1];
+    assert!(
+        inner == ["levy", "sk"] || inner == ["levy"],
+        "stages {names:?}"
+    );
     assert!(fit.stages()[0].solution.theta[0].is_finite());
 }
 
