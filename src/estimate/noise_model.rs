@@ -10,7 +10,7 @@ use crate::error::{FdidError, Result};
 use crate::fit::{Fit, NoiseLevel, Stage, StageKind};
 use crate::model::{ModelStructure, NoiseModel, WithNoiseModel};
 use crate::scalar::Real;
-use crate::solver::LevenbergMarquardt;
+use crate::solver::{GramLevenbergMarquardt, LevenbergMarquardt};
 
 /// The relative cost reduction at which the noise-model ML counts as converged, unless the
 /// solver sets its own: 10⁻⁶ of V. The criterion is about N/2 times the innovation
@@ -161,7 +161,13 @@ pub(crate) fn refine_noise_model_in<T: Real, M: ModelStructure<T> + Clone>(
         cost_tolerance: lm.cost_tolerance.or(Some(NOISE_MODEL_COST_TOLERANCE)),
         ..*lm
     };
-    let solve = |theta: &[T]| super::chain::lm_solve_in(&relaxed, &full, &problem, theta, stable);
+    let fast = GramLevenbergMarquardt {
+        settings: relaxed,
+        max_iterations: relaxed.patience.max(1) * (full.n_params() + 1),
+    };
+    let solve = |theta: &[T]| {
+        super::chain::gram_then_lm_in(&fast, &relaxed, &full, &problem, theta, stable)
+    };
     let sol = solve(&theta)?;
     theta = sol.theta.clone();
     stages.push(Stage {

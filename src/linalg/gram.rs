@@ -102,10 +102,9 @@ pub(crate) struct ScaledCholesky<T: Real> {
     pub condition: T,
 }
 
-/// Equilibrates the symmetric positive semi-definite `g` and factors it; `None` when a
-/// diagonal entry is zero or not finite, when Cholesky fails, or when κ₁(Gₛ) exceeds
-/// `max_cond`.
-pub(crate) fn scaled_cholesky<T: Real>(g: &DMatrix<T>, max_cond: T) -> Option<ScaledCholesky<T>> {
+/// D = √diag `g` and Gₛ = D⁻¹gD⁻¹ (unit diagonal) of a square `g`; `None` when it is empty,
+/// a diagonal entry is zero or not finite, or an entry of Gₛ is not finite.
+pub(crate) fn equilibrated<T: Real>(g: &DMatrix<T>) -> Option<(Vec<T>, DMatrix<T>)> {
     let p = g.nrows();
     if p == 0 || g.ncols() != p {
         return None;
@@ -128,6 +127,14 @@ pub(crate) fn scaled_cholesky<T: Real>(g: &DMatrix<T>, max_cond: T) -> Option<Sc
     if gs.iter().any(|v| !Float::is_finite(*v)) {
         return None;
     }
+    Some((d, gs))
+}
+
+/// Equilibrates the symmetric positive semi-definite `g` and factors it; `None` when a
+/// diagonal entry is zero or not finite, when Cholesky fails, or when κ₁(Gₛ) exceeds
+/// `max_cond`.
+pub(crate) fn scaled_cholesky<T: Real>(g: &DMatrix<T>, max_cond: T) -> Option<ScaledCholesky<T>> {
+    let (d, gs) = equilibrated(g)?;
     let chol = Cholesky::new(gs.clone())?;
     let inv = chol.inverse();
     let norm1 = |m: &DMatrix<T>| {

@@ -2,7 +2,7 @@
 
 use super::{LevenbergMarquardt, Solution, Solver, Termination};
 use crate::error::{FdidError, Result};
-use crate::linalg::gram::{max_condition, scaled_cholesky};
+use crate::linalg::gram::{equilibrated, max_condition, scaled_cholesky};
 use crate::problem::NonlinearProblem;
 use crate::scalar::Real;
 use nalgebra::{DMatrix, DVector};
@@ -49,12 +49,49 @@ impl From<LevenbergMarquardt> for GramLevenbergMarquardt {
     }
 }
 
+/// D and Gₛ of the Gram matrix, with the Cholesky factor of Gₛ when it is accepted.
+struct Scaled<T: Real> {
+    d: Vec<T>,
+    gs: DMatrix<T>,
+    chol: Option<nalgebra::Cholesky<T, nalgebra::Dyn>>,
+}
+
 fn sum_sq<T: Real>(r: &[T]) -> T {
     r.iter().fold(T::zero(), |s, v| s + *v * *v)
 }
 
 impl<T: Real, P: NonlinearProblem<T> + ?Sized> Solver<T, P> for GramLevenbergMarquardt {
     fn solve(&self, problem: &P, start: Option<&[T]>) -> Result<Solution<T>> {
+        self.run(problem, start, None).map(|(solution, _)| solution)
+    }
+}
+
+impl GramLevenbergMarquardt {
+    /// [`Solver::solve`], except at iterates whose equilibrated Gram matrix Gₛ is refused:
+    /// the first `damped` of them take damped steps, μ ≥ p/κ_max (Gₛ has unit diagonal,
+    /// so its eigenvalues are at most p and κ₂(Gₛ + μI) ≤ (p + μ)/μ ≈ κ_max); the next
+    /// ends the iteration with the solution so far (`MaxIterations`) and `true`, for a
+    /// solver that copes with ill-conditioning to go on from there rather than from the
+    /// start. A problem singular at its start (a noise model C/D at C = D = 1, whose
+    /// columns for c_k and d_k are opposite) moves off it by the damped steps.
+    pub(crate) fn solve_to_refusal<T: Real, P: NonlinearProblem<T> + ?Sized>(
+        &self,
+        problem: &P,
+        start: &[T],
+        damped: usize,
+    ) -> Result<(Solution<T>, bool)> {
+        self.run(problem, Some(start), Some(damped))
+    }
+
+    /// The iteration; with `refusals` = `Some(k)` a refused Gram matrix is handled as in
+    /// [`Self::solve_to_refusal`], with `None` it is an error.
+    fn run<T: Real, P: NonlinearProblem<T> + ?Sized>(
+        &self,
+        problem: &P,
+        start: Option<&[T]>,
+        refusals: Option<usize>,
+    ) -> Result<(Solution<T>, bool)> {
+        let mut damped_left = refusals.unwrap_or(0);
         let (m, p) = (problem.n_residuals(), problem.n_params());
         let (tol, ftol) = self.settings.checked(start, p, m)?;
         let mut x: Vec<T> = start.map(<[T]>::to_vec).unwrap_or_default();
@@ -78,21 +115,53 @@ impl<T: Real, P: NonlinearProblem<T> + ?Sized> Solver<T, P> for GramLevenbergMar
         let mut mu = T::zero();
         let mu_min = T::lit(1e-4);
         let done = |x: Vec<T>, cost: T, evaluations: usize, termination| {
-            Ok(Solution {
-                theta: x,
-                cost,
-                iterations: evaluations,
-                termination,
-            })
+            Ok((
+                Solution {
+                    theta: x,
+                    cost,
+                    iterations: evaluations,
+                    termination,
+                },
+                false,
+            ))
         };
         for _ in 0..self.max_iterations.max(1) {
             if cost == T::zero() {
                 return done(x, cost, evaluations, Termination::Converged);
             }
-            let sc = scaled_cholesky(&gram, max_cond).ok_or(FdidError::Singular {
+            let refused = FdidError::Singular {
                 what: "equilibrated normal equations of the Levenberg–Marquardt step",
                 condition: f64::INFINITY,
-            })?;
+            };
+            // the factor of Gₛ for the undamped step, when it is accepted
+            let sc = match scaled_cholesky(&gram, max_cond) {
+                Some(sc) => Scaled {
+                    d: sc.d,
+                    gs: sc.gs,
+                    chol: Some(sc.chol),
+                },
+                None if refusals.is_some() && damped_left > 0 => {
+                    damped_left -= 1;
+                    let (d, gs) = equilibrated(&gram).ok_or(refused)?;
+                    Scaled { d, gs, chol: None }
+                }
+                None if refusals.is_some() => {
+                    let solution = Solution {
+                        theta: x,
+                        cost,
+                        iterations: evaluations,
+                        termination: Termination::MaxIterations,
+                    };
+                    return Ok((solution, true));
+                }
+                None => return Err(refused),
+            };
+            // the least damping of an iterate whose Gₛ was refused
+            let mu_floor = if sc.chol.is_some() {
+                T::zero()
+            } else {
+                T::from_usize_lossy(p) / max_cond
+            };
             let gs: DVector<T> =
                 DVector::from_iterator(p, grad.iter().zip(&sc.d).map(|(g, d)| *g / *d));
             if gs.iter().all(|v| *v == T::zero()) {
@@ -104,12 +173,13 @@ impl<T: Real, P: NonlinearProblem<T> + ?Sized> Solver<T, P> for GramLevenbergMar
                     .fold(T::zero(), |s, (v, d)| s + (*v * *d) * (*v * *d)),
             );
             loop {
-                let step = if mu == T::zero() {
-                    -sc.chol.solve(&gs)
+                let damping = Float::max(mu, mu_floor);
+                let step = if let (true, Some(chol)) = (damping == T::zero(), &sc.chol) {
+                    -chol.solve(&gs)
                 } else {
                     let mut a = sc.gs.clone();
                     for i in 0..p {
-                        a[(i, i)] += mu;
+                        a[(i, i)] += damping;
                     }
                     match nalgebra::Cholesky::new(a) {
                         Some(c) => -c.solve(&gs),
@@ -274,5 +344,27 @@ mod tests {
                 .solve(&p, Some(&[1.0, f64::NAN, 0.0]))
                 .is_err()
         );
+    }
+    #[test]
+    fn solve_to_refusal_hands_over_where_it_stopped() {
+        // singular at the start (b = 0): no damped step allowed ends there at once
+        let p = exp_problem(true);
+        let start = [1.0, 0.0, -1.0];
+        let fast = GramLevenbergMarquardt::default();
+        let (s0, refused) = fast.solve_to_refusal(&p, &start, 0).expect("stop");
+        assert!(refused);
+        assert_eq!(s0.theta, start);
+        assert_eq!(s0.termination, Termination::MaxIterations);
+        // damped steps move off the singular start and lower the cost
+        let (s1, _) = fast.solve_to_refusal(&p, &start, 5).expect("damped");
+        assert!(s1.cost < s0.cost, "{} vs {}", s1.cost, s0.cost);
+        assert_ne!(s1.theta, start);
+        // a well-conditioned problem never refuses: the same optimum as Solver::solve
+        let p = exp_problem(false);
+        let start = [1.0, 0.3, 0.0];
+        let (s2, refused) = fast.solve_to_refusal(&p, &start, 0).expect("fast");
+        assert!(!refused);
+        let reference = fast.solve(&p, Some(&start)).expect("solve");
+        assert_eq!(s2, reference);
     }
 }
