@@ -100,12 +100,13 @@ pub(crate) fn ml_solve_in<
 /// the hand-over to [`LevenbergMarquardt`]. More lets low-order noise models finish in
 /// normal-equation steps but sends order 20 down a longer path (noise model orders
 /// 1 / 5 / 10 / 20 on 4 096 samples, `cargo bench --bench mckelvey -- noise_model`: 5 gives
-/// 1.3 ms / 55 ms / 0.41 s / 1.26 s, 20 gives 1.3 ms / 26 ms / 0.20 s / 2.8 s).
+/// 1.3 ms / 55 ms / 0.41 s / 1.26 s, 20 gave 1.3 ms / 26 ms / 0.20 s / 2.8 s).
 const DAMPED_REFUSALS: usize = 5;
 
-/// `fast` from `start` until it ends or its Gram matrix is refused beyond
-/// [`DAMPED_REFUSALS`] iterates ([`GramLevenbergMarquardt::solve_to_refusal`]), then (when
-/// refused) `lm` from where it stopped; `lm` from `start` when `fast` fails. The cheap
+/// `fast` from `start` until it converges, reaches its cap, or its Gram matrix is refused
+/// beyond [`DAMPED_REFUSALS`] iterates ([`GramLevenbergMarquardt::solve_to_refusal`]);
+/// unless it converged, `lm` goes on from where it stopped (from `start` when `fast`
+/// fails). The cheap
 /// normal-equation steps make the first part of the way; MINPACK's QR copes with the
 /// ill-conditioning an over-parameterised noise model has near its optimum.
 fn gram_then_lm<T: Real, P: NonlinearProblem<T> + ?Sized>(
@@ -115,8 +116,8 @@ fn gram_then_lm<T: Real, P: NonlinearProblem<T> + ?Sized>(
     start: &[T],
 ) -> Result<Solution<T>> {
     match fast.solve_to_refusal(problem, start, DAMPED_REFUSALS) {
-        Ok((solution, false)) => Ok(solution),
-        Ok((so_far, true)) => {
+        Ok((solution, false)) if solution.converged() => Ok(solution),
+        Ok((so_far, _)) => {
             let mut solution = lm.solve(problem, Some(&so_far.theta))?;
             solution.iterations += so_far.iterations;
             Ok(solution)

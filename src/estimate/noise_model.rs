@@ -161,10 +161,8 @@ pub(crate) fn refine_noise_model_in<T: Real, M: ModelStructure<T> + Clone>(
         cost_tolerance: lm.cost_tolerance.or(Some(NOISE_MODEL_COST_TOLERANCE)),
         ..*lm
     };
-    let fast = GramLevenbergMarquardt {
-        settings: relaxed,
-        max_iterations: relaxed.patience.max(1) * (full.n_params() + 1),
-    };
+    // normal-equation steps first (at most 100), MINPACK's LM from where they stop
+    let fast = GramLevenbergMarquardt::from(relaxed);
     let solve = |theta: &[T]| {
         super::chain::gram_then_lm_in(&fast, &relaxed, &full, &problem, theta, stable)
     };
