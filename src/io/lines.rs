@@ -13,7 +13,8 @@ pub const MAX_LINE_BYTES: usize = 1 << 20;
 /// Reads the lines of a text file one at a time.
 pub(crate) struct LineReader<R: Read> {
     reader: std::io::BufReader<R>,
-    buf: Vec<u8>,
+    /// The line read last, validated as UTF-8 (its bytes are reused for the next one).
+    text: String,
     line: usize,
     /// The last line ended with `\r`: a `\n` right after it belongs to that break.
     after_cr: bool,
@@ -58,7 +59,7 @@ impl<R: Read> LineReader<R> {
     pub(crate) fn new(reader: R) -> Self {
         Self {
             reader: std::io::BufReader::new(reader),
-            buf: Vec::new(),
+            text: String::new(),
             line: 0,
             after_cr: false,
         }
@@ -66,7 +67,28 @@ impl<R: Read> LineReader<R> {
 
     /// The next line without its line break, with its 1-based number; `None` at the end.
     pub(crate) fn next_line(&mut self) -> Result<Option<(usize, &str)>, LineError> {
-        self.buf.clear();
+        if !self.advance()? {
+            return Ok(None);
+        }
+        Ok(Some((self.line, self.current())))
+    }
+
+    /// The text of the line [`Self::next_line`] or [`Self::advance`] read last (empty
+    /// before the first).
+    pub(crate) fn current(&self) -> &str {
+        let text = self.text.as_str();
+        if self.line == 1 {
+            text.strip_prefix('\u{feff}').unwrap_or(text)
+        } else {
+            text
+        }
+    }
+
+    /// Reads the next line into the buffer ([`Self::current`]) and checks that it is
+    /// UTF-8; false at the end.
+    pub(crate) fn advance(&mut self) -> Result<bool, LineError> {
+        let mut buf = std::mem::take(&mut self.text).into_bytes();
+        buf.clear();
         let mut found = false;
         loop {
             let chunk = self.reader.fill_buf().map_err(LineError::Io)?;
@@ -75,12 +97,12 @@ impl<R: Read> LineReader<R> {
             }
             let skip = usize::from(std::mem::take(&mut self.after_cr) && chunk[0] == b'\n');
             let rest = &chunk[skip..];
-            let end = rest.iter().position(|b| *b == b'\n' || *b == b'\r');
+            let end = memchr::memchr2(b'\n', b'\r', rest);
             let take = end.unwrap_or(rest.len());
-            if self.buf.len() + take > MAX_LINE_BYTES {
+            if buf.len() + take > MAX_LINE_BYTES {
                 return Err(LineError::TooLong(self.line + 1));
             }
-            self.buf.extend_from_slice(&rest[..take]);
+            buf.extend_from_slice(&rest[..take]);
             found |= take > 0 || end.is_some();
             match end {
                 Some(p) => {
@@ -95,16 +117,16 @@ impl<R: Read> LineReader<R> {
             }
         }
         if !found {
-            return Ok(None);
+            return Ok(false);
         }
         self.line += 1;
-        let text = std::str::from_utf8(&self.buf).map_err(|_| LineError::Utf8(self.line))?;
-        let text = if self.line == 1 {
-            text.strip_prefix('\u{feff}').unwrap_or(text)
-        } else {
-            text
-        };
-        Ok(Some((self.line, text)))
+        self.text = String::from_utf8(buf).map_err(|_| LineError::Utf8(self.line))?;
+        Ok(true)
+    }
+
+    /// The number of the line read last (1-based; 0 before the first).
+    pub(crate) fn line(&self) -> usize {
+        self.line
     }
 }
 

@@ -12,7 +12,7 @@ pub use self::channels::{
 
 use self::checks::{check_frequencies, check_time_grid};
 use self::header::{Kind, Layout};
-use self::records::Lines;
+use self::records::{Lines, fields};
 use super::Measurement;
 use crate::data::{FrequencyData, FrfMatrix, NoiseVariances, TimeData};
 use crate::error::{FdidError, Result};
@@ -140,22 +140,39 @@ fn read_rows<T: Real, R: Read>(lines: &mut Lines<R>, layout: Layout, name: &str)
     let ncols = names.len();
     let mut columns: Vec<Vec<f64>> = vec![Vec::new(); ncols];
     let mut lines_of_rows: Vec<usize> = Vec::new();
-    while let Some((line, fields)) = lines.next_record().map_err(|e| e.into_error(name))? {
-        if fields.len() != ncols {
+    let mut row: Vec<f64> = Vec::with_capacity(ncols);
+    while let Some((line, text)) = lines.next_text().map_err(|e| e.into_error(name))? {
+        // one pass: the values of the first ncols fields (the first bad one remembered) and
+        // the count; a wrong count is reported before a bad value
+        row.clear();
+        let mut bad: Option<String> = None;
+        let mut count = 0;
+        for (j, field) in fields(text).enumerate() {
+            count += 1;
+            if j < ncols && bad.is_none() {
+                match field_value::<T>(&names[j], field) {
+                    Ok(v) => row.push(v),
+                    Err(m) => bad = Some(m),
+                }
+            }
+        }
+        if count != ncols {
+            let found: Vec<&str> = fields(text).collect();
             return Err(parse_error(
                 name,
                 line,
                 format!(
-                    "expected {ncols} fields ({}), found {}: `{}`",
+                    "expected {ncols} fields ({}), found {count}: `{}`",
                     names.join(","),
-                    fields.len(),
-                    echo(&fields.join(","))
+                    echo(&found.join(","))
                 ),
             ));
         }
-        for (j, text) in fields.iter().enumerate() {
-            let v = field_value::<T>(&names[j], text).map_err(|m| parse_error(name, line, m))?;
-            columns[j].push(v);
+        if let Some(m) = bad {
+            return Err(parse_error(name, line, m));
+        }
+        for (column, v) in columns.iter_mut().zip(&row) {
+            column.push(*v);
         }
         lines_of_rows.push(line);
     }

@@ -22,23 +22,33 @@ impl<R: Read> Lines<R> {
     pub(super) fn next_record(
         &mut self,
     ) -> std::result::Result<Option<(usize, Vec<String>)>, LineError> {
-        while let Some((line, text)) = self.lines.next_line()? {
-            let text = text.trim();
-            if text.is_empty() || text.starts_with('#') {
-                continue;
-            }
-            let fields = text
-                .split(',')
-                .map(|f| {
-                    let f = f.trim();
-                    f.strip_prefix('"')
-                        .and_then(|g| g.strip_suffix('"'))
-                        .map_or(f, str::trim)
-                        .to_string()
-                })
-                .collect();
-            return Ok(Some((line, fields)));
-        }
-        Ok(None)
+        Ok(self
+            .next_text()?
+            .map(|(line, text)| (line, fields(text).map(str::to_string).collect())))
     }
+
+    /// The next line that is neither blank nor a comment, as (line number, trimmed text),
+    /// for [`fields`] to split without allocating; `None` at the end.
+    pub(super) fn next_text(&mut self) -> std::result::Result<Option<(usize, &str)>, LineError> {
+        loop {
+            if !self.lines.advance()? {
+                return Ok(None);
+            }
+            let text = self.lines.current().trim();
+            if !(text.is_empty() || text.starts_with('#')) {
+                break;
+            }
+        }
+        Ok(Some((self.lines.line(), self.lines.current().trim())))
+    }
+}
+
+/// The trimmed fields of a record's text; a field wrapped in double quotes loses them.
+pub(super) fn fields(text: &str) -> impl Iterator<Item = &str> {
+    text.split(',').map(|f| {
+        let f = f.trim();
+        f.strip_prefix('"')
+            .and_then(|g| g.strip_suffix('"'))
+            .map_or(f, str::trim)
+    })
 }
