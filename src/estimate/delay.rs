@@ -315,8 +315,6 @@ struct DelaySearch<'a, T: Real, M> {
     threshold: T,
     /// The round of lowest ML cost so far.
     best_round: Option<BestRound<T, M>>,
-    /// Whether the lines carry no noise weights (the noise level is then estimated).
-    flat: bool,
     /// Delay-free fits made.
     fits: usize,
     /// The first failure of a fit.
@@ -403,7 +401,6 @@ impl<'a, T: Real, M: FurtherStarts<T>> DelaySearch<'a, T, M> {
             step: T::pi() / (T::lit(4.0) * w_max),
             threshold: stopping_cost(model, data, line_weights),
             best_round: None,
-            flat: line_weights.is_none(),
             fits: 0,
             first_error: None,
             refined: vec![],
@@ -570,17 +567,26 @@ impl<'a, T: Real, M: FurtherStarts<T>> DelaySearch<'a, T, M> {
                     .map(|k| whole + ts * T::lit(*k)),
             );
         }
-        let mut tried: Vec<T> = Vec::new();
+        let step = self.step;
+        self.refine_starts(starts, |refined, t| {
+            refined
+                .iter()
+                .any(|(r, c)| Float::abs(*r - t) < step / T::lit(2.0) && *c <= best_cost)
+        });
+    }
+
+    /// Refines each of `starts` in turn (clamped into the bounds) until the threshold is
+    /// reached, skipping a start within δ/8 of one tried before or `covered` by the
+    /// refined (τ, cost) so far.
+    fn refine_starts(&mut self, starts: Vec<T>, covered: impl Fn(&[(T, T)], T) -> bool) {
+        let mut tried: Vec<T> = Vec::with_capacity(starts.len());
         for t in starts {
             let t = self.model.clamp(t);
-            let covered = self
-                .refined
-                .iter()
-                .any(|(r, c)| Float::abs(*r - t) < self.step / T::lit(2.0) && *c <= best_cost)
+            if covered(&self.refined, t)
                 || tried
                     .iter()
-                    .any(|r| Float::abs(*r - t) < self.step / T::lit(8.0));
-            if covered {
+                    .any(|r| Float::abs(*r - t) < self.step / T::lit(8.0))
+            {
                 continue;
             }
             tried.push(t);
@@ -631,21 +637,7 @@ impl<'a, T: Real, M: FurtherStarts<T>> DelaySearch<'a, T, M> {
                 starts.extend([0.5, 0.25, 0.75].iter().map(|f| a + (b - a) * T::lit(*f)));
             }
         }
-        let mut tried: Vec<T> = vec![];
-        for t in starts {
-            let t = self.model.clamp(t);
-            if tried
-                .iter()
-                .any(|r| Float::abs(*r - t) < step / T::lit(8.0))
-            {
-                continue;
-            }
-            tried.push(t);
-            self.refine(t);
-            if self.done() {
-                break;
-            }
-        }
+        self.refine_starts(starts, |_, _| false);
     }
 
     /// Whether the best refined delay reaches the threshold, or the work budget
@@ -734,7 +726,8 @@ impl<'a, T: Real, M: FurtherStarts<T>> DelaySearch<'a, T, M> {
         let problem = self.ml.problem(&model, self.data)?;
         let fast = GramLevenbergMarquardt::from(self.lm);
         let solution = super::chain::ml_solve(&fast, &self.lm, &problem, &start)?;
-        let level = if self.flat {
+        // without noise weights the noise level is estimated from the residuals
+        let level = if self.search.weights.is_none() {
             noise_level_cost(&model, &solution.theta, self.data)
         } else {
             None
