@@ -441,15 +441,9 @@ impl<T: Real, M: ModelStructure<T>> Fit<T, M> {
                 value: "a model structure without a normalisation map".into(),
                 reason: "its parameters cannot be mapped back from normalised data".into(),
             })?;
-        let residual = if self.noise_known {
-            T::one()
-        } else {
-            T::one() / n.output()
-        };
-        let cost = residual * residual;
-        for (t, f) in self.theta.iter_mut().zip(&d) {
-            *t *= *f;
-        }
+        let residual = n.residual_scale(self.noise_known);
+        let cost = n.cost_scale(self.noise_known);
+        denormalise_theta(&mut self.theta, &d);
         if let Some(bad) = self.theta.iter().position(|t| !Float::is_finite(*t)) {
             return Err(crate::error::FdidError::Numerical {
                 what: format!(
@@ -473,14 +467,7 @@ impl<T: Real, M: ModelStructure<T>> Fit<T, M> {
         }
         self.cost *= cost;
         self.noise_variance *= cost;
-        for stage in &mut self.stages {
-            if stage.kind != StageKind::Delay {
-                for (t, f) in stage.solution.theta.iter_mut().zip(&d) {
-                    *t *= *f;
-                }
-            }
-            stage.solution.cost *= cost;
-        }
+        denormalise_stages(&mut self.stages, &d, cost);
         Ok(self)
     }
 
@@ -979,6 +966,26 @@ impl<T: Real> Fit<T, crate::model::Rational<T>> {
             self.model().domain(),
             self.omega(),
         ))
+    }
+}
+
+/// θ estimated on normalised data mapped back to the data's units: θ_j·d_j, `d` the model's
+/// [`ModelStructure::normalisation_map`](crate::model::ModelStructure::normalisation_map).
+pub(crate) fn denormalise_theta<T: Real>(theta: &mut [T], d: &[T]) {
+    for (t, f) in theta.iter_mut().zip(d) {
+        *t *= *f;
+    }
+}
+
+/// Stages estimated on normalised data mapped back: θ by `d` ([`denormalise_theta`]; not
+/// a delay stage's, whose θ is τ) and the costs by `cost` (the squared residual scale,
+/// [`Normalisation::cost_scale`]).
+pub(crate) fn denormalise_stages<T: Real>(stages: &mut [Stage<T>], d: &[T], cost: T) {
+    for stage in stages {
+        if stage.kind != StageKind::Delay {
+            denormalise_theta(&mut stage.solution.theta, d);
+        }
+        stage.solution.cost *= cost;
     }
 }
 

@@ -66,6 +66,23 @@ impl<T: Real> Normalisation<T> {
         self.output
     }
 
+    /// The factor that maps residuals of the normalised data back to the data's units:
+    /// 1/c_y, or 1 when the noise is known (the residuals are then weighted by the noise
+    /// level, which the normalisation scales alike).
+    pub(crate) fn residual_scale(&self, noise_known: bool) -> T {
+        if noise_known {
+            T::one()
+        } else {
+            T::one() / self.output
+        }
+    }
+
+    /// The factor of costs (squared residuals): [`Self::residual_scale`] squared.
+    pub(crate) fn cost_scale(&self, noise_known: bool) -> T {
+        let r = self.residual_scale(noise_known);
+        r * r
+    }
+
     /// c_u, the factor of the input spectrum.
     pub fn input(&self) -> T {
         self.input

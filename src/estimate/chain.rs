@@ -66,26 +66,21 @@ pub(crate) fn ml_solve<T: Real, P: NonlinearProblem<T> + ?Sized>(
         .or_else(|_| lm.solve(problem, Some(start)))
 }
 
-/// [`ml_solve`], restricted with `stable` to the θ where `model` is stable
-/// ([`Feasible`], [`ModelStructure::stable_at`]) from a stable `start`; a solution that
-/// is not stable (a solver that ended on a rejected trial point) is an error.
-pub(crate) fn ml_solve_in<
-    T: Real,
-    M: ModelStructure<T> + ?Sized,
-    P: NonlinearProblem<T> + ?Sized,
->(
-    fast: &GramLevenbergMarquardt,
-    lm: &LevenbergMarquardt,
+/// `solve` on `problem` from `start`, restricted with `stable` to the θ where `model` is
+/// stable ([`Feasible`], [`ModelStructure::stable_at`]) from a stable `start`; a solution
+/// that is not stable (a solver that ended on a rejected trial point) is an error.
+fn solve_in<T: Real, M: ModelStructure<T> + ?Sized>(
     model: &M,
-    problem: &P,
+    problem: &dyn NonlinearProblem<T>,
     start: &[T],
     stable: bool,
+    solve: impl Fn(&dyn NonlinearProblem<T>, &[T]) -> Result<Solution<T>>,
 ) -> Result<Solution<T>> {
     if !stable || model.stable_at(start).is_none() {
-        return ml_solve(fast, lm, problem, start);
+        return solve(problem, start);
     }
     let constrained = Feasible::new(problem, |theta: &[T]| model.stable_at(theta) == Some(true));
-    let sol = ml_solve(fast, lm, &constrained, start)?;
+    let sol = solve(&constrained, start)?;
     if model.stable_at(&sol.theta) == Some(true) {
         Ok(sol)
     } else {
@@ -94,6 +89,21 @@ pub(crate) fn ml_solve_in<
             reason: "the solution left the stable region".into(),
         })
     }
+}
+
+/// [`ml_solve`], restricted with `stable` to the θ where `model` is stable
+/// ([`solve_in`]).
+pub(crate) fn ml_solve_in<T: Real, M: ModelStructure<T> + ?Sized, P: NonlinearProblem<T>>(
+    fast: &GramLevenbergMarquardt,
+    lm: &LevenbergMarquardt,
+    model: &M,
+    problem: &P,
+    start: &[T],
+    stable: bool,
+) -> Result<Solution<T>> {
+    solve_in(model, problem, start, stable, |p, s| {
+        ml_solve(fast, lm, p, s)
+    })
 }
 
 /// Iterates of [`gram_then_lm`] whose Gram matrix is refused that take damped steps before
@@ -128,11 +138,7 @@ fn gram_then_lm<T: Real, P: NonlinearProblem<T> + ?Sized>(
 
 /// [`gram_then_lm`], restricted with `stable` to the θ where `model` is stable (as
 /// [`ml_solve_in`]).
-pub(crate) fn gram_then_lm_in<
-    T: Real,
-    M: ModelStructure<T> + ?Sized,
-    P: NonlinearProblem<T> + ?Sized,
->(
+pub(crate) fn gram_then_lm_in<T: Real, M: ModelStructure<T> + ?Sized, P: NonlinearProblem<T>>(
     fast: &GramLevenbergMarquardt,
     lm: &LevenbergMarquardt,
     model: &M,
@@ -140,47 +146,21 @@ pub(crate) fn gram_then_lm_in<
     start: &[T],
     stable: bool,
 ) -> Result<Solution<T>> {
-    if !stable || model.stable_at(start).is_none() {
-        return gram_then_lm(fast, lm, problem, start);
-    }
-    let constrained = Feasible::new(problem, |theta: &[T]| model.stable_at(theta) == Some(true));
-    let sol = gram_then_lm(fast, lm, &constrained, start)?;
-    if model.stable_at(&sol.theta) == Some(true) {
-        Ok(sol)
-    } else {
-        Err(crate::error::FdidError::NotConverged {
-            method: "stability-constrained Levenberg–Marquardt",
-            reason: "the solution left the stable region".into(),
-        })
-    }
+    solve_in(model, problem, start, stable, |p, s| {
+        gram_then_lm(fast, lm, p, s)
+    })
 }
 
 /// `lm` on `problem` from `start`, restricted with `stable` to the θ where `model` is stable
 /// (as [`ml_solve_in`], with the crate's Levenberg–Marquardt alone).
-pub(crate) fn lm_solve_in<
-    T: Real,
-    M: ModelStructure<T> + ?Sized,
-    P: NonlinearProblem<T> + ?Sized,
->(
+pub(crate) fn lm_solve_in<T: Real, M: ModelStructure<T> + ?Sized, P: NonlinearProblem<T>>(
     lm: &LevenbergMarquardt,
     model: &M,
     problem: &P,
     start: &[T],
     stable: bool,
 ) -> Result<Solution<T>> {
-    if !stable || model.stable_at(start).is_none() {
-        return lm.solve(problem, Some(start));
-    }
-    let constrained = Feasible::new(problem, |theta: &[T]| model.stable_at(theta) == Some(true));
-    let sol = lm.solve(&constrained, Some(start))?;
-    if model.stable_at(&sol.theta) == Some(true) {
-        Ok(sol)
-    } else {
-        Err(crate::error::FdidError::NotConverged {
-            method: "stability-constrained Levenberg–Marquardt",
-            reason: "the solution left the stable region".into(),
-        })
-    }
+    solve_in(model, problem, start, stable, |p, s| lm.solve(p, Some(s)))
 }
 
 /// `theta` with its unstable poles reflected ([`ModelStructure::stabilised`]) when
@@ -551,22 +531,9 @@ impl Pipeline {
             return Ok((l.model, l.current, l.stages));
         };
         let mut l = self.linear_stages(model, &n.apply(data), true)?;
-        // the costs scale as the squared residuals: by 1/n_y² unless noise weights fix them
-        let residual = if self.weighting.weights(data)?.is_some() {
-            T::one()
-        } else {
-            T::one() / n.output()
-        };
-        let unscale = |theta: &mut [T]| {
-            for (t, f) in theta.iter_mut().zip(&d) {
-                *t *= *f;
-            }
-        };
-        unscale(&mut l.current);
-        for stage in &mut l.stages {
-            unscale(&mut stage.solution.theta);
-            stage.solution.cost *= residual * residual;
-        }
+        let noise_known = self.weighting.weights(data)?.is_some();
+        crate::fit::denormalise_theta(&mut l.current, &d);
+        crate::fit::denormalise_stages(&mut l.stages, &d, n.cost_scale(noise_known));
         Ok((l.model, l.current, l.stages))
     }
 

@@ -694,7 +694,7 @@ impl<'a, T: Real, M: FurtherStarts<T>> DelaySearch<'a, T, M> {
                 if self
                     .best_round
                     .as_ref()
-                    .is_none_or(|b| made.solution.cost < b.solution.cost)
+                    .is_none_or(|b| sol.cost < b.solution.cost)
                 {
                     self.best_round = Some(made);
                 }

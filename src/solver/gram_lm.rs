@@ -49,13 +49,6 @@ impl From<LevenbergMarquardt> for GramLevenbergMarquardt {
     }
 }
 
-/// D and Gₛ of the Gram matrix, with the Cholesky factor of Gₛ when it is accepted.
-struct Scaled<T: Real> {
-    d: Vec<T>,
-    gs: DMatrix<T>,
-    chol: Option<nalgebra::Cholesky<T, nalgebra::Dyn>>,
-}
-
 fn sum_sq<T: Real>(r: &[T]) -> T {
     r.iter().fold(T::zero(), |s, v| s + *v * *v)
 }
@@ -133,17 +126,13 @@ impl GramLevenbergMarquardt {
                 what: "equilibrated normal equations of the Levenberg–Marquardt step",
                 condition: f64::INFINITY,
             };
-            // the factor of Gₛ for the undamped step, when it is accepted
-            let sc = match scaled_cholesky(&gram, max_cond) {
-                Some(sc) => Scaled {
-                    d: sc.d,
-                    gs: sc.gs,
-                    chol: Some(sc.chol),
-                },
+            // D, Gₛ and the Cholesky factor of Gₛ for the undamped step, when it is accepted
+            let (scale, scaled, chol) = match scaled_cholesky(&gram, max_cond) {
+                Some(sc) => (sc.d, sc.gs, Some(sc.chol)),
                 None if refusals.is_some() && damped_left > 0 => {
                     damped_left -= 1;
                     let (d, gs) = equilibrated(&gram).ok_or(refused)?;
-                    Scaled { d, gs, chol: None }
+                    (d, gs, None)
                 }
                 None if refusals.is_some() => {
                     let solution = Solution {
@@ -157,27 +146,27 @@ impl GramLevenbergMarquardt {
                 None => return Err(refused),
             };
             // the least damping of an iterate whose Gₛ was refused
-            let mu_floor = if sc.chol.is_some() {
+            let mu_floor = if chol.is_some() {
                 T::zero()
             } else {
                 T::from_usize_lossy(p) / max_cond
             };
             let gs: DVector<T> =
-                DVector::from_iterator(p, grad.iter().zip(&sc.d).map(|(g, d)| *g / *d));
+                DVector::from_iterator(p, grad.iter().zip(&scale).map(|(g, d)| *g / *d));
             if gs.iter().all(|v| *v == T::zero()) {
                 return done(x, cost, evaluations, Termination::Converged);
             }
             let xnorm = Float::sqrt(
                 x.iter()
-                    .zip(&sc.d)
+                    .zip(&scale)
                     .fold(T::zero(), |s, (v, d)| s + (*v * *d) * (*v * *d)),
             );
             loop {
                 let damping = Float::max(mu, mu_floor);
-                let step = if let (true, Some(chol)) = (damping == T::zero(), &sc.chol) {
+                let step = if let (true, Some(chol)) = (damping == T::zero(), &chol) {
                     -chol.solve(&gs)
                 } else {
-                    let mut a = sc.gs.clone();
+                    let mut a = scaled.clone();
                     for i in 0..p {
                         a[(i, i)] += damping;
                     }
@@ -192,10 +181,10 @@ impl GramLevenbergMarquardt {
                     }
                 };
                 // predicted reduction of ‖r + Jδ‖²: −2δₛᵀgₛ − δₛᵀGₛδₛ
-                let gsd = &sc.gs * &step;
+                let gsd = &scaled * &step;
                 let predicted = -(step.dot(&gs) * T::lit(2.0) + step.dot(&gsd));
                 let snorm = step.norm();
-                for ((xt, xv), (s, d)) in x_try.iter_mut().zip(&x).zip(step.iter().zip(&sc.d)) {
+                for ((xt, xv), (s, d)) in x_try.iter_mut().zip(&x).zip(step.iter().zip(&scale)) {
                     *xt = *xv + *s / *d;
                 }
                 if !super::work::charge(evaluation_cost) {
