@@ -72,7 +72,8 @@ impl Workflow {
                 let Ok(reduced) = fit_spec(&spec, data) else {
                     continue;
                 };
-                if !reduced.is_stable() {
+                // the step's own rule (`try_refit`): no unstable or new marginal pole
+                if !reduced.is_stable() || reduced.marginal_poles() > current.marginal_poles() {
                     continue;
                 }
                 let Some(lr_p) = lr_p_value(&reduced, current, data.len()) else {

@@ -90,7 +90,7 @@ use hypothesis::Exploration;
 pub use hypothesis::Hypothesis;
 pub use ltv_step::{LtvCandidate, LtvStep, MIN_GAP, time_varying_ode};
 pub use segments::{SegmentResult, segment_disagreement};
-pub use spec::{MARGINAL_DAMPING, SpecFit, fit_spec};
+pub use spec::{BELOW_BAND, MARGINAL_DAMPING, SpecFit, fit_spec};
 
 use crate::data::FrequencyData;
 use crate::error::{FdidError, Result};

@@ -8,7 +8,8 @@
 //! step, the pass removes its augmentation from the final model (the reduced model), runs
 //! the other one-parameter detectors on the reduced fit, refits their proposals, and
 //! among those whose likelihood-ratio test against the reduced model is significant at α
-//! keeps the one of largest likelihood when it beats the current model (same
+//! keeps the one of largest likelihood when it beats the current model and has no more
+//! unstable or marginal poles ([`SpecFit::marginal_poles`]) than it (same
 //! number of parameters: the larger likelihood is the better model, as AIC or BIC would
 //! say; no test level is involved). The step then reports the new effect with its
 //! detector's p-value on the reduced fit, the reduced and new costs, and the
@@ -80,6 +81,7 @@ impl Workflow {
                     if next.n_params != current.n_params
                         || !(next.cost < bar * (1.0 - 1e-9))
                         || (current.is_stable() && !next.is_stable())
+                        || next.marginal_poles() > current.marginal_poles()
                     {
                         continue;
                     }

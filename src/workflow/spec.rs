@@ -136,20 +136,31 @@ impl SpecFit {
         }
     }
 
-    /// How many poles of the system part sit on the stability boundary: damping ratio
-    /// `ζ = −Re s / |s|` (with `s = ln z` in discrete time) below [`MARGINAL_DAMPING`]. The
-    /// stability-constrained ML stops poles there; such a pole is not a resonance the data
-    /// determine.
+    /// How many poles of the system part sit on the stability boundary, with `s = ln z / Ts`
+    /// in discrete time: a damping ratio ζ = −Re s/|s| below [`MARGINAL_DAMPING`] (a
+    /// resonance the stability-constrained ML stopped at the boundary), or a distance
+    /// −Re s from the boundary below [`BELOW_BAND`] times ω_lo, the lowest positive
+    /// frequency fitted: a pole so close to s = 0 that over the band it changes the
+    /// response of an integrator by less than that fraction, so the data cannot tell it
+    /// from an integrator or an unstable pole (a real pole parked at 10⁻⁸ rad/s below a
+    /// 2 Hz band). Neither is a pole the data determine.
     pub fn marginal_poles(&self) -> usize {
+        let lowest = self
+            .omega
+            .iter()
+            .copied()
+            .filter(|w| *w > 0.0)
+            .fold(f64::INFINITY, f64::min);
+        let lowest = if lowest.is_finite() { lowest } else { 0.0 };
         self.poles
             .iter()
             .filter(|p| {
                 let s = match self.spec.domain {
-                    Domain::Discrete { .. } => p.ln(),
+                    Domain::Discrete { ts } => p.ln() / ts,
                     Domain::Continuous => **p,
                 };
-                let norm = s.norm();
-                norm > 0.0 && -s.re / norm < MARGINAL_DAMPING
+                s.norm() > 0.0
+                    && (-s.re < MARGINAL_DAMPING * s.norm() || -s.re < BELOW_BAND * lowest)
             })
             .count()
     }
@@ -167,6 +178,10 @@ impl SpecFit {
 /// Damping ratio under which a pole counts as on the stability boundary
 /// ([`SpecFit::marginal_poles`]).
 pub const MARGINAL_DAMPING: f64 = 1e-6;
+
+/// Distance from the stability boundary, as a fraction of the lowest fitted frequency,
+/// under which a pole counts as on it ([`SpecFit::marginal_poles`]).
+pub const BELOW_BAND: f64 = 1e-4;
 
 /// Fits `spec` to `data` ([`ModelSpec::fit`], which chooses the strategy) and reduces the
 /// fit to what the detectors need, on the lines it was made on ([`RationalFit::lines`]).
@@ -313,4 +328,39 @@ fn reduce<M: ModelStructure<f64>>(
         fit: None,
         custom: None,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A first-order fit on 1..10 rad/s whose poles are then replaced.
+    fn fit_with_poles(poles: &[Complex<f64>]) -> SpecFit {
+        let omega: Vec<f64> = (1..=20).map(|k| 0.5 * k as f64).collect();
+        let frf = omega
+            .iter()
+            .map(|w| Complex::new(1.0, 0.0) / Complex::new(2.0, *w))
+            .collect();
+        let data = FrequencyData::from_frf(omega, frf, None).unwrap();
+        let mut fit = fit_spec(&ModelSpec::continuous(1, 0), &data).unwrap();
+        fit.poles = poles.to_vec();
+        fit
+    }
+
+    #[test]
+    fn marginal_poles_are_undamped_resonances_and_poles_next_to_zero() {
+        let lowest = 0.5;
+        let c = Complex::new;
+        // determined: a real pole below the band but well away from s = 0, a damped pair
+        assert_eq!(fit_with_poles(&[c(-0.1, 0.0)]).marginal_poles(), 0);
+        assert_eq!(fit_with_poles(&[c(-0.1, 3.0), c(-0.1, -3.0)]).marginal_poles(), 0);
+        // a pair with ζ below 10⁻⁶ and a real pole 10⁻⁸ rad/s from the axis (an
+        // integrator over 0.5..10 rad/s)
+        assert_eq!(fit_with_poles(&[c(-1e-7, 3.0), c(-1e-7, -3.0)]).marginal_poles(), 2);
+        assert_eq!(fit_with_poles(&[c(-1e-8, 0.0)]).marginal_poles(), 1);
+        // the bound is BELOW_BAND ω_lo
+        let at = BELOW_BAND * lowest;
+        assert_eq!(fit_with_poles(&[c(-0.5 * at, 0.0)]).marginal_poles(), 1);
+        assert_eq!(fit_with_poles(&[c(-2.0 * at, 0.0)]).marginal_poles(), 0);
+    }
 }

@@ -8,6 +8,7 @@
 //! | robot arm (DaISy, `data/robot_arm.csv`) | order 4: resonances near bins 59 and 129 of 1024 (0.058 and 0.126 cycles/sample) |
 //! | battery impedance (`data/eis_battery.csv`) | a distributed RC system: real poles (Voigt elements), no resonance |
 //! | Silverbox (`data/silverbox.csv`, 10 realisations) | odd lines 1…2683 excited; second-order BLA near 69.5 Hz, ζ ≈ 0.05 |
+//! | F-16 ground vibration test (`../shared/data/f16-gvt`, Force → Acceleration1) | modes near 5.22 Hz (wing bending) and 7.32 Hz (wing torsion) in 2–15 Hz |
 #![cfg(feature = "cli")]
 use crate::cli_common as cli;
 
@@ -165,6 +166,61 @@ fn robot_arm_diagnose_from_two_two_finds_both_resonances() {
     // the cost test passes: the two resonances explain the data to the noise level
     let p = fin["cost_p"].as_f64().unwrap_or(f64::NAN);
     assert!(p >= 0.005, "cost p = {p}");
+}
+
+/// The F-16 ground vibration test, Force → Acceleration1, from the raw file (periods 2–9
+/// averaged, the 267 excited lines of 2–15 Hz): the workflow from order 10/10 ends stable
+/// with the wing bending (5.22 Hz) and wing torsion (7.32 Hz) modes of the data README
+/// among its poles, and with no pole the band cannot determine: none parked next to
+/// s = 0 (closer to the stability boundary than 10⁻⁴ of the band's lowest frequency,
+/// where over 2–15 Hz it is an integrator of either sign) and no resonance on the
+/// boundary. Reference modes 3.5, 4.05, 5.22, 6.64, 7.32, 9.23 and 12.4 Hz (README,
+/// FRF peaks); the 12.4 Hz one is not reached from this single output (see
+/// docs/limitations.md).
+#[test]
+fn f16_diagnose_ends_stable_with_the_wing_modes() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../shared/data/f16-gvt/F16Data_FullMSine_Level1.csv");
+    let report = json(
+        "diagnose",
+        &path,
+        &[
+            "--input",
+            "Force",
+            "--output",
+            "Acceleration1",
+            "--ts",
+            "0.0025",
+            "--periods",
+            "9",
+            "--skip-periods",
+            "1",
+            "--domain",
+            "s",
+            "--na",
+            "10",
+            "--nb",
+            "10",
+        ],
+    );
+    let fin = &report["final"];
+    assert_eq!(fin["stable"], Value::Bool(true));
+    for f in [5.22, 7.32] {
+        assert!(
+            has_mode(fin, f, 0.01),
+            "no mode near {f} Hz: {:?}",
+            modes(fin)
+        );
+    }
+    let omega_lo = std::f64::consts::TAU * 41.0 * 400.0 / 8192.0;
+    for (f_n, zeta) in modes(fin) {
+        let distance = zeta * std::f64::consts::TAU * f_n;
+        assert!(
+            distance >= 1e-4 * omega_lo && zeta >= 1e-6,
+            "pole the band cannot determine: f_n {f_n} Hz, damping {zeta}: {:?}",
+            modes(fin)
+        );
+    }
 }
 
 /// Silverbox over its 10 realisations up to 200 Hz: the BLA on the 1342 odd lines (the
