@@ -58,6 +58,63 @@ pub fn unresolved_poles<T: Real>(
         .collect()
 }
 
+/// Damping ratio under which a pole counts as on the stability boundary
+/// ([`marginal_poles`]).
+pub const MARGINAL_DAMPING: f64 = 1e-6;
+
+/// Distance from the stability boundary, as a fraction of the lowest positive data
+/// frequency, under which a pole counts as on it ([`marginal_poles`]).
+pub const BELOW_BAND: f64 = 1e-4;
+
+/// The poles among `poles` (of a model in `domain`, fitted on the lines `omega`, rad/s)
+/// that sit on the stability boundary, with s = p (continuous time) or s = ln(p)/Ts
+/// (discrete time): a damping ratio ζ = −Re s/|s| below [`MARGINAL_DAMPING`] (a
+/// resonance that a stability-constrained fit stopped at the boundary), or a distance
+/// −Re s from the boundary below [`BELOW_BAND`] times ω_lo, the lowest positive line: a
+/// pole so close to s = 0 that over the band it changes an integrator's response by less
+/// than that fraction, so the data cannot tell it from an integrator or an unstable pole.
+/// Unstable poles (Re s > 0) count too. Neither kind is a pole the data determine; both
+/// conjugates of a pair are listed.
+///
+/// ```
+/// use fdid::prelude::*;
+/// use fdid::model::Domain;
+/// use fdid::validation::marginal_poles;
+/// let omega: Vec<f64> = (1..=100).map(|k| k as f64).collect(); // 1..100 rad/s
+/// let poles = [Complex::new(-1e-9, 20.0), Complex::new(-1e-9, -20.0), // ζ = 5e-11
+///              Complex::new(-1e-6, 0.0),                              // next to s = 0
+///              Complex::new(-0.5, 0.0), Complex::new(-2.0, 30.0)];     // determined
+/// assert_eq!(marginal_poles(&poles, Domain::Continuous, &omega), poles[..3].to_vec());
+/// ```
+pub fn marginal_poles<T: Real>(
+    poles: &[Complex<T>],
+    domain: Domain<T>,
+    omega: &[T],
+) -> Vec<Complex<T>> {
+    let lowest = omega
+        .iter()
+        .copied()
+        .filter(|w| *w > T::zero())
+        .fold(T::infinity(), Float::min);
+    let lowest = if Float::is_finite(lowest) {
+        lowest
+    } else {
+        T::zero()
+    };
+    poles
+        .iter()
+        .filter(|p| {
+            let s = match domain {
+                Domain::Continuous => **p,
+                Domain::Discrete { ts } => p.ln() / ts,
+            };
+            let distance = -s.re;
+            distance < T::lit(MARGINAL_DAMPING) * s.norm() || distance < T::lit(BELOW_BAND) * lowest
+        })
+        .copied()
+        .collect()
+}
+
 /// The validation statistics of one fit (see the module docs).
 #[derive(Debug, Clone, PartialEq)]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]

@@ -98,7 +98,9 @@ frf_std, stages, weighting, noise_known, relative_residual, notes, form (how the
 parameterises the model), basis_poles, delay_std, delay_samples (tau/Ts, null without a
 sample time), transient (number of transient coefficients, 0 without --transient),
 noise_order, whiteness_lags, unresolved_poles ([{\"pole\":[re,im], \"s\":[sigma,w_p],
-\"band_hz\":[lo,hi], \"nearest_lines_hz\":[below,above]},..], [] when none). theta is [rational part, t1..tn (--transient), tau
+\"band_hz\":[lo,hi], \"nearest_lines_hz\":[below,above]},..], [] when none),
+marginal_poles ([[re,im],..]: stable poles on the stability boundary, damping below 1e-6
+or closer to s = 0 than 1e-4 of the lowest fitted frequency; one per pair). theta is [rational part, t1..tn (--transient), tau
 (--delay), nc1..ncN, nd1..ndN (--noise-order: H = C/D)]. Values that are not finite are written as null.
 
 Model extensions (they combine: --delay --transient --noise-order N all at once works):

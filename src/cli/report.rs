@@ -223,6 +223,33 @@ pub fn unresolved_poles(
     fdid::validation::unresolved_poles(poles, domain, omega)
 }
 
+/// The warning line (without its label) of a pole `p` on the stability boundary
+/// ([`fdid::validation::marginal_poles`]).
+fn marginal_text(domain: Domain<f64>, p: Complex<f64>) -> String {
+    let s = s_of(domain, p);
+    let sign = if p.im == 0.0 { "" } else { " +/- " };
+    let im = if p.im == 0.0 {
+        String::new()
+    } else {
+        format!("{}i", g(p.im.abs()))
+    };
+    let plane = plane(domain);
+    let zeta = if s.norm() > 0.0 {
+        -s.re / s.norm()
+    } else {
+        0.0
+    };
+    format!(
+        "pole {}{sign}{im} ({plane}) on the stability boundary: -Re s = {} rad/s (damping {}), \
+         below 1e-6 of |s| or 1e-4 of the lowest fitted frequency, so the data do not tell it \
+         from a pole just across the boundary (an undamped resonance, or an integrator over \
+         the band; a stability-constrained fit stops poles there)",
+        g(p.re),
+        g(-s.re),
+        g(zeta)
+    )
+}
+
 /// s of a pole: itself (s), or ln(z)/Ts (z).
 fn s_of(domain: Domain<f64>, p: Complex<f64>) -> Complex<f64> {
     match domain {
@@ -324,6 +351,9 @@ pub struct Report {
     noise_model: Option<NoiseRow>,
     /// The poles the data do not resolve.
     unresolved: Vec<UnresolvedPole>,
+    /// The stable poles on the stability boundary ([`fdid::validation::marginal_poles`]),
+    /// one per conjugate pair.
+    marginal: Vec<Complex<f64>>,
     stages: Vec<StageRow>,
 }
 
@@ -402,6 +432,11 @@ impl Report {
             .into_iter()
             .map(|p| UnresolvedPole::of(domain, fit.omega(), p))
             .collect();
+        // unstable poles have their own warning
+        let marginal = fdid::validation::marginal_poles(&poles, domain, fit.omega())
+            .into_iter()
+            .filter(|p| p.im >= 0.0 && s_of(domain, *p).re < 0.0)
+            .collect();
         let covariance = fit.covariance().map(|c| {
             c.row_iter()
                 .map(|r| r.iter().copied().collect())
@@ -447,6 +482,7 @@ impl Report {
             delay,
             noise_model,
             unresolved,
+            marginal,
             stages: fit.stages().iter().map(StageRow::of).collect(),
         })
     }
@@ -649,10 +685,14 @@ impl Report {
         o
     }
 
-    /// One `warning` line for each pole the data do not resolve.
+    /// One `warning` line for each pole the data do not resolve and for each pole on the
+    /// stability boundary.
     fn unresolved_text(&self, w: &mut String) {
         for p in &self.unresolved {
             let _ = writeln!(w, "warning      {}", p.text(self.domain));
+        }
+        for p in &self.marginal {
+            let _ = writeln!(w, "warning      {}", marginal_text(self.domain, *p));
         }
     }
 
@@ -756,6 +796,7 @@ impl Report {
             "whiteness_p": opt(v.whiteness_p),
             "whiteness_lags": v.whiteness_lags,
             "unresolved_poles": Value::Array(self.unresolved.iter().map(UnresolvedPole::json).collect()),
+            "marginal_poles": pairs(&self.marginal),
         })
     }
 

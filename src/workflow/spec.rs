@@ -136,33 +136,13 @@ impl SpecFit {
         }
     }
 
-    /// How many poles of the system part sit on the stability boundary, with `s = ln z / Ts`
-    /// in discrete time: a damping ratio ζ = −Re s/|s| below [`MARGINAL_DAMPING`] (a
-    /// resonance the stability-constrained ML stopped at the boundary), or a distance
-    /// −Re s from the boundary below [`BELOW_BAND`] times ω_lo, the lowest positive
-    /// frequency fitted: a pole so close to s = 0 that over the band it changes the
-    /// response of an integrator by less than that fraction, so the data cannot tell it
-    /// from an integrator or an unstable pole (a real pole parked at 10⁻⁸ rad/s below a
-    /// 2 Hz band). Neither is a pole the data determine.
+    /// How many poles of the system part sit on the stability boundary
+    /// ([`crate::validation::marginal_poles`]: a damping ratio below [`MARGINAL_DAMPING`],
+    /// or a pole closer to s = 0 than [`BELOW_BAND`] times the lowest fitted frequency,
+    /// an integrator over the band). The stability-constrained ML stops poles there; such
+    /// a pole is not one the data determine.
     pub fn marginal_poles(&self) -> usize {
-        let lowest = self
-            .omega
-            .iter()
-            .copied()
-            .filter(|w| *w > 0.0)
-            .fold(f64::INFINITY, f64::min);
-        let lowest = if lowest.is_finite() { lowest } else { 0.0 };
-        self.poles
-            .iter()
-            .filter(|p| {
-                let s = match self.spec.domain {
-                    Domain::Discrete { ts } => p.ln() / ts,
-                    Domain::Continuous => **p,
-                };
-                s.norm() > 0.0
-                    && (-s.re < MARGINAL_DAMPING * s.norm() || -s.re < BELOW_BAND * lowest)
-            })
-            .count()
+        crate::validation::marginal_poles(&self.poles, self.spec.domain, &self.omega).len()
     }
 
     /// Whether the residuals are consistent with the noise at level `alpha`: the cost test
@@ -175,13 +155,7 @@ impl SpecFit {
     }
 }
 
-/// Damping ratio under which a pole counts as on the stability boundary
-/// ([`SpecFit::marginal_poles`]).
-pub const MARGINAL_DAMPING: f64 = 1e-6;
-
-/// Distance from the stability boundary, as a fraction of the lowest fitted frequency,
-/// under which a pole counts as on it ([`SpecFit::marginal_poles`]).
-pub const BELOW_BAND: f64 = 1e-4;
+pub use crate::validation::{BELOW_BAND, MARGINAL_DAMPING};
 
 /// Fits `spec` to `data` ([`ModelSpec::fit`], which chooses the strategy) and reduces the
 /// fit to what the detectors need, on the lines it was made on ([`RationalFit::lines`]).
@@ -353,10 +327,16 @@ mod tests {
         let c = Complex::new;
         // determined: a real pole below the band but well away from s = 0, a damped pair
         assert_eq!(fit_with_poles(&[c(-0.1, 0.0)]).marginal_poles(), 0);
-        assert_eq!(fit_with_poles(&[c(-0.1, 3.0), c(-0.1, -3.0)]).marginal_poles(), 0);
+        assert_eq!(
+            fit_with_poles(&[c(-0.1, 3.0), c(-0.1, -3.0)]).marginal_poles(),
+            0
+        );
         // a pair with ζ below 10⁻⁶ and a real pole 10⁻⁸ rad/s from the axis (an
         // integrator over 0.5..10 rad/s)
-        assert_eq!(fit_with_poles(&[c(-1e-7, 3.0), c(-1e-7, -3.0)]).marginal_poles(), 2);
+        assert_eq!(
+            fit_with_poles(&[c(-1e-7, 3.0), c(-1e-7, -3.0)]).marginal_poles(),
+            2
+        );
         assert_eq!(fit_with_poles(&[c(-1e-8, 0.0)]).marginal_poles(), 1);
         // the bound is BELOW_BAND ω_lo
         let at = BELOW_BAND * lowest;

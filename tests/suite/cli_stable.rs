@@ -134,3 +134,52 @@ fn stable_flag_with_every_criterion() {
         assert_eq!(v["stable"], Value::Bool(true), "{criterion}");
     }
 }
+
+/// G(s) = 1/((s² − 0.02 s + 4)(s + 1)): a resonance at 2 rad/s with negative damping
+/// (ζ = −0.005), noise free, 200 lines from 0.1 to 10 rad/s.
+fn barely_unstable_csv(dir: &Scratch) -> std::path::PathBuf {
+    let mut text = String::from("f,re,im\n");
+    for k in 0..200 {
+        let w = 10f64.powf(-1.0 + 2.0 * k as f64 / 199.0);
+        let s = ::fdid::Complex::new(0.0, w);
+        let g = ::fdid::Complex::new(1.0, 0.0) / ((s * s - s * 0.02 + 4.0) * (s + 1.0));
+        text.push_str(&format!(
+            "{},{},{}\n",
+            w / std::f64::consts::TAU,
+            g.re,
+            g.im
+        ));
+    }
+    dir.file("barely_unstable.csv", &text)
+}
+
+/// With `--stable` the constrained ML stops the pair that the data place across the
+/// boundary on it: the model is stable in name only, and the report says so (a warning
+/// line, JSON `marginal_poles`); without `--stable` the pair is unstable, warned as such,
+/// and not listed as marginal.
+#[test]
+fn a_pole_stopped_on_the_boundary_is_warned_about() {
+    let dir = Scratch::new("cli_stable_marginal");
+    let path = barely_unstable_csv(&dir);
+    let args = ["--domain", "s", "--na", "3", "--nb", "0"];
+    let mut stable_args = args.to_vec();
+    stable_args.push("--stable");
+    let text = stdout_ok(&run("fit", &path, &stable_args));
+    assert!(text.contains("stable       yes"), "{text}");
+    assert!(
+        text.lines()
+            .any(|l| l.starts_with("warning") && l.contains("on the stability boundary")),
+        "{text}"
+    );
+    stable_args.push("--json");
+    let v = json_of(&run("fit", &path, &stable_args));
+    let marginal = v["marginal_poles"].as_array().expect("marginal_poles");
+    assert_eq!(marginal.len(), 1, "{marginal:?}");
+    let im = marginal[0][1].as_f64().unwrap();
+    assert!((im - 2.0).abs() < 0.01, "{marginal:?}");
+    let mut free_args = args.to_vec();
+    free_args.push("--json");
+    let v = json_of(&run("fit", &path, &free_args));
+    assert_eq!(v["stable"], Value::Bool(false));
+    assert_eq!(v["marginal_poles"], serde_json::json!([]));
+}
