@@ -912,27 +912,74 @@ impl<M: Clone> Delayed<M> {
             },
         }];
         stages.extend(best.inner_stages);
-        let model = best.model;
-        let mut theta0 = best.solution.theta;
-        let last = theta0.len() - 1;
-        theta0[last] = self.clamp(theta0[last]);
-        let theta0 = super::chain::stable_start(&model, theta0, pipeline.stable)?;
-        let lm = pipeline.ml.unwrap_or_default();
-        let ml = MaximumLikelihood {
-            weighting: pipeline.weighting,
-        };
-        let problem = ml.problem(&model, data)?;
-        let fast = GramLevenbergMarquardt::from(lm);
-        let solution =
-            super::chain::ml_solve_in(&fast, &lm, &model, &problem, &theta0, pipeline.stable)?;
-        let theta = solution.theta.clone();
-        stages.push(Stage {
-            kind: StageKind::MlDelayed,
-            solution,
-        });
-        model.check_delay(theta[theta.len() - 1])?;
-        Fit::new(model, data, theta, pipeline.weighting, stages)
+        joint_ml(best.model, best.solution.theta, stages, pipeline, data)
     }
+
+    /// Fits the delayed model from the delay `tau0` (clamped into the bounds) without a
+    /// search: the inner model by `pipeline`'s linear stages on the delay-compensated data
+    /// Y e^{iωτ₀} ([`remove_delay`], [`Pipeline::linear_start`]), then the joint ML of
+    /// [`Delayed::fit`]'s step 2 from [θ_M, τ₀]. For data whose delay is known to lie
+    /// near τ₀ — a segment of a record whose whole fit gave τ₀ — at the cost of one fit
+    /// with the delay known; the stages are those of the linear fit and `ml-delayed`.
+    ///
+    /// # Errors
+    /// As [`Pipeline::fit`]; [`FdidError::InvalidArgument`] naming τ̂ when the fitted
+    /// delay lies outside the bounds.
+    pub(crate) fn fit_from_delay<T: Real>(
+        &self,
+        pipeline: &Pipeline,
+        data: &FrequencyData<T>,
+        tau0: T,
+    ) -> Result<Fit<T, Delayed<M>>>
+    where
+        M: FurtherStarts<T>,
+    {
+        let tau0 = self.clamp(tau0);
+        let compensated = remove_delay(data, tau0)?;
+        let (inner, theta, stages) = pipeline.linear_start(&self.inner, &compensated)?;
+        let model = Delayed {
+            inner,
+            bounds: self.bounds,
+        };
+        joint_ml(
+            model,
+            Delayed::<M>::theta(&theta, tau0),
+            stages,
+            pipeline,
+            data,
+        )
+    }
+}
+
+/// The joint output-error ML of a delayed model from `theta0` ([θ_M, τ], τ clamped into
+/// the bounds; with `pipeline.stable` the start stabilised and the ML constrained), by
+/// the guarded normal-equation steps then MINPACK's LM, appended to `stages` as
+/// `ml-delayed`, with the statistics of [`Fit::new`].
+fn joint_ml<T: Real, M: FurtherStarts<T>>(
+    model: Delayed<M>,
+    mut theta0: Vec<T>,
+    mut stages: Vec<Stage<T>>,
+    pipeline: &Pipeline,
+    data: &FrequencyData<T>,
+) -> Result<Fit<T, Delayed<M>>> {
+    let last = theta0.len() - 1;
+    theta0[last] = model.clamp(theta0[last]);
+    let theta0 = super::chain::stable_start(&model, theta0, pipeline.stable)?;
+    let lm = pipeline.ml.unwrap_or_default();
+    let ml = MaximumLikelihood {
+        weighting: pipeline.weighting,
+    };
+    let problem = ml.problem(&model, data)?;
+    let fast = GramLevenbergMarquardt::from(lm);
+    let solution =
+        super::chain::ml_solve_in(&fast, &lm, &model, &problem, &theta0, pipeline.stable)?;
+    let theta = solution.theta.clone();
+    stages.push(Stage {
+        kind: StageKind::MlDelayed,
+        solution,
+    });
+    model.check_delay(theta[theta.len() - 1])?;
+    Fit::new(model, data, theta, pipeline.weighting, stages)
 }
 
 /// Fits `model` followed by an unbounded delay τ end to end: [`Delayed::fit`] of

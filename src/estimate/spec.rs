@@ -276,7 +276,32 @@ impl ModelSpec {
         });
         self.check_fit_data(data)?;
         let model = self.model(data)?;
-        self.fit_model(&model, Pipeline::default(), data)
+        self.fit_model(&model, Pipeline::default(), data, None)
+    }
+
+    /// [`ModelSpec::fit`] with the delay started at `tau0` (s) instead of searched, for
+    /// data whose delay is known to lie near it (a segment of a record whose whole fit
+    /// gave τ₀): a delayed ML spec without a noise model is fitted by
+    /// `Delayed::fit_from_delay` (the inner model on the data with τ₀ removed, then the
+    /// joint ML), at the cost of one fit with the delay known instead of a search; any
+    /// other spec as [`ModelSpec::fit`].
+    pub(crate) fn fit_near_delay(
+        &self,
+        data: &FrequencyData<f64>,
+        tau0: f64,
+    ) -> Result<RationalFit> {
+        crate::progress::report(|| {
+            format!(
+                "fitting na {} nb {} with the delay from {} s on {} lines",
+                self.na,
+                self.nb,
+                tau0,
+                data.len()
+            )
+        });
+        self.check_fit_data(data)?;
+        let model = self.model(data)?;
+        self.fit_model(&model, Pipeline::default(), data, Some(tau0))
     }
 
     /// The fit of a plain ML spec (no delay, no noise model) started from the poles
@@ -369,7 +394,7 @@ impl ModelSpec {
             sk: None,
             ..Pipeline::default()
         };
-        let levy = self.fit_model(&model, one_relocation, data);
+        let levy = self.fit_model(&model, one_relocation, data, None);
         match (from_roots, levy) {
             (Ok(a), Ok(b)) => Ok(if b.cost() < a.cost() { b } else { a }),
             (Ok(a), Err(_)) => Ok(a),
@@ -393,20 +418,22 @@ impl ModelSpec {
     }
 
     /// The fit of `model` by the spec's strategy with `pipeline`'s stages, on data
-    /// normalised by powers of two (mapped back), stable when the spec enforces it.
+    /// normalised by powers of two (mapped back), stable when the spec enforces it; a
+    /// delayed ML fit from the delay `delay_from` when given ([`ModelSpec::fit_near_delay`]).
     fn fit_model(
         &self,
         model: &Rational<f64>,
         pipeline: Pipeline,
         data: &FrequencyData<f64>,
+        delay_from: Option<f64>,
     ) -> Result<RationalFit> {
         let stable = self.stability == Stability::Enforced;
         let pipeline = Pipeline { stable, ..pipeline };
         let normalisation = Normalisation::of(data);
         let fit = if normalisation.is_identity() {
-            self.fit_with(&pipeline, model, data)?
+            self.fit_with(&pipeline, model, data, delay_from)?
         } else {
-            self.fit_with(&pipeline, model, &normalisation.apply(data))?
+            self.fit_with(&pipeline, model, &normalisation.apply(data), delay_from)?
                 .denormalised(&normalisation)?
         };
         if stable && !fit.is_stable() {
@@ -541,12 +568,14 @@ impl ModelSpec {
         Ok(delay + noise)
     }
 
-    /// The dispatch of [`ModelSpec::fit`] with `pipeline`.
+    /// The dispatch of [`ModelSpec::fit`] with `pipeline` (a delayed ML fit from the delay
+    /// `delay_from` when given).
     fn fit_with(
         &self,
         pipeline: &Pipeline,
         model: &Rational<f64>,
         data: &FrequencyData<f64>,
+        delay_from: Option<f64>,
     ) -> Result<RationalFit> {
         let pipeline = *pipeline;
         let model = model.clone();
@@ -578,9 +607,13 @@ impl ModelSpec {
                 Ok(RationalFit::Plain(fit_tls(&model, data, pipeline.stable)?))
             }
             (false, None, Method::Eiv) => Ok(RationalFit::Plain(fit_eiv(&pipeline, &model, data)?)),
-            (true, None, Method::Ml) => Ok(RationalFit::Delayed(
-                self.delayed(&model, data)?.fit(&pipeline, data)?,
-            )),
+            (true, None, Method::Ml) => {
+                let delayed = self.delayed(&model, data)?;
+                Ok(RationalFit::Delayed(match delay_from {
+                    Some(tau0) => delayed.fit_from_delay(&pipeline, data, tau0)?,
+                    None => delayed.fit(&pipeline, data)?,
+                }))
+            }
             (true, None, Method::Eiv) => Ok(RationalFit::Delayed(fit_eiv_delayed(
                 &pipeline,
                 &self.delayed(&model, data)?,

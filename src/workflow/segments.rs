@@ -73,6 +73,24 @@ pub(crate) fn segment_spec(spec: &ModelSpec, transient: bool) -> ModelSpec {
     }
 }
 
+/// The fit of `spec` on the data of one time segment of the record `whole` was fitted
+/// on: for a delayed spec with the delay started at `whole`'s τ̂
+/// (`ModelSpec::fit_near_delay`) rather than searched
+/// — the segments share the record's delay up to the changes the segment tests look
+/// for, and a search costs tens of fits per segment; otherwise [`fit_spec`].
+pub(crate) fn fit_segment(
+    spec: &ModelSpec,
+    data: &FrequencyData<f64>,
+    whole: &SpecFit,
+) -> Result<SpecFit> {
+    match whole.delay {
+        Some((tau, _)) if spec.delay && tau.is_finite() => {
+            super::spec::fit_spec_near_delay(spec, data, tau)
+        }
+        _ => fit_spec(spec, data),
+    }
+}
+
 /// Number of system parameters of `spec` (denominator, numerator, delay): the parameters
 /// whose meaning does not depend on the segment.
 pub(crate) fn system_params(spec: &ModelSpec) -> usize {
@@ -536,7 +554,7 @@ pub fn segment_disagreement(
     pieces
         .iter()
         .map(|piece| {
-            let own = fit_spec(&spec, &piece.data)?;
+            let own = fit_segment(&spec, &piece.data, fit)?;
             let n = piece.data.len();
             let v_fixed = fixed_model_cost(fit, piece, n_t);
             let v_own = own.cost;

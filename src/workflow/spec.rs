@@ -183,6 +183,17 @@ pub(crate) fn fit_spec_from_poles(
     fit_spec_by(spec, data, |s| s.fit_from_poles(data, poles))
 }
 
+/// [`fit_spec`] with the delay of a delayed spec started at `tau0` (s) instead of
+/// searched ([`ModelSpec::fit_near_delay`]): for the segments of a record whose whole fit
+/// gave τ₀.
+pub(crate) fn fit_spec_near_delay(
+    spec: &ModelSpec,
+    data: &FrequencyData<f64>,
+    tau0: f64,
+) -> Result<SpecFit> {
+    fit_spec_by(spec, data, |s| s.fit_near_delay(data, tau0))
+}
+
 /// The [`SpecFit`] of `fit(spec)`, refitted with the stability enforced when it is
 /// unstable and `spec` leaves stability free.
 fn fit_spec_by(

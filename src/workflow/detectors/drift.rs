@@ -8,10 +8,10 @@ use crate::workflow::finding::{
 };
 use crate::workflow::lrt::f_sf;
 use crate::workflow::segments::{
-    periodic_groups, segment_spec, segmentable, split, system_params, system_theta,
+    fit_segment, periodic_groups, segment_spec, segmentable, split, system_params, system_theta,
     transient_params,
 };
-use crate::workflow::spec::{SpecFit, fit_spec};
+use crate::workflow::spec::SpecFit;
 use nalgebra::{DMatrix, DVector};
 
 /// The homogeneity test of the parameters fitted on time segments
@@ -226,7 +226,7 @@ fn periodic_fits(
             Some(record.ts()),
         )?
         .with_noise(NoiseVariances::output_only(weights.clone()))?;
-        let seg = fit_spec(&spec, &data)?;
+        let seg = fit_segment(&spec, &data, fit)?;
         let var = groups.error_variance(&fit.response, group.periods);
         let (theta, idx) = system_theta(&seg, q);
         let Some(covariance) = system_covariance(&seg, &var, &idx) else {
@@ -257,7 +257,7 @@ fn record_fits(
     let mut fits = Vec::with_capacity(segments);
     let mut noise_dof = f64::INFINITY;
     for piece in &pieces {
-        let seg = fit_spec(&spec, &piece.data)?;
+        let seg = fit_segment(&spec, &piece.data, fit)?;
         let n = piece.data.len() as f64;
         let lambda = seg.cost / (n - seg.n_params as f64 / 2.0);
         noise_dof = noise_dof.min(2.0 * n - seg.n_params as f64);

@@ -5,10 +5,10 @@ use crate::data::{FrequencyData, NoiseVariances, TimeData};
 use crate::error::Result;
 use crate::workflow::finding::Context;
 use crate::workflow::segments::{
-    Groups, fixed_model_cost, periodic_groups, segment_spec, segmentable, split, system_params,
-    system_theta, transient_params,
+    Groups, fit_segment, fixed_model_cost, periodic_groups, segment_spec, segmentable, split,
+    system_params, system_theta, transient_params,
 };
-use crate::workflow::spec::{SpecFit, fit_spec};
+use crate::workflow::spec::SpecFit;
 use num_complex::Complex;
 
 /// The piecewise time-invariant model: the spec refitted on each of S time segments
@@ -210,10 +210,10 @@ fn periodic_piecewise(
         let data = FrequencyData::new(fit.omega.clone(), group.y.clone(), group.u.clone(), ts)?
             .with_noise(noise.clone())?
             .with_variance_dof(dof)?;
-        fits.push(fit_spec(&spec, &data)?);
+        fits.push(fit_segment(&spec, &data, fit)?);
     }
     let data = side_by_side(&fit.omega, &groups, &noises, ts)?.with_variance_dof(dof)?;
-    let Ok(common) = fit_spec(&spec, &data) else {
+    let Ok(common) = fit_segment(&spec, &data, fit) else {
         return Ok(None);
     };
     let spans = groups.groups.iter().map(|g| g.span).collect();
@@ -273,7 +273,7 @@ fn record_piecewise(
     let mut fits = Vec::with_capacity(segments);
     let mut before = 0.0;
     for piece in &pieces {
-        fits.push(fit_spec(&spec, &piece.data)?);
+        fits.push(fit_segment(&spec, &piece.data, fit)?);
         before += fixed_model_cost(fit, piece, n_t);
     }
     let spans = pieces.iter().map(|p| (p.t_start, p.t_end)).collect();
