@@ -27,6 +27,7 @@ pub mod greybox;
 mod modal;
 pub mod multistart;
 mod noise_model;
+mod noise_start;
 mod spec;
 mod work;
 

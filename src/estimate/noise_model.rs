@@ -9,7 +9,8 @@ use crate::data::FrequencyData;
 use crate::error::{FdidError, Result};
 use crate::fit::{Fit, NoiseLevel, Stage, StageKind};
 use crate::model::{ModelStructure, NoiseModel, WithNoiseModel};
-use crate::scalar::Real;
+use crate::problem::NonlinearProblem;
+use crate::scalar::{Complex, Real};
 use crate::solver::{GramLevenbergMarquardt, LevenbergMarquardt};
 
 /// The relative cost reduction at which the noise-model ML counts as converged, unless the
@@ -120,6 +121,36 @@ pub fn fit_noise_model<T: Real, M: FurtherStarts<T>>(
     )
 }
 
+/// The start of H from the residuals of the system's start (`theta` with η = 0, where the
+/// criterion's residuals are Y − Ŷ): [`super::noise_start::hannan_rissanen`] on the lines
+/// of `data`.
+fn linear_noise_start<T: Real, M: ModelStructure<T> + Clone>(
+    full: &WithNoiseModel<M>,
+    data: &FrequencyData<T>,
+    problem: &impl NonlinearProblem<T>,
+    theta: &[T],
+) -> Option<Vec<T>> {
+    let mut r = vec![T::zero(); problem.n_residuals()];
+    if !problem.residuals_into(theta, &mut r) {
+        return None;
+    }
+    let eps: Vec<Complex<T>> = r
+        .chunks_exact(2)
+        .map(|c| Complex::new(c[0], c[1]))
+        .collect();
+    super::noise_start::hannan_rissanen(&full.noise(), &eps, data.omega())
+}
+
+/// ‖r(θ)‖² of `problem`, +∞ when the residuals are not finite.
+fn residual_norm<T: Real>(problem: &impl NonlinearProblem<T>, theta: &[T]) -> T {
+    let mut r = vec![T::zero(); problem.n_residuals()];
+    if problem.residuals_into(theta, &mut r) {
+        r.iter().fold(T::zero(), |s, v| s + *v * *v)
+    } else {
+        T::infinity()
+    }
+}
+
 /// The noise-model stage of [`fit_noise_model`] for any model structure: from a fitted
 /// system model `start` (e.g. a [`crate::model::Delayed`] fit), ML on the concentrated
 /// criterion (26) over [θ_G, η] from [θ̂_G, 0] with Levenberg–Marquardt; H is then made
@@ -155,6 +186,14 @@ pub(crate) fn refine_noise_model_in<T: Real, M: ModelStructure<T> + Clone>(
     let mut theta = super::chain::stable_start(start.model(), start.theta().to_vec(), stable)?;
     theta.extend(std::iter::repeat_n(T::zero(), noise.n_params()));
     let problem = NoiseModelMl.problem(&full, data)?;
+    // H from the start's residuals (Hannan–Rissanen) when it lowers the criterion
+    if let Some(eta) = linear_noise_start(&full, data, &problem, &theta) {
+        let mut with = theta[..p].to_vec();
+        with.extend(eta);
+        if residual_norm(&problem, &with) < residual_norm(&problem, &theta) {
+            theta = with;
+        }
+    }
     // converged at a relative cost reduction of NOISE_MODEL_COST_TOLERANCE unless the
     // solver sets its own
     let relaxed = LevenbergMarquardt {
