@@ -30,7 +30,9 @@ pub const NOISE_MODEL_COST_TOLERANCE: f64 = 1e-6;
 /// 1. keeps the [`interior_lines`] (DC and Nyquist dropped);
 /// 2. starts G from `pipeline` with flat weighting (H ≡ 1, eq. 25) on the lines with
 ///    U_k ≠ 0 (its model is used, with the basis the pipeline may have relocated), and H
-///    from η = 0 (H = 1);
+///    from the linear estimate of Hannan and Rissanen on the start's residuals
+///    (`noise_start`: a long autoregression, then D ε = C ê by least squares; roots
+///    reflected into the unit disc) when it lowers the criterion, else from η = 0 (H = 1);
 /// 3. minimises W with Levenberg–Marquardt (`pipeline.ml`, or the default), converged at a
 ///    relative cost reduction of [`NOISE_MODEL_COST_TOLERANCE`] unless the solver sets
 ///    its own `cost_tolerance`;
@@ -153,7 +155,9 @@ fn residual_norm<T: Real>(problem: &impl NonlinearProblem<T>, theta: &[T]) -> T 
 
 /// The noise-model stage of [`fit_noise_model`] for any model structure: from a fitted
 /// system model `start` (e.g. a [`crate::model::Delayed`] fit), ML on the concentrated
-/// criterion (26) over [θ_G, η] from [θ̂_G, 0] with Levenberg–Marquardt; H is then made
+/// criterion (26) over [θ_G, η] from [θ̂_G, η₀] with Levenberg–Marquardt, η₀ the linear
+/// (Hannan–Rissanen) estimate of H from the start's residuals when it lowers the
+/// criterion, else 0; H is then made
 /// stable and inversely stable ([`NoiseModel::stabilised`], which leaves the criterion
 /// unchanged) and polished once more when a root was reflected; the statistics come from
 /// the innovations (Y − Ŷ)/H with λ estimated. `data` should hold the interior lines
