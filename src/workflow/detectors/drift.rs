@@ -48,7 +48,8 @@ struct SegmentFit {
 /// segments of the measurement in `ctx`: a drift of the parameters is a time-varying
 /// system.
 ///
-/// The spec is refitted on each segment ([`fit_spec`], output-error ML, eq. 23, weighted
+/// The spec is refitted on each segment ([`fit_spec`](crate::workflow::fit_spec), a
+/// delayed spec with τ started from the whole fit's; output-error ML, eq. 23, weighted
 /// by the whole fit's normalisers 1/|c_k|² — for a periodic record their running mean over
 /// 11 lines —, no noise model): for the periodic record
 /// ([`Context::with_record`], P ≥ 4) segment g holds P_g whole periods (S groups of ⌊P/S⌋

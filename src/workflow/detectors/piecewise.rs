@@ -83,7 +83,8 @@ impl TimeVarying {
 ///   θ̄ minimises the whole record's cost, not Σ_s V_s, so `cost_before` is slightly above
 ///   the common model's minimum and the test slightly liberal.
 ///
-/// `cost_after` = Σ_s V_s(θ̂_s) with θ̂_s the spec refitted on segment s ([`fit_spec`]).
+/// `cost_after` = Σ_s V_s(θ̂_s) with θ̂_s the spec refitted on segment s
+/// ([`fit_spec`](crate::workflow::fit_spec); a delayed spec from the whole fit's τ̂).
 /// With p₀ the common model's parameters and p₁ = Σ_s p_s, p₁ − p₀ = (S − 1)q (q system
 /// parameters; the same hypothesis as the drift test), the F form of the
 /// likelihood-ratio test ([`lr_test`](crate::workflow::lrt::lr_test) with an unknown
