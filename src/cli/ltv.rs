@@ -513,6 +513,14 @@ pub fn diagnose_text(step: &LtvStep, t0: f64) -> String {
         step.n_p,
         g(ratio)
     );
+    if step.n_p == 0 {
+        let _ = writeln!(
+            w,
+            "  not confirmed: no order N_p >= 1 of the coefficients in t passes its F test, so \
+             the time-varying ODE of these orders does not shrink the gap; the evidence for \
+             time variation is the test that named it alone"
+        );
+    }
     let _ = writeln!(
         w,
         "  instantaneous poles (rad/s; natural frequency f_n in Hz, damping ratio zeta)"
@@ -575,4 +583,34 @@ pub fn diagnose_json(step: &LtvStep, t0: f64) -> Value {
         "singular_values": fit.singular_values.iter().map(|v| num(*v)).collect::<Vec<_>>(),
         "instantaneous": instants,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use fdid::simulate::SplitMix64;
+    use fdid::workflow::{ModelSpec, fit_spec, time_varying_ode};
+
+    /// A time-invariant first-order record: the time-varying ODE keeps N_p = 0, and the
+    /// text says that it does not confirm time variation.
+    #[test]
+    fn a_time_invariant_ode_is_reported_as_not_confirming() {
+        let n = 1024;
+        let mut rng = SplitMix64::new(3);
+        let u: Vec<f64> = (0..n).map(|_| rng.gaussian()).collect();
+        let mut y = vec![0.0; n];
+        for t in 1..n {
+            y[t] = 0.9 * y[t - 1] + 0.1 * u[t - 1];
+        }
+        let y: Vec<f64> = y.iter().map(|v| v + 1e-3 * rng.gaussian()).collect();
+        let record = TimeData::new(u, y, 0.01).unwrap();
+        let all = record.dft();
+        let keep: Vec<bool> = (0..all.len()).map(|k| (1..=100).contains(&k)).collect();
+        let data = all.select_lines(&keep).unwrap();
+        let fit = fit_spec(&ModelSpec::continuous(1, 0), &data).unwrap();
+        let step = time_varying_ode(&fit, &record, 0.01).unwrap().unwrap();
+        assert_eq!(step.n_p, 0);
+        let text = diagnose_text(&step, 0.0);
+        assert!(text.contains("not confirmed"), "{text}");
+    }
 }

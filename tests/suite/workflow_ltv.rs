@@ -250,6 +250,7 @@ mod diagnose {
         );
         assert!(text.contains("<- chosen"), "{text}");
         assert!(text.contains("gap          V "), "{text}");
+        assert!(!text.contains("not confirmed"), "{text}");
         let instants = text
             .lines()
             .filter(|l| l.trim_start().starts_with("t = "))
