@@ -292,7 +292,7 @@ impl ModelSpec {
     ) -> Result<RationalFit> {
         crate::progress::report(|| {
             format!(
-                "fitting na {} nb {} with the delay from {} s on {} lines",
+                "fitting na {} nb {} with the delay from {:.4e} s on {} lines",
                 self.na,
                 self.nb,
                 tau0,
