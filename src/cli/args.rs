@@ -185,12 +185,14 @@ const EVAL_HELP: &str = "\
 The saved file is one JSON object {\"format\":\"fdid-model\", \"version\":1, \"kind\":
 \"rational\"|\"delayed\"|\"noise_model\"|\"delayed_noise_model\", \"domain\", \"ts\", \"source\",
 \"fitted\":{\"model\", \"theta\", \"covariance\", \"noise_variance\", \"noise_known\", \"cost\",
-\"lines\"}, \"unresolved_poles\":[[re,im],..]} (the poles the data did not resolve; files
-without the key have none). Numbers are written so that they read back exactly: the response is that of
+\"lines\"}, \"unresolved_poles\":[[re,im],..], \"marginal_poles\":[[re,im],..]} (the poles the
+data did not resolve, and the stable poles on the stability boundary; files without the keys
+have none). Numbers are written so that they read back exactly: the response is that of
 the fitted model to the last bit. The output is CSV f,re,im[,std] (a comment line first,
-then a `# warning:` line for each unresolved pole), std the standard deviation of G from
-the covariance of theta (no column without one); with --json one object
-{\"frf\":[[f,re,im],..], \"frf_std\":[..]|null, \"unresolved_poles\":[[re,im],..]}.
+then a `# warning:` line for each unresolved pole and each pole on the stability boundary),
+std the standard deviation of G from the covariance of theta (no column without one); with
+--json one object {\"frf\":[[f,re,im],..], \"frf_std\":[..]|null,
+\"unresolved_poles\":[[re,im],..], \"marginal_poles\":[[re,im],..]}.
 
 A common-pole model (`fdid fit` of every entry with --save; \"kind\":\"common_poles\",
 \"model\":{\"domain\", \"poles\", \"residues\", \"direct\"}) prints every entry in the

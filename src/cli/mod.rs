@@ -149,7 +149,7 @@ fn fit(args: &FitArgs) -> Result<String, Failure> {
         let unresolved: Vec<Complex<f64>> = report.unresolved().iter().map(|u| u.pole).collect();
         saved::write(
             path,
-            &saved::saved(&fitted, spec.domain, &file, &unresolved)?,
+            &saved::saved(&fitted, spec.domain, &file, &unresolved, report.marginal())?,
         )?;
     }
     Ok(if args.json {

@@ -701,6 +701,11 @@ impl Report {
         &self.unresolved
     }
 
+    /// The stable poles on the stability boundary, one per conjugate pair.
+    pub fn marginal(&self) -> &[Complex<f64>] {
+        &self.marginal
+    }
+
     /// The JSON object (one line).
     pub fn json(&self) -> String {
         let mut s = self.json_value().to_string();

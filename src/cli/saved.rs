@@ -33,13 +33,16 @@ fn kind(fit: &RationalFit) -> &'static str {
 /// The saved-model JSON object of `fit`, a fit in `domain` of the data in `source`:
 /// `{"format":"fdid-model","version":1,"kind":..,"domain":"s"|"z","ts":x|null,
 /// "source":FILE,"fitted":{model,theta,covariance,noise_variance,noise_known,cost,lines},
-/// "unresolved_poles":[[re,im],..]}` with `unresolved`, the poles the data did not
-/// resolve ([`Fit::unresolved_poles`]; files without the key have none).
+/// "unresolved_poles":[[re,im],..],"marginal_poles":[[re,im],..]}` with `unresolved`, the
+/// poles the data did not resolve ([`Fit::unresolved_poles`]), and `marginal`, the stable
+/// poles on the stability boundary ([`fdid::validation::marginal_poles`]); files without
+/// the keys have none.
 pub fn saved(
     fit: &RationalFit,
     domain: Domain<f64>,
     source: &str,
     unresolved: &[Complex<f64>],
+    marginal: &[Complex<f64>],
 ) -> Result<Value, Failure> {
     let fitted = match fit {
         RationalFit::Plain(f) => fitted(f),
@@ -59,12 +62,8 @@ pub fn saved(
         "ts": ts,
         "source": source,
         "fitted": fitted,
-        "unresolved_poles": serde_json::to_value(Envelope {
-            unresolved_poles: unresolved.to_vec(),
-            ts,
-        })
-        .map_err(|e| Failure::runtime(format!("cannot serialise the unresolved poles: {e}")))?
-        ["unresolved_poles"],
+        "unresolved_poles": pole_list(unresolved),
+        "marginal_poles": pole_list(marginal),
     }))
 }
 
@@ -106,6 +105,16 @@ fn fitted<M: ModelStructure<f64> + Clone + Serialize>(fit: &Fit<f64, M>) -> Resu
         .map_err(|e| Failure::runtime(format!("cannot serialise the fitted model: {e}")))
 }
 
+/// Poles as `[[re, im], …]` (null for a part that is not finite).
+fn pole_list(poles: &[Complex<f64>]) -> Value {
+    Value::Array(
+        poles
+            .iter()
+            .map(|p| json!([finite(p.re), finite(p.im)]))
+            .collect(),
+    )
+}
+
 /// The keys of a saved-model object read besides `fitted`, each with a default so that
 /// files written before the key existed still read.
 #[derive(Debug, Serialize, Deserialize)]
@@ -113,6 +122,9 @@ struct Envelope {
     /// The poles the data did not resolve (one of each conjugate pair), `[re, im]` each.
     #[serde(default)]
     unresolved_poles: Vec<Complex<f64>>,
+    /// The stable poles on the stability boundary (one of each conjugate pair).
+    #[serde(default)]
+    marginal_poles: Vec<Complex<f64>>,
     /// The sample time of a discrete-time model (s).
     #[serde(default)]
     ts: Option<f64>,
@@ -277,7 +289,7 @@ fn finite(x: f64) -> Value {
 }
 
 /// The output of `fdid eval --json`: `{"frf":[[f,re,im],..],"frf_std":[..]|null,
-/// "unresolved_poles":[[re,im],..],"warnings":[..]}`.
+/// "unresolved_poles":[[re,im],..],"marginal_poles":[[re,im],..],"warnings":[..]}`.
 fn eval_json(f_hz: &[f64], (g, std): &Evaluated, envelope: &Envelope) -> String {
     let frf: Vec<Value> = f_hz
         .iter()
@@ -297,6 +309,7 @@ fn eval_json(f_hz: &[f64], (g, std): &Evaluated, envelope: &Envelope) -> String 
         "frf": frf,
         "frf_std": frf_std,
         "unresolved_poles": unresolved,
+        "marginal_poles": pole_list(&envelope.marginal_poles),
         "warnings": warnings,
     })
     .to_string()
@@ -304,7 +317,8 @@ fn eval_json(f_hz: &[f64], (g, std): &Evaluated, envelope: &Envelope) -> String 
 }
 
 /// The CSV output of `fdid eval`: a comment line on the saved model `value` (from
-/// `name`), a `# warning:` line for each unresolved pole and one for frequencies above
+/// `name`), a `# warning:` line for each unresolved pole, for each pole on the stability
+/// boundary and one for frequencies above
 /// the Nyquist frequency, then `f,re,im[,std]`.
 fn eval_csv(
     f_hz: &[f64],
@@ -325,6 +339,16 @@ fn eval_csv(
             out,
             "# warning: unresolved pole {} {} {}i: no line of the fitted data lay in its \
              half-power band, so its damping is not determined by the data",
+            p.re,
+            if p.im == 0.0 { "+" } else { "+/-" },
+            p.im.abs()
+        );
+    }
+    for p in &envelope.marginal_poles {
+        let _ = writeln!(
+            out,
+            "# warning: pole {} {} {}i on the stability boundary: the data do not tell it \
+             from a pole just across it (an undamped resonance, or an integrator over the band)",
             p.re,
             if p.im == 0.0 { "+" } else { "+/-" },
             p.im.abs()

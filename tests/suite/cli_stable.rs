@@ -182,4 +182,17 @@ fn a_pole_stopped_on_the_boundary_is_warned_about() {
     let v = json_of(&run("fit", &path, &free_args));
     assert_eq!(v["stable"], Value::Bool(false));
     assert_eq!(v["marginal_poles"], serde_json::json!([]));
+    // the saved model carries the boundary pole, and `fdid eval` warns about it
+    let model = dir.path("marginal.json");
+    let mut save_args = args.to_vec();
+    save_args.extend(["--stable", "--save", model.to_str().unwrap()]);
+    stdout_ok(&run("fit", &path, &save_args));
+    let csv = stdout_ok(&run("eval", &model, &["--freq", "0.1,0.3"]));
+    assert!(
+        csv.lines()
+            .any(|l| l.starts_with("# warning: pole") && l.contains("stability boundary")),
+        "{csv}"
+    );
+    let v = json_of(&run("eval", &model, &["--freq", "0.1,0.3", "--json"]));
+    assert_eq!(v["marginal_poles"].as_array().map(Vec::len), Some(1), "{v}");
 }
