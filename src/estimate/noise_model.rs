@@ -125,13 +125,14 @@ pub fn fit_noise_model<T: Real, M: FurtherStarts<T>>(
 
 /// The start of H from the residuals of the system's start (`theta` with η = 0, where the
 /// criterion's residuals are Y − Ŷ): [`super::noise_start::hannan_rissanen`] on the lines
-/// of `data`.
+/// of `data`; the whole start [θ_G, η₀] when it lowers the criterion ‖r‖² below η = 0's.
 fn linear_noise_start<T: Real, M: ModelStructure<T> + Clone>(
     full: &WithNoiseModel<M>,
     data: &FrequencyData<T>,
     problem: &impl NonlinearProblem<T>,
     theta: &[T],
 ) -> Option<Vec<T>> {
+    let p = theta.len() - full.noise::<T>().n_params();
     let mut r = vec![T::zero(); problem.n_residuals()];
     if !problem.residuals_into(theta, &mut r) {
         return None;
@@ -140,17 +141,12 @@ fn linear_noise_start<T: Real, M: ModelStructure<T> + Clone>(
         .chunks_exact(2)
         .map(|c| Complex::new(c[0], c[1]))
         .collect();
-    super::noise_start::hannan_rissanen(&full.noise(), &eps, data.omega())
-}
-
-/// ‖r(θ)‖² of `problem`, +∞ when the residuals are not finite.
-fn residual_norm<T: Real>(problem: &impl NonlinearProblem<T>, theta: &[T]) -> T {
-    let mut r = vec![T::zero(); problem.n_residuals()];
-    if problem.residuals_into(theta, &mut r) {
-        r.iter().fold(T::zero(), |s, v| s + *v * *v)
-    } else {
-        T::infinity()
-    }
+    let eta = super::noise_start::hannan_rissanen(&full.noise(), &eps, data.omega())?;
+    let mut with = theta[..p].to_vec();
+    with.extend(eta);
+    let norm = |r: &[T]| r.iter().fold(T::zero(), |s, v| s + *v * *v);
+    let before = norm(&r);
+    (problem.residuals_into(&with, &mut r) && norm(&r) < before).then_some(with)
 }
 
 /// The noise-model stage of [`fit_noise_model`] for any model structure: from a fitted
@@ -191,12 +187,8 @@ pub(crate) fn refine_noise_model_in<T: Real, M: ModelStructure<T> + Clone>(
     theta.extend(std::iter::repeat_n(T::zero(), noise.n_params()));
     let problem = NoiseModelMl.problem(&full, data)?;
     // H from the start's residuals (Hannan–Rissanen) when it lowers the criterion
-    if let Some(eta) = linear_noise_start(&full, data, &problem, &theta) {
-        let mut with = theta[..p].to_vec();
-        with.extend(eta);
-        if residual_norm(&problem, &with) < residual_norm(&problem, &theta) {
-            theta = with;
-        }
+    if let Some(start) = linear_noise_start(&full, data, &problem, &theta) {
+        theta = start;
     }
     // converged at a relative cost reduction of NOISE_MODEL_COST_TOLERANCE unless the
     // solver sets its own

@@ -28,7 +28,7 @@ fn long_order(nc: usize, nd: usize, lines: usize) -> usize {
 
 /// The least-squares solution of Σ_j x_j col_j(k) ≈ rhs_k over the lines k (complex
 /// equations, real-stacked), `None` when it fails.
-fn solve<T: Real>(columns: &[Vec<Complex<T>>], rhs: &[Complex<T>]) -> Option<Vec<T>> {
+fn solve<T: Real>(columns: &[&[Complex<T>]], rhs: &[Complex<T>]) -> Option<Vec<T>> {
     let n = rhs.len();
     let a = DMatrix::from_fn(2 * n, columns.len(), |row, j| {
         let v = columns[j][row / 2];
@@ -42,13 +42,21 @@ fn solve<T: Real>(columns: &[Vec<Complex<T>>], rhs: &[Complex<T>]) -> Option<Vec
     Some(x.iter().copied().collect())
 }
 
-/// z_k⁻ʲ v_k on the lines of angular frequency `omega` (rad/s) with sample time `ts`.
-fn delayed<T: Real>(v: &[Complex<T>], omega: &[T], ts: T, j: usize) -> Vec<Complex<T>> {
-    let lag = T::from_usize_lossy(j);
-    v.iter()
-        .zip(omega)
-        .map(|(x, w)| *x * Complex::from_polar(T::one(), -lag * *w * ts))
-        .collect()
+/// The columns z_k⁻ʲ·`sign`·v_k, j = 1 … `lags`, with z_k⁻¹ = `zinv`[k] (each column from
+/// the one before: one complex product per value).
+fn lagged<T: Real>(
+    v: &[Complex<T>],
+    zinv: &[Complex<T>],
+    lags: usize,
+    sign: T,
+) -> Vec<Vec<Complex<T>>> {
+    let mut out: Vec<Vec<Complex<T>>> = Vec::with_capacity(lags);
+    let mut previous: Vec<Complex<T>> = v.iter().map(|x| *x * sign).collect();
+    for _ in 0..lags {
+        previous = previous.iter().zip(zinv).map(|(x, z)| *x * *z).collect();
+        out.push(previous.clone());
+    }
+    out
 }
 
 /// The start η₀ = [c₁ … c_nc, d₁ … d_nd] of `noise` from the residuals `eps` of the
@@ -66,28 +74,29 @@ pub(crate) fn hannan_rissanen<T: Real>(
     if long < nc.max(nd) + 1 || eps.len() < 2 * (nc + nd) + 1 {
         return None;
     }
+    let zinv: Vec<Complex<T>> = omega
+        .iter()
+        .map(|w| Complex::from_polar(T::one(), -*w * ts))
+        .collect();
     // 1. the long autoregression: ε_k + Σ a_j z⁻ʲ ε_k ≈ 0
-    let lagged: Vec<Vec<Complex<T>>> = (1..=long).map(|j| delayed(eps, omega, ts, j)).collect();
+    let past = lagged(eps, &zinv, long, T::one());
+    let slices: Vec<&[Complex<T>]> = past.iter().map(Vec::as_slice).collect();
     let minus: Vec<Complex<T>> = eps.iter().map(|v| -*v).collect();
-    let a = solve(&lagged, &minus)?;
+    let a = solve(&slices, &minus)?;
     let innovations: Vec<Complex<T>> = (0..eps.len())
         .map(|k| {
-            lagged
-                .iter()
+            past.iter()
                 .zip(&a)
                 .fold(eps[k], |s, (col, aj)| s + col[k] * *aj)
         })
         .collect();
     // 2. Σ c_j (−z⁻ʲ ê) + Σ d_j (z⁻ʲ ε) ≈ ê − ε
-    let mut columns: Vec<Vec<Complex<T>>> = (1..=nc)
-        .map(|j| {
-            delayed(&innovations, omega, ts, j)
-                .into_iter()
-                .map(|v| -v)
-                .collect()
-        })
+    let past_innovations = lagged(&innovations, &zinv, nc, -T::one());
+    let columns: Vec<&[Complex<T>]> = past_innovations
+        .iter()
+        .chain(&past[..nd])
+        .map(Vec::as_slice)
         .collect();
-    columns.extend((1..=nd).map(|j| lagged[j - 1].clone()));
     let rhs: Vec<Complex<T>> = innovations.iter().zip(eps).map(|(e, x)| *e - *x).collect();
     let eta = solve(&columns, &rhs)?;
     let eta = noise.stabilised(&eta).ok()?;

@@ -262,21 +262,7 @@ impl ModelSpec {
     /// another criterion than ML; a delay with levy, sk or tls; a noise model on data
     /// without a sample time); the estimators' errors.
     pub fn fit(&self, data: &FrequencyData<f64>) -> Result<RationalFit> {
-        crate::progress::report(|| {
-            format!(
-                "fitting na {} nb {}{}{} on {} lines",
-                self.na,
-                self.nb,
-                if self.delay { " with a delay" } else { "" },
-                self.noise_order.map_or(String::new(), |n| format!(
-                    " with a noise model of order {n}"
-                )),
-                data.len()
-            )
-        });
-        self.check_fit_data(data)?;
-        let model = self.model(data)?;
-        self.fit_model(&model, Pipeline::default(), data, None)
+        self.fit_from(data, None)
     }
 
     /// [`ModelSpec::fit`] with the delay started at `tau0` (s) instead of searched, for
@@ -290,18 +276,30 @@ impl ModelSpec {
         data: &FrequencyData<f64>,
         tau0: f64,
     ) -> Result<RationalFit> {
+        self.fit_from(data, Some(tau0))
+    }
+
+    /// [`ModelSpec::fit`], a delayed ML fit from the delay `delay_from` when given.
+    fn fit_from(&self, data: &FrequencyData<f64>, delay_from: Option<f64>) -> Result<RationalFit> {
         crate::progress::report(|| {
             format!(
-                "fitting na {} nb {} with the delay from {:.4e} s on {} lines",
+                "fitting na {} nb {}{}{} on {} lines",
                 self.na,
                 self.nb,
-                tau0,
+                match (self.delay, delay_from) {
+                    (true, Some(tau)) => format!(" with the delay from {tau:.4e} s"),
+                    (true, None) => " with a delay".into(),
+                    (false, _) => String::new(),
+                },
+                self.noise_order.map_or(String::new(), |n| format!(
+                    " with a noise model of order {n}"
+                )),
                 data.len()
             )
         });
         self.check_fit_data(data)?;
         let model = self.model(data)?;
-        self.fit_model(&model, Pipeline::default(), data, Some(tau0))
+        self.fit_model(&model, Pipeline::default(), data, delay_from)
     }
 
     /// The fit of a plain ML spec (no delay, no noise model) started from the poles

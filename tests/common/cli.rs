@@ -109,3 +109,28 @@ pub fn theta_names(v: &Value) -> Vec<&str> {
 pub fn bundled(name: &str) -> String {
     format!("{}/data/{name}", env!("CARGO_MANIFEST_DIR"))
 }
+
+/// The shared data file `../shared/data/REL` (beside the crate root), which must exist.
+pub fn shared(rel: &str) -> PathBuf {
+    let p = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../shared/data")
+        .join(rel);
+    assert!(p.exists(), "shared data file {} is missing", p.display());
+    p
+}
+
+/// The F-16 ground vibration test's level-1 record, relative to `../shared/data`.
+pub const F16_LEVEL1: &str = "f16-gvt/F16Data_FullMSine_Level1.csv";
+
+/// The options that prepare the F-16 record as its README says: the shaker force as the
+/// input, 400 Hz, the 9 periods averaged after the first (transient) one is dropped.
+pub const F16_RECORD: [&str; 8] = [
+    "--input",
+    "Force",
+    "--ts",
+    "0.0025",
+    "--periods",
+    "9",
+    "--skip-periods",
+    "1",
+];

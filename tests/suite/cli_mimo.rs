@@ -5,7 +5,7 @@
 
 use crate::cli_common as cli;
 
-use cli::{Scratch, bundled, fdid, json_of, stderr};
+use cli::{F16_LEVEL1, F16_RECORD, Scratch, bundled, fdid, json_of, shared, stderr};
 use fdid::mimo::{CommonPoleModel, PoleSet};
 use fdid::prelude::*;
 use nalgebra::DMatrix;
@@ -427,23 +427,14 @@ fn cd_player_arm_two_inputs_two_outputs() {
 /// every pole carries one of the marks o f d v s; --plot writes the diagram as SVG.
 #[test]
 fn f16_stabilisation_diagram_finds_the_reference_modes() {
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../shared/data/f16-gvt/F16Data_FullMSine_Level1.csv");
+    let path = shared(F16_LEVEL1);
     let scratch = Scratch::new("stabilize_f16");
     let svg = scratch.path("diagram.svg");
-    let o = fdid(&[
-        "stabilize",
-        path.to_str().unwrap(),
-        "--input",
-        "Force",
+    let mut args = vec!["stabilize", path.to_str().unwrap()];
+    args.extend(F16_RECORD);
+    args.extend([
         "--output",
         "Acceleration1,Acceleration2,Acceleration3",
-        "--ts",
-        "0.0025",
-        "--periods",
-        "9",
-        "--skip-periods",
-        "1",
         "--band",
         "2:15",
         "--domain",
@@ -455,6 +446,7 @@ fn f16_stabilisation_diagram_finds_the_reference_modes() {
         "--plot",
         svg.to_str().unwrap(),
     ]);
+    let o = fdid(&args);
     let v = json_of(&o);
     assert_eq!(v["orders"].as_array().unwrap().len(), 20);
     for p in v["poles"].as_array().unwrap() {
@@ -547,21 +539,12 @@ fn diagnose_leaves_the_rlc_two_port_at_its_order() {
 /// README's most nonlinear one).
 #[test]
 fn diagnose_adds_the_f16_modes_across_outputs() {
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../shared/data/f16-gvt/F16Data_FullMSine_Level1.csv");
-    let v = json_of(&fdid(&[
-        "diagnose",
-        path.to_str().unwrap(),
-        "--input",
-        "Force",
+    let path = shared(F16_LEVEL1);
+    let mut args = vec!["diagnose", path.to_str().unwrap()];
+    args.extend(F16_RECORD);
+    args.extend([
         "--output",
         "Acceleration1,Acceleration2,Acceleration3",
-        "--ts",
-        "0.0025",
-        "--periods",
-        "9",
-        "--skip-periods",
-        "1",
         "--band",
         "2:15",
         "--domain",
@@ -574,7 +557,8 @@ fn diagnose_adds_the_f16_modes_across_outputs() {
         "--max-steps",
         "12",
         "--json",
-    ]));
+    ]);
+    let v = json_of(&fdid(&args));
     let steps = v["steps"].as_array().unwrap();
     assert!(steps[0]["check"]["resonance"]["found"].as_bool().unwrap());
     for s in steps.iter().skip(1).filter(|s| s["accepted"] == true) {
@@ -766,8 +750,7 @@ fn enforce_passivity_makes_the_rlc_two_port_passive() {
 /// `fdid fit` of the F-16's three accelerometers (Force input, 9 periods with `skip`
 /// skipped, 2–15 Hz, `--stable --json`) in `domain` with `--na na --nb nb` and `extra`.
 fn f16_outputs_fit(skip: &str, domain: &str, na: &str, nb: &str, extra: &[&str]) -> Output {
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../shared/data/f16-gvt/F16Data_FullMSine_Level1.csv");
+    let path = shared(F16_LEVEL1);
     let mut args = vec![
         "fit",
         path.to_str().unwrap(),

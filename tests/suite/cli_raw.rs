@@ -7,18 +7,9 @@
 
 use crate::cli_common as cli;
 
-use cli::{bundled, json, run, stderr};
+use cli::{F16_LEVEL1 as F16, F16_RECORD, bundled, json, run, shared, stderr};
 use fdid::io::{ChannelSelection, Column, read_channels};
 use std::path::PathBuf;
-
-/// The shared data file `../shared/data/REL`.
-fn shared(rel: &str) -> PathBuf {
-    let p = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("../shared/data")
-        .join(rel);
-    assert!(p.exists(), "shared data file {} is missing", p.display());
-    p
-}
 
 fn select(input: &str, output: &str, ts: Option<f64>) -> ChannelSelection {
     ChannelSelection {
@@ -28,8 +19,6 @@ fn select(input: &str, output: &str, ts: Option<f64>) -> ChannelSelection {
     }
 }
 
-const F16: &str = "f16-gvt/F16Data_FullMSine_Level1.csv";
-
 /// The F-16 file as it is (quoted header, trailing empty field, `Fs` only in the first
 /// row): the README's F-16 command prepares 8 averaged periods of 8192 samples and the 267
 /// excited lines of 2..15 Hz (README: lines 41..307, 2.00-14.99 Hz).
@@ -37,24 +26,17 @@ const F16: &str = "f16-gvt/F16Data_FullMSine_Level1.csv";
 fn f16_command_reads_and_prepares_the_excited_band() {
     let path = shared(F16);
     let args = |extra: &[&'static str]| {
-        let mut a = vec![
-            "--input",
-            "Force",
+        let mut a = F16_RECORD.to_vec();
+        a.extend([
             "--output",
             "Acceleration1",
-            "--ts",
-            "0.0025",
-            "--periods",
-            "9",
-            "--skip-periods",
-            "1",
             "--domain",
             "s",
             "--na",
             "4",
             "--nb",
             "4",
-        ];
+        ]);
         a.extend_from_slice(extra);
         a
     };

@@ -12,7 +12,7 @@
 #![cfg(feature = "cli")]
 use crate::cli_common as cli;
 
-use cli::{bundled, json};
+use cli::{F16_LEVEL1, F16_RECORD, bundled, json, shared};
 use serde_json::Value;
 use std::path::Path;
 
@@ -179,30 +179,18 @@ fn robot_arm_diagnose_from_two_two_finds_both_resonances() {
 /// docs/limitations.md).
 #[test]
 fn f16_diagnose_ends_stable_with_the_wing_modes() {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../shared/data/f16-gvt/F16Data_FullMSine_Level1.csv");
-    let report = json(
-        "diagnose",
-        &path,
-        &[
-            "--input",
-            "Force",
-            "--output",
-            "Acceleration1",
-            "--ts",
-            "0.0025",
-            "--periods",
-            "9",
-            "--skip-periods",
-            "1",
-            "--domain",
-            "s",
-            "--na",
-            "10",
-            "--nb",
-            "10",
-        ],
-    );
+    let mut args = F16_RECORD.to_vec();
+    args.extend([
+        "--output",
+        "Acceleration1",
+        "--domain",
+        "s",
+        "--na",
+        "10",
+        "--nb",
+        "10",
+    ]);
+    let report = json("diagnose", &shared(F16_LEVEL1), &args);
     let fin = &report["final"];
     assert_eq!(fin["stable"], Value::Bool(true));
     for f in [5.22, 7.32] {
