@@ -78,30 +78,61 @@ impl<T: Real> CommonPoleModel<T> {
         self.poles.order()
     }
 
-    /// G(iω) or G(e^{iωTs}) at each of `omega` (rad/s): one ny × nu matrix per line.
+    /// G(iω) or G(e^{iωTs}) at each of `omega` (rad/s): one ny × nu matrix per line,
+    /// D + Σ R_m/(x − p_m) (+ conj(R_m)/(x − conj p_m) for each complex pair).
+    ///
+    /// Each term is written with the real and imaginary parts of its residue matrix,
+    /// R/(x − p) + conj(R)/(x − p̄) = Re R·(a + b) + Im R·i(a − b) with a = 1/(x − p),
+    /// b = 1/(x − p̄) (a real pole: Re R·a + Im R·ia), so that G = D + B·C with B the
+    /// complex basis (lines × 2 slots) and C the real residue parts (2 slots × entries):
+    /// two real matrix products, for its real and imaginary parts.
     pub fn response(&self, omega: &[T]) -> Vec<DMatrix<Complex<T>>> {
+        // lines per product: the bases of a chunk stay in cache
+        const CHUNK: usize = 512;
         let x = super::poles::points(omega, self.domain, T::one());
         let slots = self.poles.slots();
         let nr = self.poles.real.len();
         let (ny, nu) = (self.ny(), self.nu());
-        x.iter()
-            .map(|xk| {
-                let mut g = match &self.direct {
-                    Some(d) => d.map(|v| Complex::new(v, T::zero())),
-                    None => DMatrix::zeros(ny, nu),
-                };
-                for (m, (p, r)) in slots.iter().zip(&self.residues).enumerate() {
+        let i = Complex::new(T::zero(), T::one());
+        let parts = DMatrix::from_fn(2 * slots.len(), ny * nu, |c, e| {
+            let r = self.residues[c / 2][e];
+            if c % 2 == 0 { r.re } else { r.im }
+        });
+        let chunk = |x: &[Complex<T>]| {
+            let mut re = DMatrix::<T>::zeros(x.len(), 2 * slots.len());
+            let mut im = DMatrix::<T>::zeros(x.len(), 2 * slots.len());
+            for (m, p) in slots.iter().enumerate() {
+                for (k, xk) in x.iter().enumerate() {
                     let a = crate::scalar::recip(*xk - *p);
-                    if m < nr {
-                        g += r * a;
+                    let (even, odd) = if m < nr {
+                        (a, i * a)
                     } else {
                         let b = crate::scalar::recip(*xk - p.conj());
-                        g += r * a + r.map(|v| v.conj()) * b;
-                    }
+                        (a + b, i * (a - b))
+                    };
+                    re[(k, 2 * m)] = even.re;
+                    im[(k, 2 * m)] = even.im;
+                    re[(k, 2 * m + 1)] = odd.re;
+                    im[(k, 2 * m + 1)] = odd.im;
                 }
-                g
-            })
-            .collect()
+            }
+            let (re, im) = (re * &parts, im * &parts);
+            (0..x.len())
+                .map(|k| {
+                    DMatrix::from_fn(ny, nu, |a, b| {
+                        let e = a + b * ny;
+                        let d = self.direct.as_ref().map_or(T::zero(), |d| d[(a, b)]);
+                        Complex::new(d + re[(k, e)], im[(k, e)])
+                    })
+                })
+                .collect::<Vec<_>>()
+        };
+        crate::linalg::parallel::map_indices(x.len().div_ceil(CHUNK), |c| {
+            chunk(&x[c * CHUNK..x.len().min((c + 1) * CHUNK)])
+        })
+        .into_iter()
+        .flatten()
+        .collect()
     }
 
     /// The response of entry (i, j) at `omega` (rad/s).
@@ -251,5 +282,66 @@ impl<T: Real> CommonPoleModel<T> {
             });
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// G at one point summed term by term, the definition.
+    fn direct_sum(m: &CommonPoleModel<f64>, x: Complex<f64>) -> DMatrix<Complex<f64>> {
+        let mut g = m.direct.as_ref().map_or_else(
+            || DMatrix::zeros(m.ny(), m.nu()),
+            |d| d.map(|v| Complex::new(v, 0.0)),
+        );
+        let nr = m.poles.real.len();
+        for (k, (p, r)) in m.poles.slots().iter().zip(&m.residues).enumerate() {
+            g += r / (x - p);
+            if k >= nr {
+                g += r.map(|v| v.conj()) / (x - p.conj());
+            }
+        }
+        g
+    }
+
+    #[test]
+    fn response_is_the_sum_of_its_terms_in_s_and_z() {
+        for (domain, direct) in [
+            (Domain::Continuous, true),
+            (Domain::Discrete { ts: 0.1 }, false),
+        ] {
+            let (ny, nu) = (3, 2);
+            let pairs = match domain {
+                Domain::Continuous => vec![Complex::new(-0.1, 2.0), Complex::new(-0.3, 5.0)],
+                Domain::Discrete { .. } => vec![Complex::new(0.8, 0.3), Complex::new(0.1, 0.9)],
+            };
+            let real = match domain {
+                Domain::Continuous => vec![-1.0],
+                Domain::Discrete { .. } => vec![0.5],
+            };
+            let residues = (0..3)
+                .map(|m| {
+                    DMatrix::from_fn(ny, nu, |i, j| {
+                        let t = (m * 5 + i * 3 + j) as f64;
+                        Complex::new(t.sin(), if m == 0 { 0.0 } else { t.cos() })
+                    })
+                })
+                .collect();
+            let m = CommonPoleModel {
+                domain,
+                poles: PoleSet { real, pairs },
+                residues,
+                direct: direct.then(|| DMatrix::from_fn(ny, nu, |i, j| (i + j) as f64)),
+            };
+            // more lines than one chunk of the products
+            let omega: Vec<f64> = (0..1200).map(|k| 0.01 + k as f64 * 0.025).collect();
+            let x = super::super::poles::points(&omega, domain, 1.0);
+            for (g, xk) in m.response(&omega).iter().zip(&x) {
+                let want = direct_sum(&m, *xk);
+                let err = (g - &want).iter().map(|v| v.norm()).fold(0.0, f64::max);
+                assert!(err < 1e-12 * want.iter().map(|v| v.norm()).fold(1.0, f64::max));
+            }
+        }
     }
 }
