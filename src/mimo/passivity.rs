@@ -122,7 +122,7 @@ fn singular_value_bounds<T: Real>(s: &DMatrix<Complex<T>>) -> (T, T) {
     let mut column = T::zero();
     for c in s.column_iter() {
         let power = c.iter().fold(T::zero(), |acc, v| acc + v.norm_sqr());
-        frobenius = frobenius + power;
+        frobenius += power;
         column = Float::max(column, power);
     }
     if Float::is_finite(frobenius) {
