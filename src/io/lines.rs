@@ -18,6 +18,8 @@ pub(crate) struct LineReader<R: Read> {
     line: usize,
     /// The last line ended with `\r`: a `\n` right after it belongs to that break.
     after_cr: bool,
+    /// A byte-order mark at the start of line 1 is dropped (the start of a file).
+    bom: bool,
 }
 
 /// A failure of [`LineReader::next_line`], turned into an error once the file name is
@@ -62,7 +64,29 @@ impl<R: Read> LineReader<R> {
             text: String::new(),
             line: 0,
             after_cr: false,
+            bom: true,
         }
+    }
+
+    /// A reader of text that continues a file after its line `line` (a byte-order mark is
+    /// then data, and the first line read is numbered `line + 1`).
+    pub(crate) fn continuing(reader: R, line: usize) -> Self {
+        Self {
+            line,
+            bom: false,
+            ..Self::new(reader)
+        }
+    }
+
+    /// The bytes not read yet, with the number of the line read last: for a reader that
+    /// goes on in larger pieces. A `\n` that completes a `\r\n` after the last line is
+    /// skipped when it is already buffered and otherwise reported (the flag is true).
+    pub(crate) fn into_rest(mut self) -> (usize, bool, std::io::BufReader<R>) {
+        let next = self.reader.buffer().first().copied();
+        if self.after_cr && next == Some(b'\n') {
+            self.reader.consume(1);
+        }
+        (self.line, self.after_cr && next.is_none(), self.reader)
     }
 
     /// The next line without its line break, with its 1-based number; `None` at the end.
@@ -77,7 +101,7 @@ impl<R: Read> LineReader<R> {
     /// before the first).
     pub(crate) fn current(&self) -> &str {
         let text = self.text.as_str();
-        if self.line == 1 {
+        if self.line == 1 && self.bom {
             text.strip_prefix('\u{feff}').unwrap_or(text)
         } else {
             text

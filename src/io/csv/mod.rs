@@ -4,6 +4,7 @@ mod channels;
 mod checks;
 mod header;
 mod records;
+mod rows;
 
 pub use self::channels::{
     ChannelSelection, Column, MultiChannelSelection, parse_channels, parse_multichannel,
@@ -12,7 +13,7 @@ pub use self::channels::{
 
 use self::checks::{check_frequencies, check_time_grid};
 use self::header::{Kind, Layout};
-use self::records::{Lines, fields};
+use self::records::Lines;
 use super::Measurement;
 use crate::data::{FrequencyData, FrfMatrix, NoiseVariances, TimeData};
 use crate::error::{FdidError, Result};
@@ -94,7 +95,7 @@ pub fn parse_csv<T: Real, R: Read>(reader: R, name: &str) -> Result<Measurement<
     let mut lines = Lines::new(reader);
     let (header_line, names) = read_header(&mut lines, name)?;
     let layout = Layout::from_header(&names).map_err(|m| parse_error(name, header_line, m))?;
-    let table = read_rows::<T, R>(&mut lines, layout, name)?;
+    let table = rows::read_rows::<T, R>(lines, layout, name)?;
     match table.layout.kind {
         Kind::Time => table.time_record(name),
         Kind::Frf | Kind::Spectra => table.frequency_data(name),
@@ -132,55 +133,6 @@ struct Table {
     columns: Vec<Vec<f64>>,
     /// The line number of each row.
     lines: Vec<usize>,
-}
-
-/// The data rows after the header: one number per column, finite in `f64` and in `T`.
-fn read_rows<T: Real, R: Read>(lines: &mut Lines<R>, layout: Layout, name: &str) -> Result<Table> {
-    let names = &layout.names;
-    let ncols = names.len();
-    let mut columns: Vec<Vec<f64>> = vec![Vec::new(); ncols];
-    let mut lines_of_rows: Vec<usize> = Vec::new();
-    let mut row: Vec<f64> = Vec::with_capacity(ncols);
-    while let Some((line, text)) = lines.next_text().map_err(|e| e.into_error(name))? {
-        // one pass: the values of the first ncols fields (the first bad one remembered) and
-        // the count; a wrong count is reported before a bad value
-        row.clear();
-        let mut bad: Option<String> = None;
-        let mut count = 0;
-        for (j, field) in fields(text).enumerate() {
-            count += 1;
-            if j < ncols && bad.is_none() {
-                match field_value::<T>(&names[j], field) {
-                    Ok(v) => row.push(v),
-                    Err(m) => bad = Some(m),
-                }
-            }
-        }
-        if count != ncols {
-            let found: Vec<&str> = fields(text).collect();
-            return Err(parse_error(
-                name,
-                line,
-                format!(
-                    "expected {ncols} fields ({}), found {count}: `{}`",
-                    names.join(","),
-                    echo(&found.join(","))
-                ),
-            ));
-        }
-        if let Some(m) = bad {
-            return Err(parse_error(name, line, m));
-        }
-        for (column, v) in columns.iter_mut().zip(&row) {
-            column.push(*v);
-        }
-        lines_of_rows.push(line);
-    }
-    Ok(Table {
-        layout,
-        columns,
-        lines: lines_of_rows,
-    })
 }
 
 /// The number of the field `text` of column `col`: finite, and finite in `T`.

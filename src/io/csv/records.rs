@@ -17,6 +17,18 @@ impl<R: Read> Lines<R> {
         }
     }
 
+    /// Records of text that continues a file after its line `line`.
+    pub(super) fn continuing(reader: R, line: usize) -> Self {
+        Self {
+            lines: LineReader::continuing(reader, line),
+        }
+    }
+
+    /// The bytes not read yet (see [`LineReader::into_rest`]).
+    pub(super) fn into_rest(self) -> (usize, bool, std::io::BufReader<R>) {
+        self.lines.into_rest()
+    }
+
     /// The next line that is neither blank nor a comment, as (line number, trimmed
     /// fields); a field wrapped in double quotes loses them. `None` at the end.
     pub(super) fn next_record(
