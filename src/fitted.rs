@@ -132,18 +132,13 @@ impl<T: Real, M: ModelStructure<T>> FittedModel<T, M> {
     /// covariance of θ̂; `None` without a covariance.
     pub fn response_std(&self, omega: &[T]) -> Option<Vec<T>> {
         let cov = self.covariance.as_ref()?;
-        let p = self.theta.len();
-        let zero = Complex::new(T::zero(), T::zero());
-        let mut g = vec![zero; omega.len()];
-        let mut jac = DMatrix::from_element(omega.len(), p, zero);
-        self.model
-            .jacobian_into(&self.theta, omega, &mut g, &mut jac);
+        let (_, jac) = self.jacobian(omega);
         Some(
             (0..omega.len())
                 .map(|k| {
                     let mut v = T::zero();
-                    for i in 0..p {
-                        for j in 0..p {
+                    for i in 0..cov.nrows() {
+                        for j in 0..cov.ncols() {
                             v += cov[(i, j)] * (jac[(k, i)] * jac[(k, j)].conj()).re;
                         }
                     }
@@ -151,5 +146,56 @@ impl<T: Real, M: ModelStructure<T>> FittedModel<T, M> {
                 })
                 .collect(),
         )
+    }
+
+    /// Pointwise confidence bounds at `level` (e.g. 0.95) on |G| and on its phase at
+    /// `omega` (rad/s), as [`Fit::bounds`] gives them on the data lines: first-order
+    /// standard deviations σ_|G|² = aᵀCa with a = Re(conj(G) ∂G/∂θ)/|G| and σ_∠G² = bᵀCb
+    /// with b = Im(conj(G) ∂G/∂θ)/|G|², and the normal quantile z = Φ⁻¹((1 + level)/2);
+    /// |G| − zσ is floored at 0. `None` without a covariance or for `level` outside
+    /// (0, 1).
+    pub fn bounds(&self, omega: &[T], level: f64) -> Option<Vec<crate::fit::Bounds<T>>> {
+        let cov = self.covariance.as_ref()?;
+        if !(level > 0.0 && level < 1.0) {
+            return None;
+        }
+        let z = T::lit(crate::stats::normal_quantile(0.5 + level / 2.0));
+        let (g, jac) = self.jacobian(omega);
+        let quadratic = |v: &[T]| {
+            let mut s = T::zero();
+            for i in 0..v.len() {
+                for j in 0..v.len() {
+                    s += cov[(i, j)] * v[i] * v[j];
+                }
+            }
+            num_traits::Float::sqrt(num_traits::Float::max(s, T::zero()))
+        };
+        Some(
+            g.iter()
+                .enumerate()
+                .map(|(k, gk)| {
+                    let m = gk.norm();
+                    let along: Vec<Complex<T>> =
+                        jac.row(k).iter().map(|d| gk.conj() * *d).collect();
+                    let a: Vec<T> = along.iter().map(|v| v.re / m).collect();
+                    let b: Vec<T> = along.iter().map(|v| v.im / (m * m)).collect();
+                    let (sm, sp) = (quadratic(&a), quadratic(&b));
+                    crate::fit::Bounds {
+                        magnitude: (num_traits::Float::max(m - z * sm, T::zero()), m + z * sm),
+                        phase: (gk.arg() - z * sp, gk.arg() + z * sp),
+                    }
+                })
+                .collect(),
+        )
+    }
+
+    /// G and ∂G/∂θ (lines × p) at θ̂ on `omega`.
+    fn jacobian(&self, omega: &[T]) -> (Vec<Complex<T>>, DMatrix<Complex<T>>) {
+        let zero = Complex::new(T::zero(), T::zero());
+        let mut g = vec![zero; omega.len()];
+        let mut jac = DMatrix::from_element(omega.len(), self.theta.len(), zero);
+        self.model
+            .jacobian_into(&self.theta, omega, &mut g, &mut jac);
+        (g, jac)
     }
 }

@@ -17,13 +17,29 @@ covariance of the estimate and the validation of the fit. The numerics run in Ru
 from __future__ import annotations
 
 import os
-from typing import Optional, Tuple, Union
+from typing import List, Optional, Tuple, Union
 
 import numpy as np
 
 from ._fdid import Fit, __version__, fit_frf, load_json
+from ._fdid import diagnose as _diagnose
+from ._fdid import fit_many as _fit_many
+from ._fdid import fit_record as _fit_record
+from ._fdid import fit_spectra as _fit_spectra
+from ._fdid import ltv as _ltv
 
-__all__ = ["Fit", "fit", "load", "from_network", "__version__"]
+__all__ = [
+    "Fit",
+    "fit",
+    "fit_spectra",
+    "fit_record",
+    "fit_many",
+    "diagnose",
+    "ltv",
+    "load",
+    "from_network",
+    "__version__",
+]
 
 
 def _real_1d(name: str, a) -> np.ndarray:
@@ -103,8 +119,6 @@ def fit(
     frf = _complex_1d("frf", frf)
     if var is not None:
         var = _real_1d("var", var)
-    if band is not None:
-        band = (float(band[0]), float(band[1]))
     return fit_frf(
         f,
         frf,
@@ -115,9 +129,257 @@ def fit(
         var=var,
         delay=bool(delay),
         criterion=criterion,
-        band=band,
+        band=_band(band),
         stable=bool(stable),
     )
+
+
+def fit_spectra(
+    f,
+    u,
+    y,
+    *,
+    domain: str,
+    na: int,
+    nb: int,
+    ts: Optional[float] = None,
+    var=None,
+    delay: bool = False,
+    criterion: str = "ml",
+    band: Optional[Tuple[float, float]] = None,
+    stable: bool = False,
+    transient: bool = False,
+    noise_order: Optional[int] = None,
+) -> Fit:
+    """Fits Y = G U (+ a transient term, + a noise model H = C/D) to input and output
+    spectra U(f), Y(f) (errors in Y only).
+
+    ``f`` (Hz), ``u`` and ``y`` (complex) have one value per line; ``var`` is the noise
+    variance of each line of ``y``; ``transient`` adds the transient term of a
+    non-periodic record (McKelvey eq. 4); ``noise_order`` fits a noise model of that
+    order (discrete time). The other parameters are those of :func:`fit`.
+    """
+    f = _real_1d("f", f)
+    u = _complex_1d("u", u)
+    y = _complex_1d("y", y)
+    if var is not None:
+        var = _real_1d("var", var)
+    return _fit_spectra(
+        f,
+        u,
+        y,
+        domain=domain,
+        na=int(na),
+        nb=int(nb),
+        ts=None if ts is None else float(ts),
+        var=var,
+        delay=bool(delay),
+        criterion=criterion,
+        band=_band(band),
+        stable=bool(stable),
+        transient=bool(transient),
+        noise_order=None if noise_order is None else int(noise_order),
+    )
+
+
+def fit_record(
+    t,
+    u,
+    y,
+    *,
+    domain: str,
+    na: int,
+    nb: int,
+    periods: Optional[int] = None,
+    delay: bool = False,
+    criterion: str = "ml",
+    band: Optional[Tuple[float, float]] = None,
+    stable: bool = False,
+    transient: bool = False,
+    noise_order: Optional[int] = None,
+) -> Fit:
+    """Fits a model to a sampled input/output record, as ``fdid fit`` does with a
+    ``t,u,y`` file.
+
+    ``t`` (s, uniformly spaced) gives the sample time (the model's for ``domain="z"``).
+    With ``periods=P`` the record holds P periods of a periodic input, whose spectra are
+    averaged (their sample variances weight the fit); without it the DFT of the whole
+    record is fitted, usually with ``transient=True``. The lines the input excites are
+    fitted (every line strictly between DC and Nyquist with ``noise_order``).
+    """
+    t = _real_1d("t", t)
+    u = _real_1d("u", u)
+    y = _real_1d("y", y)
+    return _fit_record(
+        t,
+        u,
+        y,
+        domain=domain,
+        na=int(na),
+        nb=int(nb),
+        periods=None if periods is None else int(periods),
+        delay=bool(delay),
+        criterion=criterion,
+        band=_band(band),
+        stable=bool(stable),
+        transient=bool(transient),
+        noise_order=None if noise_order is None else int(noise_order),
+    )
+
+
+def fit_many(
+    datasets,
+    *,
+    domain: str,
+    na: int,
+    nb: int,
+    ts: Optional[float] = None,
+    delay: bool = False,
+    criterion: str = "ml",
+    band: Optional[Tuple[float, float]] = None,
+    stable: bool = False,
+    errors: str = "raise",
+) -> List[Optional[Fit]]:
+    """Fits one model structure to many frequency responses in parallel.
+
+    ``datasets`` is a sequence of ``(f, frf)`` or ``(f, frf, var)`` tuples, or of dicts
+    with the keys ``f``, ``frf`` and optionally ``var``. The fits run on fdid's thread
+    pool with the GIL released (``RAYON_NUM_THREADS`` sets its size). Returns one
+    :class:`Fit` per data set, in order; a failed fit raises ``ValueError`` naming its
+    index, or with ``errors="none"`` gives ``None`` in its place. The other parameters
+    are those of :func:`fit`.
+    """
+    items = []
+    for k, d in enumerate(datasets):
+        if isinstance(d, dict):
+            f, frf, var = d.get("f"), d.get("frf"), d.get("var")
+        elif len(d) in (2, 3):
+            f, frf, var = d[0], d[1], (d[2] if len(d) == 3 else None)
+        else:
+            raise ValueError(f"data set {k}: expected (f, frf) or (f, frf, var), got {len(d)} items")
+        if f is None or frf is None:
+            raise ValueError(f"data set {k}: needs f and frf")
+        try:
+            items.append(
+                (
+                    _real_1d("f", f),
+                    _complex_1d("frf", frf),
+                    None if var is None else _real_1d("var", var),
+                )
+            )
+        except ValueError as e:
+            raise ValueError(f"data set {k}: {e}") from None
+    return _fit_many(
+        items,
+        domain=domain,
+        na=int(na),
+        nb=int(nb),
+        ts=None if ts is None else float(ts),
+        delay=bool(delay),
+        criterion=criterion,
+        band=_band(band),
+        stable=bool(stable),
+        errors=errors,
+    )
+
+
+def diagnose(
+    *,
+    domain: str,
+    na: int,
+    nb: int,
+    f=None,
+    frf=None,
+    var=None,
+    t=None,
+    u=None,
+    y=None,
+    periods: Optional[int] = None,
+    ts: Optional[float] = None,
+    alpha: float = 0.01,
+    max_steps: int = 4,
+) -> dict:
+    """The discrepancy workflow of ``fdid diagnose``: from G = B/A of orders (na, nb) it
+    tests where model and data disagree, names the missing effect (time delay, missing
+    resonance, pole or zero, transient, coloured noise, ...), adds it, checks that the gap
+    shrank, and repeats until the residuals are consistent with the noise.
+
+    Give a frequency response (``f`` in Hz, complex ``frf``, optional ``var``; ``ts`` for
+    ``domain="z"``) or a time record (``t``, ``u``, ``y``, optional ``periods``).
+
+    Returns a dict: ``steps`` (each ``effect``, ``p_value``, ``lr_p``, ``cost_before``,
+    ``cost_after``), ``effects`` (named and added), ``unmodelled`` (named, not added),
+    ``consistent`` (the verdict at level ``alpha``), ``final_spec`` (``na``, ``nb``,
+    ``delay``, ``transient``, ``noise_order``), ``cost_initial``, ``cost_final`` and
+    ``fit`` (the final :class:`Fit`).
+    """
+    if (f is None) != (frf is None):
+        raise ValueError("give both f and frf (a frequency response)")
+    args = {}
+    if f is not None:
+        args["f"] = _real_1d("f", f)
+        args["frf"] = _complex_1d("frf", frf)
+        if var is not None:
+            args["var"] = _real_1d("var", var)
+    for name, value in (("t", t), ("u", u), ("y", y)):
+        if value is not None:
+            args[name] = _real_1d(name, value)
+    return _diagnose(
+        domain=domain,
+        na=int(na),
+        nb=int(nb),
+        periods=None if periods is None else int(periods),
+        ts=None if ts is None else float(ts),
+        alpha=float(alpha),
+        max_steps=int(max_steps),
+        **args,
+    )
+
+
+def ltv(
+    t,
+    u,
+    y,
+    *,
+    na: int,
+    nb: int,
+    np: int,
+    ntr: Optional[int] = None,
+    band: Optional[Tuple[float, float]] = None,
+    basis: str = "legendre",
+    at=None,
+) -> dict:
+    """Fits the continuous-time time-varying ODE of ``fdid ltv`` (Lataire and Pintelon):
+    Σ_n a_n(t) y^(n)(t) = Σ_n b_n(t) u^(n)(t) with a_n, b_n polynomials in t of degree
+    ``np``, by total least squares on the DFT lines of one record (``band`` in Hz, all
+    lines up to Nyquist by default), with the transient + alias polynomial of degree
+    ``ntr`` (default max(na, nb)) and Legendre (default) or monomial bases.
+
+    Returns a dict: ``theta`` (the null vector of the regression, in the bases),
+    ``singular_values`` (ascending, the smallest is the fit's), ``lines`` (number
+    fitted), ``transient`` (its coefficients), ``times`` (``at``, default five instants
+    over the record, in the units of ``t``) and ``poles`` (the instantaneous poles at each
+    of them, rad/s).
+    """
+    t = _real_1d("t", t)
+    u = _real_1d("u", u)
+    y = _real_1d("y", y)
+    return _ltv(
+        t,
+        u,
+        y,
+        na=int(na),
+        nb=int(nb),
+        np=int(np),
+        ntr=None if ntr is None else int(ntr),
+        band=_band(band),
+        basis=basis,
+        at=None if at is None else _real_1d("at", at),
+    )
+
+
+def _band(band) -> Optional[Tuple[float, float]]:
+    return None if band is None else (float(band[0]), float(band[1]))
 
 
 def load(source: Union[str, os.PathLike]) -> Fit:

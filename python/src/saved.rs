@@ -104,6 +104,10 @@ impl Saved {
         each!(&self.model, m => m.response_std(omega))
     }
 
+    pub fn bounds(&self, omega: &[f64], level: f64) -> Option<Vec<fdid::fit::Bounds<f64>>> {
+        each!(&self.model, m => m.bounds(omega, level))
+    }
+
     /// The JSON of `fdid fit --save`.
     pub fn to_json(&self) -> serde_json::Result<String> {
         let fitted = each!(&self.model, m => serde_json::to_value(m))?;

@@ -194,3 +194,200 @@ def test_the_examples_in_the_docstrings_run():
 
     failed, tried = doctest.testmod(fdid)
     assert tried > 0 and failed == 0
+
+
+def load_csv(name):
+    table = np.loadtxt(DATA / name, delimiter=",", skiprows=1)
+    return table[:, 0], table[:, 1], table[:, 2]
+
+
+def run_json(*args):
+    out = subprocess.run([fdid_command(), *args, "--json"], check=True, capture_output=True, text=True)
+    return json.loads(out.stdout)
+
+
+def poles_of(cli):
+    return np.sort_complex(np.array([complex(re, im) for re, im in cli["poles"]]))
+
+
+def test_record_fit_is_the_command_s():
+    t, u, y = load_csv("dryer.csv")
+    cli = run_json("fit", str(DATA / "dryer.csv"), "--domain", "z", "--na", "2", "--nb", "2", "--transient")
+    fit = fdid.fit_record(t, u, y, domain="z", na=2, nb=2, transient=True)
+    assert fit.ts == pytest.approx(0.08, rel=1e-12)
+    assert np.allclose(np.sort_complex(fit.poles), poles_of(cli), rtol=1e-9, atol=0)
+    assert fit.cost == pytest.approx(cli["cost"], rel=1e-9)
+    assert fit.lines == cli["lines"]
+
+
+def test_periodic_record_is_averaged_and_weighted(tmp_path):
+    rng = np.random.default_rng(5)
+    m, p = 256, 6
+    period = rng.standard_normal(m)
+    u = np.tile(period, p)
+    # y(t) = 0.3 u(t-1) + 1.2 y(t-1) - 0.5 y(t-2), in steady state, plus noise
+    y = np.zeros(u.size + 2 * m)
+    uu = np.concatenate([np.tile(period, 2), u])
+    for k in range(2, uu.size):
+        y[k] = 0.3 * uu[k - 1] + 1.2 * y[k - 1] - 0.5 * y[k - 2]
+    y = y[2 * m :] + 1e-3 * rng.standard_normal(u.size)
+    t = np.arange(u.size) * 0.01
+    fit = fdid.fit_record(t, u, y, domain="z", na=2, nb=1, periods=p)
+    assert np.allclose(np.sort_complex(fit.poles), np.sort_complex(np.roots([1, -1.2, 0.5])), atol=2e-3)
+    # weighted by the sample variances: a correct model passes the cost test
+    assert fit.validation["cost_p"] is not None and fit.validation["cost_p"] > 1e-3
+    path = tmp_path / "periodic.csv"
+    np.savetxt(path, np.column_stack([t, u, y]), delimiter=",", header="t,u,y", comments="", fmt="%.17g")
+    cli = run_json("fit", str(path), "--domain", "z", "--na", "2", "--nb", "1", "--periods", str(p))
+    assert np.allclose(np.sort_complex(fit.poles), poles_of(cli), rtol=1e-9, atol=0)
+    assert fit.cost == pytest.approx(cli["cost"], rel=1e-9)
+
+
+def test_spectra_fit_recovers_the_system():
+    rng = np.random.default_rng(2)
+    f = np.linspace(0.02, 2.0, 150)
+    u = rng.standard_normal(f.size) + 1j * rng.standard_normal(f.size)
+    y = second_order(f) * u
+    fit = fdid.fit_spectra(f, u, y, domain="s", na=2, nb=0)
+    assert np.allclose(np.sort_complex(fit.poles), np.sort_complex(np.roots([1.0, 0.4, 4.0])), atol=1e-9)
+    with pytest.raises(ValueError, match="one per frequency"):
+        fdid.fit_spectra(f, u[:-1], y, domain="s", na=2, nb=0)
+    with pytest.raises(ValueError, match="not finite"):
+        fdid.fit_spectra(f, np.where(f > 1, np.inf, u), y, domain="s", na=2, nb=0)
+
+
+def test_record_with_a_noise_model():
+    rng = np.random.default_rng(7)
+    n = 2048
+    u = rng.standard_normal(n)
+    e = 0.05 * rng.standard_normal(n)
+    y = np.zeros(n)
+    v = np.zeros(n)
+    for k in range(1, n):
+        v[k] = e[k] + 0.8 * v[k - 1]  # coloured noise 1/(1 - 0.8 z^-1)
+        y[k] = 0.5 * u[k - 1] + 0.6 * y[k - 1]
+    t = np.arange(n) * 1.0
+    fit = fdid.fit_record(t, u, y + v, domain="z", na=1, nb=1, transient=True, noise_order=1)
+    assert fit.poles.size == 1 and abs(fit.poles[0] - 0.6) < 0.02
+
+
+def test_diagnose_names_the_dryer_delay_as_the_command_does():
+    t, u, y = load_csv("dryer.csv")
+    cli = run_json("diagnose", str(DATA / "dryer.csv"), "--domain", "z", "--ts", "0.08", "--na", "2", "--nb", "2")
+    report = fdid.diagnose(t=t, u=u, y=y, domain="z", na=2, nb=2)
+    assert report["effects"] == cli["effects"] == ["time_delay", "transient"]
+    for step, want in zip(report["steps"], cli["steps"]):
+        assert step["effect"] == want["effect"]
+        assert step["cost_after"] == pytest.approx(want["cost_after"], rel=1e-9)
+    assert report["consistent"]
+    fit = report["fit"]
+    # the reference: an input delay of 3 samples of 0.08 s
+    assert abs(fit.delay / 0.08 - 3.0) < 0.5
+    assert report["final_spec"]["delay"] and report["final_spec"]["transient"]
+
+
+def test_diagnose_of_a_frequency_response_finds_a_missing_resonance():
+    rng = np.random.default_rng(11)
+    f = np.linspace(0.05, 3.0, 400)
+    s = 2j * np.pi * f
+    g = 4.0 / (s**2 + 0.4 * s + 4.0) * 25.0 / (s**2 + 0.5 * s + 25.0)
+    sigma = 1e-3
+    noisy = g + sigma / np.sqrt(2) * (rng.standard_normal(f.size) + 1j * rng.standard_normal(f.size))
+    report = fdid.diagnose(f=f, frf=noisy, var=np.full(f.size, sigma**2), domain="s", na=2, nb=0)
+    assert report["effects"][0] == "missing_resonance"
+    assert report["final_spec"]["na"] >= 4 and report["consistent"]
+    with pytest.raises(ValueError, match="f and frf"):
+        fdid.diagnose(f=f, domain="s", na=2, nb=0)
+    with pytest.raises(ValueError, match="alpha"):
+        fdid.diagnose(f=f, frf=noisy, domain="s", na=2, nb=0, alpha=2.0)
+
+
+def test_bad_time_grids_are_value_errors():
+    t = np.arange(100) * 0.1
+    u = np.sin(t)
+    with pytest.raises(ValueError, match="uniformly"):
+        fdid.fit_record(np.r_[t[:50], t[50:] + 0.05], u, u, domain="z", na=1, nb=0)
+    with pytest.raises(ValueError, match="increase"):
+        fdid.fit_record(t[::-1], u, u, domain="z", na=1, nb=0)
+    with pytest.raises(ValueError, match="excites no line"):
+        fdid.fit_record(t, np.ones(100), u, domain="z", na=1, nb=0)
+
+
+def test_fit_many_equals_one_by_one_and_reports_failures():
+    rng = np.random.default_rng(4)
+    f = np.linspace(0.01, 2.0, 200)
+    sets = []
+    for k in range(40):
+        g = second_order(f, wn=1.0 + 0.05 * k, zeta=0.05 + 0.002 * k)
+        sets.append((f, g + 1e-3 * (rng.standard_normal(f.size) + 1j * rng.standard_normal(f.size))))
+    fits = fdid.fit_many(sets, domain="s", na=2, nb=0)
+    assert len(fits) == 40
+    for (fk, gk), fit in zip(sets, fits):
+        one = fdid.fit(fk, gk, domain="s", na=2, nb=0)
+        assert np.array_equal(fit.poles, one.poles) and fit.cost == one.cost
+    # dicts and variances too
+    as_dicts = [{"f": f, "frf": g, "var": np.full(f.size, 2e-6)} for f, g in sets[:3]]
+    assert all(fit.validation["cost_p"] is not None for fit in fdid.fit_many(as_dicts, domain="s", na=2, nb=0))
+    bad = sets[:3] + [(f[:5], sets[3][1][:5])] + sets[4:6]
+    with pytest.raises(ValueError, match="data set 3"):
+        fdid.fit_many(bad, domain="s", na=6, nb=5)
+    kept = fdid.fit_many(bad, domain="s", na=6, nb=5, errors="none")
+    assert kept[3] is None and all(k is not None for i, k in enumerate(kept) if i != 3)
+    with pytest.raises(ValueError, match="data set 1"):
+        fdid.fit_many([sets[0], (f, sets[1][1][:-1])], domain="s", na=2, nb=0)
+    with pytest.raises(ValueError, match="errors="):
+        fdid.fit_many(sets[:1], domain="s", na=2, nb=0, errors="ignore")
+
+
+def test_the_dask_example_task_runs_without_dask():
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("dask_many", ROOT / "python" / "examples" / "dask_many.py")
+    example = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(example)
+    results = example.fit_batch(3, 20)
+    _, truth = example.make_frfs(20, seed=3)
+    assert len(results) == 20
+    for (poles, p), (wn, zeta) in zip(results, truth):
+        assert abs(np.abs(poles[0]) - wn) < 1e-2 * wn and p is not None
+
+
+def test_bounds_hold_the_truth_about_as_often_as_their_level():
+    rng = np.random.default_rng(8)
+    f = np.linspace(0.01, 2.0, 300)
+    probe = np.linspace(0.05, 1.9, 7)
+    sigma = 0.02
+    inside, total = 0, 0
+    for _ in range(60):
+        noise = sigma / np.sqrt(2) * (rng.standard_normal(f.size) + 1j * rng.standard_normal(f.size))
+        fit = fdid.fit(f, second_order(f) + noise, domain="s", na=2, nb=0, var=np.full(f.size, sigma**2))
+        b = fit.bounds(probe, 0.9)
+        lo, hi = b["magnitude"]
+        truth = np.abs(second_order(probe))
+        inside += np.sum((lo <= truth) & (truth <= hi))
+        total += probe.size
+        assert np.all(lo < np.abs(fit.frf(probe))) and np.all(np.abs(fit.frf(probe)) < hi)
+        plo, phi = b["phase"]
+        assert np.all(plo < phi)
+    # 90 % bounds: 420 pointwise checks (correlated through the 60 fits)
+    assert 0.8 < inside / total < 0.97
+    with pytest.raises(ValueError, match="level"):
+        fit.bounds(probe, 1.5)
+
+
+def test_ltv_is_the_command_s(tmp_path):
+    table = np.loadtxt(DATA / "silverbox.csv", delimiter=",", skiprows=1, max_rows=2999)
+    path = tmp_path / "sb.csv"
+    np.savetxt(path, table, delimiter=",", header="t,u,y", comments="", fmt="%.17g")
+    cli = run_json("ltv", str(path), "--na", "2", "--nb", "0", "--np", "1", "--band", ":150")
+    got = fdid.ltv(table[:, 0], table[:, 1], table[:, 2], na=2, nb=0, np=1, band=(0.0, 150.0))
+    assert np.allclose(got["theta"], cli["theta"], rtol=1e-9, atol=1e-12)
+    assert np.allclose(got["singular_values"][:3], cli["singular_values"][:3], rtol=1e-9)
+    assert len(got["poles"]) == len(got["times"]) == 5 and all(p.size == 2 for p in got["poles"])
+    # the Silverbox's resonance near 69.5 Hz at every instant
+    for p in got["poles"]:
+        assert 60 < np.abs(p[0]) / (2 * np.pi) < 80
+    with pytest.raises(ValueError, match="basis"):
+        fdid.ltv(table[:, 0], table[:, 1], table[:, 2], na=2, nb=0, np=1, basis="fourier")
+    with pytest.raises(ValueError, match="Nyquist"):
+        fdid.ltv(table[:, 0], table[:, 1], table[:, 2], na=2, nb=0, np=1, band=(0.0, 1e6))

@@ -51,6 +51,31 @@ fn fitted_rational_round_trips_to_the_last_bit() {
     for (a, b) in std.iter().zip(fit.response_std().unwrap()) {
         assert!((a - b).abs() <= 1e-9 * b.abs(), "{a} vs {b}");
     }
+    // and so are its bounds on |G| and the phase, on the data lines
+    let bounds = back.bounds(data.omega(), 0.95).unwrap();
+    for (a, b) in bounds.iter().zip(fit.bounds(0.95).unwrap()) {
+        for (x, y) in [
+            (a.magnitude.0, b.magnitude.0),
+            (a.magnitude.1, b.magnitude.1),
+            (a.phase.0, b.phase.0),
+            (a.phase.1, b.phase.1),
+        ] {
+            assert!((x - y).abs() <= 1e-9 * y.abs().max(1e-12), "{x} vs {y}");
+        }
+        assert!(a.magnitude.0 < a.magnitude.1 && a.phase.0 < a.phase.1);
+    }
+    // wider at a higher level; none outside (0, 1) or without a covariance
+    let wide = back.bounds(&off, 0.99).unwrap();
+    let narrow = back.bounds(&off, 0.5).unwrap();
+    assert!(
+        wide.iter()
+            .zip(&narrow)
+            .all(|(w, n)| w.magnitude.1 > n.magnitude.1 && w.phase.0 < n.phase.0)
+    );
+    assert!(back.bounds(&off, 1.0).is_none() && back.bounds(&off, 0.0).is_none());
+    let mut blind = back.clone();
+    blind.covariance = None;
+    assert!(blind.bounds(&off, 0.95).is_none());
 }
 
 #[test]

@@ -1,0 +1,128 @@
+//! The frequency lines of input/output spectra and of time records, as `fdid fit` forms
+//! them: the DFT of the record (averaged over its periods when it has several), the lines
+//! the input excites (all lines strictly between DC and Nyquist for a noise model), and
+//! the sample variances of a periodic record as weights.
+
+use crate::value_error;
+use fdid::data::{EXCITATION_FRACTION, ExcitationRule, Lpm, UNEXCITED_NEIGHBOURS};
+use fdid::{FrequencyData, TimeData};
+use num_complex::Complex64;
+use pyo3::PyResult;
+
+/// How far the steps of `t` may stray from their mean (relative) before the record is
+/// refused as not uniformly sampled.
+const UNIFORM: f64 = 1e-6;
+
+/// The sample time of the uniform time grid `t` (s).
+pub fn sample_time(t: &[f64]) -> PyResult<f64> {
+    let n = t.len();
+    if n < 2 {
+        return Err(value_error(format!(
+            "t has {n} samples: a time record needs at least 2"
+        )));
+    }
+    if let Some(k) = t.iter().position(|v| !v.is_finite()) {
+        return Err(value_error(format!("t[{k}] = {} is not finite", t[k])));
+    }
+    let ts = (t[n - 1] - t[0]) / (n - 1) as f64;
+    if ts <= 0.0 {
+        return Err(value_error(format!(
+            "t runs from {} to {}: it must increase",
+            t[0],
+            t[n - 1]
+        )));
+    }
+    for k in 1..n {
+        let step = t[k] - t[k - 1];
+        if (step - ts).abs() > UNIFORM * ts {
+            return Err(value_error(format!(
+                "t is not uniformly sampled: t[{k}] − t[{}] = {step}, the mean step is {ts}",
+                k - 1
+            )));
+        }
+    }
+    Ok(ts)
+}
+
+/// The fitted lines of the record (`u`, `y`) sampled every `ts` s: averaged over
+/// `periods` periods or the DFT of the whole record, then the excited lines above DC
+/// (`every_line`: all lines strictly between DC and Nyquist, for a noise model), weighted
+/// by their sample variances when every line has a positive one.
+///
+/// With `reference` (the discrepancy workflow, whose tests need a noise level), a record
+/// without sample variances is weighted as `fdid diagnose` weights it: by the output
+/// error on the nearest unexcited lines of a multisine, else by the output noise
+/// variances of the local polynomial method.
+pub fn record_lines(
+    record: &TimeData<f64>,
+    periods: Option<usize>,
+    every_line: bool,
+    reference: bool,
+) -> PyResult<FrequencyData<f64>> {
+    let data = match periods {
+        Some(p) => record.average_periods(p).map_err(value_error)?,
+        None => record.dft(),
+    };
+    let excitation = data.excitation(EXCITATION_FRACTION);
+    if excitation.count() == 0 {
+        return Err(value_error(
+            "the input excites no line above DC: the record carries no information about \
+             the system",
+        ));
+    }
+    let nyquist = std::f64::consts::PI / record.ts();
+    let keep: Vec<bool> = data
+        .omega()
+        .iter()
+        .zip(excitation.lines())
+        .map(|(w, excited)| {
+            *w > 0.0
+                && if every_line {
+                    *w < nyquist * (1.0 - 1e-12)
+                } else {
+                    *excited
+                }
+        })
+        .collect();
+    let selected = flat_unless_weighted(data.select_lines(&keep).map_err(value_error)?);
+    if !reference || selected.noise().is_some() || periods.is_some_and(|p| p >= 2) {
+        return Ok(selected);
+    }
+    let unexcited = match excitation.rule() {
+        ExcitationRule::Level => None,
+        _ => data.unexcited_noise(&excitation, UNEXCITED_NEIGHBOURS).ok(),
+    };
+    if let Some(noisy) = unexcited
+        && noisy.omega() == selected.omega()
+        && noisy.variance_dof().is_some()
+    {
+        return Ok(noisy);
+    }
+    Ok(Lpm::new()
+        .estimate(&selected)
+        .and_then(|estimate| estimate.spectra_data())
+        .ok()
+        .filter(|d| d.noise().is_some_and(|n| n.var_y.iter().all(|v| *v > 0.0)))
+        .unwrap_or(selected))
+}
+
+/// The data without noise variances unless every line has a positive one (the rule of
+/// `fdid fit`: a record of one period, or periods that repeat exactly, has none).
+pub fn flat_unless_weighted(data: FrequencyData<f64>) -> FrequencyData<f64> {
+    let weighted = data
+        .noise()
+        .is_some_and(|n| n.var_y.iter().all(|v| v.is_finite() && *v > 0.0));
+    if weighted { data } else { data.without_noise() }
+}
+
+/// The spectra (`u`, `y`) at `omega` (rad/s), each value finite.
+pub fn spectra(
+    omega: Vec<f64>,
+    u: Vec<Complex64>,
+    y: Vec<Complex64>,
+    ts: Option<f64>,
+) -> PyResult<FrequencyData<f64>> {
+    crate::finite_complex("u", &u)?;
+    crate::finite_complex("y", &y)?;
+    FrequencyData::new(omega, y, u, ts).map_err(value_error)
+}
