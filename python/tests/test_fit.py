@@ -391,3 +391,29 @@ def test_ltv_is_the_command_s(tmp_path):
         fdid.ltv(table[:, 0], table[:, 1], table[:, 2], na=2, nb=0, np=1, basis="fourier")
     with pytest.raises(ValueError, match="Nyquist"):
         fdid.ltv(table[:, 0], table[:, 1], table[:, 2], na=2, nb=0, np=1, band=(0.0, 1e6))
+
+
+def python_blocks(path):
+    """The ```python code blocks of a Markdown file."""
+    text = path.read_text(encoding="utf-8")
+    blocks, inside, current = [], False, []
+    for line in text.splitlines():
+        if line.strip() == "```python":
+            inside, current = True, []
+        elif inside and line.strip() == "```":
+            inside = False
+            blocks.append("\n".join(current))
+        elif inside:
+            current.append(line)
+    return blocks
+
+
+@pytest.mark.parametrize("page", ["README.md", "docs/python.md"])
+def test_the_python_examples_of_the_docs_run(page, tmp_path, monkeypatch):
+    blocks = python_blocks(ROOT / page)
+    assert blocks, f"{page} has no python block"
+    # the examples read the bundled data from the repository root and may write files
+    (tmp_path / "data").symlink_to(DATA)
+    monkeypatch.chdir(tmp_path)
+    for code in blocks:
+        exec(compile(code, page, "exec"), {})
