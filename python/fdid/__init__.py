@@ -21,7 +21,8 @@ from typing import List, Optional, Tuple, Union
 
 import numpy as np
 
-from ._fdid import Fit, __version__, fit_frf, load_json
+from ._fdid import CommonPoleFit, Fit, __version__, fit_frf, load_json
+from ._fdid import fit_common_poles_py as _fit_common_poles
 from ._fdid import diagnose as _diagnose
 from ._fdid import fit_many as _fit_many
 from ._fdid import fit_record as _fit_record
@@ -30,6 +31,8 @@ from ._fdid import ltv as _ltv
 
 __all__ = [
     "Fit",
+    "CommonPoleFit",
+    "fit_common_poles",
     "fit",
     "fit_spectra",
     "fit_record",
@@ -382,6 +385,70 @@ def _band(band) -> Optional[Tuple[float, float]]:
     return None if band is None else (float(band[0]), float(band[1]))
 
 
+def fit_common_poles(
+    f,
+    frf,
+    *,
+    domain: str,
+    order: int,
+    ts: Optional[float] = None,
+    var=None,
+    direct: bool = True,
+    stable: bool = False,
+    ml: bool = True,
+    band: Optional[Tuple[float, float]] = None,
+) -> CommonPoleFit:
+    """Fits poles shared by every entry of a frequency response matrix, as ``fdid fit``
+    does with every entry of a multi-port file: G(x) = D + Σ_m R_m/(x − p_m), one
+    residue matrix per pole, by relaxed vector fitting with the fast block solution, then
+    maximum likelihood (``ml``) weighted by ``var`` when given.
+
+    Parameters
+    ----------
+    f : array_like, shape (N,)
+        Frequencies (Hz).
+    frf : array_like of complex, shape (N, ny, nu)
+        G(f) for output i and input j at ``frf[:, i, j]`` (for S-parameters ``S[:, i, j]``,
+        as scikit-rf's ``Network.s``).
+    domain, ts : as in :func:`fit`.
+    order : int
+        Number of poles (complex pairs count twice).
+    var : array_like, shape (N, ny, nu), optional
+        Noise variance of each value.
+    direct : bool
+        Estimate the direct term D.
+    stable, band : as in :func:`fit`.
+
+    Returns
+    -------
+    CommonPoleFit
+        ``poles``, ``pole_slots``, ``residues`` (slots × ny × nu), ``direct``, ``modes``
+        (natural frequency, damping, mode shape), ``state_space`` (a, b, c, d), ``rms``,
+        ``cost``, ``relocations``, ``ml``, ``stable``, and ``frf(f)`` (N × ny × nu).
+    """
+    f = _real_1d("f", f)
+    frf = np.asarray(frf)
+    if frf.ndim != 3:
+        raise ValueError(f"frf must be (lines, outputs, inputs), got shape {frf.shape}")
+    frf = np.ascontiguousarray(frf, dtype=np.complex128)
+    if var is not None:
+        var = np.ascontiguousarray(np.asarray(var), dtype=np.float64)
+        if var.ndim != 3:
+            raise ValueError(f"var must be (lines, outputs, inputs), got shape {var.shape}")
+    return _fit_common_poles(
+        f,
+        frf,
+        domain=domain,
+        order=int(order),
+        ts=None if ts is None else float(ts),
+        var=var,
+        direct=bool(direct),
+        stable=bool(stable),
+        ml=bool(ml),
+        band=_band(band),
+    )
+
+
 def load(source: Union[str, os.PathLike]) -> Fit:
     """A model saved with ``Fit.to_json()`` or ``fdid fit --save``: a path to the file,
     or the JSON text itself."""
@@ -392,13 +459,20 @@ def load(source: Union[str, os.PathLike]) -> Fit:
     return load_json(text)
 
 
-def from_network(network, port: Tuple[int, int] = (2, 1), **kwargs) -> Fit:
-    """Fits one entry of a scikit-rf ``Network``: S[port] (1-based (output, input), as
-    ``fdid fit --port 21``) against ``network.f`` (Hz). Keyword arguments go to
-    :func:`fit`; the default is a continuous-time model."""
+def from_network(network, port: Optional[Tuple[int, int]] = (2, 1), **kwargs):
+    """Fits a scikit-rf ``Network`` against ``network.f`` (Hz).
+
+    With ``port=(i, j)`` (1-based (output, input), as ``fdid fit --port ij``) the entry
+    S[i, j] is fitted by :func:`fit` (keyword arguments go to it; the default domain is
+    "s"). With ``port=None`` every entry is fitted with common poles by
+    :func:`fit_common_poles` (pass ``order=``).
+    """
+    kwargs.setdefault("domain", "s")
+    s = np.asarray(network.s)
+    if port is None:
+        return fit_common_poles(np.asarray(network.f), s, **kwargs)
     i, j = port
-    n = network.s.shape[1]
+    n = s.shape[1]
     if not (1 <= i <= n and 1 <= j <= n):
         raise ValueError(f"port {port} is outside the {n}-port network (1-based)")
-    kwargs.setdefault("domain", "s")
-    return fit(np.asarray(network.f), np.asarray(network.s[:, i - 1, j - 1]), **kwargs)
+    return fit(np.asarray(network.f), s[:, i - 1, j - 1], **kwargs)

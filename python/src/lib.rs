@@ -2,6 +2,7 @@
 //! GIL released; bad input raises `ValueError` with fdid's message.
 
 mod ltv;
+mod mimo;
 mod record;
 mod saved;
 
@@ -36,7 +37,7 @@ fn method(name: &str) -> PyResult<Method> {
 }
 
 /// The model domain: `"s"` (continuous time) or `"z"` with the sample time `ts` (s).
-fn domain(name: &str, ts: Option<f64>) -> PyResult<Domain<f64>> {
+pub(crate) fn domain(name: &str, ts: Option<f64>) -> PyResult<Domain<f64>> {
     match (name, ts) {
         ("s", None) => Ok(Domain::Continuous),
         ("s", Some(ts)) => Err(value_error(format!(
@@ -750,7 +751,7 @@ impl Fit {
 }
 
 /// ω = 2πf, every f finite.
-fn angular(f_hz: &[f64]) -> PyResult<Vec<f64>> {
+pub(crate) fn angular(f_hz: &[f64]) -> PyResult<Vec<f64>> {
     if let Some(k) = f_hz.iter().position(|f| !f.is_finite()) {
         return Err(value_error(format!("f[{k}] = {} is not finite", f_hz[k])));
     }
@@ -772,6 +773,8 @@ fn _fdid(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(diagnose, m)?)?;
     m.add_function(wrap_pyfunction!(fit_many, m)?)?;
     m.add_function(wrap_pyfunction!(ltv::ltv, m)?)?;
+    m.add_function(wrap_pyfunction!(mimo::fit_common_poles_py, m)?)?;
+    m.add_class::<mimo::CommonPoleFit>()?;
     m.add_class::<Fit>()?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())

@@ -417,3 +417,67 @@ def test_the_python_examples_of_the_docs_run(page, tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
     for code in blocks:
         exec(compile(code, page, "exec"), {})
+
+
+def read_s2p_db(path):
+    """f (Hz) and S (N × 2 × 2) of a version 1 two-port Touchstone file in MHz, dB/deg."""
+    rows = []
+    for line in path.read_text().splitlines():
+        line = line.split("!")[0].strip()
+        if line and not line.startswith("#"):
+            rows.append([float(v) for v in line.split()])
+    rows = np.array(rows)
+    f = rows[:, 0] * 1e6
+    values = 10 ** (rows[:, 1::2] / 20) * np.exp(1j * np.deg2rad(rows[:, 2::2]))
+    # file order S11 S21 S12 S22
+    s = np.empty((f.size, 2, 2), dtype=complex)
+    s[:, 0, 0], s[:, 1, 0], s[:, 0, 1], s[:, 1, 1] = values.T
+    return f, s
+
+
+def test_common_poles_are_the_command_s_on_the_rlc_two_port():
+    path = DATA / "rlc_bandpass.s2p"
+    cli = run_json("fit", str(path), "--domain", "s", "--na", "2", "--nb", "2")
+    f, s = read_s2p_db(path)
+    fit = fdid.fit_common_poles(f, s, domain="s", order=2)
+    assert np.allclose(np.sort_complex(fit.poles), poles_of(cli), rtol=1e-9, atol=0)
+    assert fit.rms == pytest.approx(cli["rms_error"], rel=1e-6)
+    # the series RLC: L C s^2 + (R + 2 Z0) C s + 1 with R = 5, L = 1e-6, C = 1e-9
+    want = np.roots([1e-15, 105e-9, 1.0])
+    assert np.allclose(np.sort_complex(fit.poles), np.sort_complex(want), rtol=1e-4)
+    g = fit.frf(f[:3])
+    assert g.shape == (3, 2, 2) and np.allclose(g, s[:3], atol=1e-5)
+    net = FakeNetwork(f, s)
+    assert np.array_equal(fdid.from_network(net, port=None, order=2).poles, fit.poles)
+
+
+def test_common_poles_recover_a_three_by_two_system():
+    f = np.linspace(0.05, 3.0, 300)
+    s = 2j * np.pi * f
+    poles = [complex(-0.1, 2.0), complex(-0.3, 9.0)]
+    rng = np.random.default_rng(6)
+    g = np.zeros((f.size, 3, 2), dtype=complex)
+    for p in poles:
+        r = rng.standard_normal((3, 2)) + 1j * rng.standard_normal((3, 2))
+        g += r[None] / (s - p)[:, None, None] + r.conj()[None] / (s - np.conj(p))[:, None, None]
+    fit = fdid.fit_common_poles(f, g, domain="s", order=4, direct=False)
+    want = np.sort_complex(np.array(poles + [p.conjugate() for p in poles]))
+    assert np.allclose(np.sort_complex(fit.poles), want, atol=1e-8)
+    assert fit.residues.shape == (2, 3, 2) and fit.direct is None and fit.stable
+    modes = fit.modes
+    assert [round(m["f_n_hz"] * 2 * np.pi, 6) for m in modes] == [round(abs(p), 6) for p in poles]
+    ss = fit.state_space
+    # one block of the poles per input: 4 × 2 states
+    assert ss["a"].shape == (8, 8) and ss["b"].shape == (8, 2) and ss["c"].shape == (3, 8)
+    # the realisation reproduces the response: C (sI − A)⁻¹ B + D
+    k = 17
+    h = ss["c"] @ np.linalg.solve(s[k] * np.eye(8) - ss["a"], ss["b"]) + ss["d"]
+    assert np.allclose(h, g[k], atol=1e-8)
+    with pytest.raises(ValueError, match="outputs, inputs"):
+        fdid.fit_common_poles(f, g[:, 0, :], domain="s", order=4)
+    with pytest.raises(ValueError, match="one per frequency"):
+        fdid.fit_common_poles(f[:-1], g, domain="s", order=4)
+    with pytest.raises(ValueError, match="not finite"):
+        bad = g.copy()
+        bad[5, 2, 1] = np.nan
+        fdid.fit_common_poles(f, bad, domain="s", order=4)
