@@ -5,6 +5,7 @@ import os
 import pathlib
 import subprocess
 import threading
+import time
 
 import numpy as np
 import pytest
@@ -481,3 +482,26 @@ def test_common_poles_recover_a_three_by_two_system():
         bad = g.copy()
         bad[5, 2, 1] = np.nan
         fdid.fit_common_poles(f, bad, domain="s", order=4)
+
+
+def test_the_gil_is_released_during_a_fit():
+    # a fit of a tenth of a second or more in a thread: the main thread, waking every
+    # millisecond, runs meanwhile only if the fit does not hold the GIL
+    f = np.linspace(0.01, 2.0, 200_000)
+    g = second_order(f) * (1 + 1e-3 * np.sin(37 * f))
+    done = threading.Event()
+    seconds = []
+
+    def run():
+        seconds.append(fdid.fit(f, g, domain="s", na=2, nb=0).fit_seconds)
+        done.set()
+
+    thread = threading.Thread(target=run)
+    ticks = 0
+    thread.start()
+    while not done.is_set():
+        time.sleep(0.001)
+        ticks += 1
+    thread.join()
+    # at least a tick per 10 ms of the fit (about one per 1–2 ms when released)
+    assert ticks >= max(3, seconds[0] / 0.01), (ticks, seconds[0])
