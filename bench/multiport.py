@@ -13,7 +13,10 @@ a whole process, `fdid fit FILE --domain s --na N --nb N --json` (file reading, 
 vector fitting with the fast block solution, maximum likelihood, output). Both are scored
 by the RMS error of the model against the data over every entry and line, and against the
 noise-free truth. Times: the median of 3 runs (fdid: wall clock of the process;
-scikit-rf: vector_fit() only, single-threaded BLAS).
+scikit-rf: vector_fit() only, single-threaded BLAS). When the Python package is
+installed in the same environment (`pip install ./python`), a second table times the
+same fit as a library call, `fdid.fit_common_poles` on the arrays in memory, as
+scikit-rf's fit alone is timed.
 
     ~/fdid-peers/.venv/bin/python bench/multiport.py      # after ../shared/peers/setup.sh
 """
@@ -117,12 +120,28 @@ def fdid_fit(path, f, s_noisy, s_true, order):
     return float(np.median(times)), rms(model, s_noisy), rms(model, s_true)
 
 
+def fdid_library_fit(f, s_noisy, s_true, order):
+    """The same fit as a library call of the Python package on the arrays in memory (as
+    scikit-rf is timed: the fit alone), or None when the package is not installed."""
+    try:
+        import fdid
+    except ImportError:
+        return None
+    times, fit = [], None
+    for _ in range(3):
+        t0 = time.perf_counter()
+        fit = fdid.fit_common_poles(f, s_noisy, domain="s", order=order, direct=True)
+        times.append(time.perf_counter() - t0)
+    model = fit.frf(f)
+    return float(np.median(times)), rms(model, s_noisy), rms(model, s_true)
+
+
 def main():
     cases = [
         ("four", 4, 25, 200, np.exp(np.linspace(np.log(1e7), np.log(2e10), 200)), 1),
         ("eight", 8, 20, 5000, np.linspace(1e7, 1.2e10, 5000), 2),
     ]
-    rows = []
+    rows, libraries = [], []
     with tempfile.TemporaryDirectory() as tmp:
         for name, ports, pairs, _lines, f, seed in cases:
             poles, res, d = system(ports, pairs, 1e8, 1e10, seed)
@@ -135,7 +154,10 @@ def main():
             write_touchstone(path, f, s_noisy)
             t_f, e_f, t_f_true = fdid_fit(path, f, s_noisy, s_true, 2 * pairs)
             t_s, e_s, t_s_true = skrf_fit(path, f, s_noisy, s_true, pairs)
+            library = fdid_library_fit(f, s_noisy, s_true, 2 * pairs)
             rows.append((name, ports * ports, 2 * pairs, len(f), t_f, e_f, t_f_true, t_s, e_s, t_s_true))
+            if library is not None:
+                libraries.append((name, *library, t_s))
     print("| case | entries | poles | lines | fdid s | fdid rms (data / truth) | skrf s | skrf rms (data / truth) | skrf / fdid time |")
     print("|---|---|---|---|---|---|---|---|---|")
     for r in rows:
@@ -143,6 +165,12 @@ def main():
             "| %s | %d | %d | %d | %.3f | %.3e / %.3e | %.3f | %.3e / %.3e | %.1f× |"
             % (r[0], r[1], r[2], r[3], r[4], r[5], r[6], r[7], r[8], r[9], r[7] / r[4])
         )
+    if libraries:
+        print()
+        print("| case | fdid library call (Python package) s | rms (data / truth) | skrf / fdid library time |")
+        print("|---|---|---|---|")
+        for name, t, e, e_true, t_s in libraries:
+            print("| %s | %.4f | %.3e / %.3e | %.1f× |" % (name, t, e, e_true, t_s / t))
     print("noise standard deviation per entry: %.1e (a model at the noise floor has rms ≈ %.1e against the data)" % (NOISE, NOISE))
 
 
