@@ -122,19 +122,7 @@ def fit(
     frf = _complex_1d("frf", frf)
     if var is not None:
         var = _real_1d("var", var)
-    return fit_frf(
-        f,
-        frf,
-        domain=domain,
-        na=int(na),
-        nb=int(nb),
-        ts=None if ts is None else float(ts),
-        var=var,
-        delay=bool(delay),
-        criterion=criterion,
-        band=_band(band),
-        stable=bool(stable),
-    )
+    return fit_frf(f, frf, var, _band(band), _model(domain, na, nb, ts, delay, criterion, stable))
 
 
 def fit_spectra(
@@ -167,22 +155,8 @@ def fit_spectra(
     y = _complex_1d("y", y)
     if var is not None:
         var = _real_1d("var", var)
-    return _fit_spectra(
-        f,
-        u,
-        y,
-        domain=domain,
-        na=int(na),
-        nb=int(nb),
-        ts=None if ts is None else float(ts),
-        var=var,
-        delay=bool(delay),
-        criterion=criterion,
-        band=_band(band),
-        stable=bool(stable),
-        transient=bool(transient),
-        noise_order=None if noise_order is None else int(noise_order),
-    )
+    model = _model(domain, na, nb, ts, delay, criterion, stable, transient, noise_order)
+    return _fit_spectra(f, u, y, var, _band(band), model)
 
 
 def fit_record(
@@ -213,21 +187,9 @@ def fit_record(
     t = _real_1d("t", t)
     u = _real_1d("u", u)
     y = _real_1d("y", y)
-    return _fit_record(
-        t,
-        u,
-        y,
-        domain=domain,
-        na=int(na),
-        nb=int(nb),
-        periods=None if periods is None else int(periods),
-        delay=bool(delay),
-        criterion=criterion,
-        band=_band(band),
-        stable=bool(stable),
-        transient=bool(transient),
-        noise_order=None if noise_order is None else int(noise_order),
-    )
+    model = _model(domain, na, nb, None, delay, criterion, stable, transient, noise_order)
+    periods = None if periods is None else int(periods)
+    return _fit_record(t, u, y, periods, _band(band), model)
 
 
 def fit_many(
@@ -272,18 +234,8 @@ def fit_many(
             )
         except ValueError as e:
             raise ValueError(f"data set {k}: {e}") from None
-    return _fit_many(
-        items,
-        domain=domain,
-        na=int(na),
-        nb=int(nb),
-        ts=None if ts is None else float(ts),
-        delay=bool(delay),
-        criterion=criterion,
-        band=_band(band),
-        stable=bool(stable),
-        errors=errors,
-    )
+    model = _model(domain, na, nb, ts, delay, criterion, stable)
+    return _fit_many(items, _band(band), errors, model)
 
 
 def diagnose(
@@ -318,24 +270,21 @@ def diagnose(
     """
     if (f is None) != (frf is None):
         raise ValueError("give both f and frf (a frequency response)")
-    args = {}
+    arrays = {"f": None, "frf": None, "var": None, "t": None, "u": None, "y": None}
     if f is not None:
-        args["f"] = _real_1d("f", f)
-        args["frf"] = _complex_1d("frf", frf)
+        arrays["f"] = _real_1d("f", f)
+        arrays["frf"] = _complex_1d("frf", frf)
         if var is not None:
-            args["var"] = _real_1d("var", var)
+            arrays["var"] = _real_1d("var", var)
     for name, value in (("t", t), ("u", u), ("y", y)):
         if value is not None:
-            args[name] = _real_1d(name, value)
+            arrays[name] = _real_1d(name, value)
     return _diagnose(
-        domain=domain,
-        na=int(na),
-        nb=int(nb),
-        periods=None if periods is None else int(periods),
-        ts=None if ts is None else float(ts),
-        alpha=float(alpha),
-        max_steps=int(max_steps),
-        **args,
+        *arrays.values(),
+        None if periods is None else int(periods),
+        float(alpha),
+        int(max_steps),
+        _model(domain, na, nb, ts),
     )
 
 
@@ -379,6 +328,31 @@ def ltv(
         basis=basis,
         at=None if at is None else _real_1d("at", at),
     )
+
+
+def _model(
+    domain,
+    na,
+    nb,
+    ts=None,
+    delay=False,
+    criterion="ml",
+    stable=False,
+    transient=False,
+    noise_order=None,
+) -> dict:
+    """The model structure and criterion, as the extension takes them."""
+    return {
+        "domain": domain,
+        "ts": None if ts is None else float(ts),
+        "na": int(na),
+        "nb": int(nb),
+        "delay": bool(delay),
+        "criterion": criterion,
+        "stable": bool(stable),
+        "transient": bool(transient),
+        "noise_order": None if noise_order is None else int(noise_order),
+    }
 
 
 def _band(band) -> Optional[Tuple[float, float]]:

@@ -1,9 +1,22 @@
-from typing import List, Optional, Sequence, Tuple
+from typing import List, Optional, Sequence, Tuple, TypedDict
 
 import numpy as np
 import numpy.typing as npt
 
 __version__: str
+
+class Model(TypedDict):
+    """The model structure and criterion the functions take (built by the package)."""
+
+    domain: str
+    ts: Optional[float]
+    na: int
+    nb: int
+    delay: bool
+    criterion: str
+    stable: bool
+    transient: bool
+    noise_order: Optional[int]
 
 class Fit:
     @property
@@ -42,66 +55,38 @@ class Fit:
 def fit_frf(
     f: npt.NDArray[np.float64],
     frf: npt.NDArray[np.complex128],
-    *,
-    domain: str,
-    na: int,
-    nb: int,
-    ts: Optional[float] = None,
-    var: Optional[npt.NDArray[np.float64]] = None,
-    delay: bool = False,
-    criterion: str = "ml",
-    band: Optional[Tuple[float, float]] = None,
-    stable: bool = False,
+    var: Optional[npt.NDArray[np.float64]],
+    band: Optional[Tuple[float, float]],
+    model: Model,
 ) -> Fit: ...
 def load_json(text: str) -> Fit: ...
 def fit_spectra(
     f: npt.NDArray[np.float64],
     u: npt.NDArray[np.complex128],
     y: npt.NDArray[np.complex128],
-    *,
-    domain: str,
-    na: int,
-    nb: int,
-    ts: Optional[float] = None,
-    var: Optional[npt.NDArray[np.float64]] = None,
-    delay: bool = False,
-    criterion: str = "ml",
-    band: Optional[Tuple[float, float]] = None,
-    stable: bool = False,
-    transient: bool = False,
-    noise_order: Optional[int] = None,
+    var: Optional[npt.NDArray[np.float64]],
+    band: Optional[Tuple[float, float]],
+    model: Model,
 ) -> Fit: ...
 def fit_record(
     t: npt.NDArray[np.float64],
     u: npt.NDArray[np.float64],
     y: npt.NDArray[np.float64],
-    *,
-    domain: str,
-    na: int,
-    nb: int,
-    periods: Optional[int] = None,
-    delay: bool = False,
-    criterion: str = "ml",
-    band: Optional[Tuple[float, float]] = None,
-    stable: bool = False,
-    transient: bool = False,
-    noise_order: Optional[int] = None,
+    periods: Optional[int],
+    band: Optional[Tuple[float, float]],
+    model: Model,
 ) -> Fit: ...
 def diagnose(
-    *,
-    domain: str,
-    na: int,
-    nb: int,
-    f: Optional[npt.NDArray[np.float64]] = None,
-    frf: Optional[npt.NDArray[np.complex128]] = None,
-    var: Optional[npt.NDArray[np.float64]] = None,
-    t: Optional[npt.NDArray[np.float64]] = None,
-    u: Optional[npt.NDArray[np.float64]] = None,
-    y: Optional[npt.NDArray[np.float64]] = None,
-    periods: Optional[int] = None,
-    ts: Optional[float] = None,
-    alpha: float = 0.01,
-    max_steps: int = 4,
+    f: Optional[npt.NDArray[np.float64]],
+    frf: Optional[npt.NDArray[np.complex128]],
+    var: Optional[npt.NDArray[np.float64]],
+    t: Optional[npt.NDArray[np.float64]],
+    u: Optional[npt.NDArray[np.float64]],
+    y: Optional[npt.NDArray[np.float64]],
+    periods: Optional[int],
+    alpha: float,
+    max_steps: int,
+    model: Model,
 ) -> dict: ...
 def fit_many(
     datasets: Sequence[
@@ -111,16 +96,9 @@ def fit_many(
             Optional[npt.NDArray[np.float64]],
         ]
     ],
-    *,
-    domain: str,
-    na: int,
-    nb: int,
-    ts: Optional[float] = None,
-    delay: bool = False,
-    criterion: str = "ml",
-    band: Optional[Tuple[float, float]] = None,
-    stable: bool = False,
-    errors: str = "raise",
+    band: Optional[Tuple[float, float]],
+    errors: str,
+    model: Model,
 ) -> List[Optional[Fit]]: ...
 def ltv(
     t: npt.NDArray[np.float64],

@@ -122,7 +122,7 @@ pub fn spectra(
     y: Vec<Complex64>,
     ts: Option<f64>,
 ) -> PyResult<FrequencyData<f64>> {
-    crate::finite_complex("u", &u)?;
-    crate::finite_complex("y", &y)?;
+    crate::fits::finite_complex("u", &u)?;
+    crate::fits::finite_complex("y", &y)?;
     FrequencyData::new(omega, y, u, ts).map_err(value_error)
 }
