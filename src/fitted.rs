@@ -8,6 +8,12 @@ use crate::model::ModelStructure;
 use crate::scalar::{Complex, Real};
 use nalgebra::DMatrix;
 
+/// The `format` key of a saved model file (`fdid fit --save`, `Fit.to_json()` of the
+/// Python package): a JSON object holding a [`FittedModel`] under `fitted`.
+pub const SAVED_FORMAT: &str = "fdid-model";
+/// Its `version` key.
+pub const SAVED_VERSION: u64 = 1;
+
 /// The summary of a [`Fit`]: model structure `M`, estimate θ̂ and its covariance, noise
 /// level and cost. Evaluating [`FittedModel::response`] gives exactly (bit for bit) what
 /// the fit's model gives at θ̂, also after a round trip through a serde format that keeps

@@ -26,12 +26,7 @@ impl Fit {
     pub(crate) fn of(fit: &RationalFit, domain: Domain<f64>) -> PyResult<Self> {
         let saved = Saved::of_fit(fit, domain);
         let mut out = Self::of_saved(saved)?;
-        out.validation = Some(match fit {
-            RationalFit::Plain(f) => f.validation().clone(),
-            RationalFit::Delayed(f) => f.validation().clone(),
-            RationalFit::NoiseModel(f) => f.validation().clone(),
-            RationalFit::DelayedNoiseModel(f) => f.validation().clone(),
-        });
+        out.validation = Some(fit.validation().clone());
         Ok(out)
     }
 

@@ -236,15 +236,8 @@ impl CommonPoleFit {
     /// True when every pole is stable.
     #[getter]
     fn stable(&self) -> bool {
-        self.fit
-            .model
-            .poles
-            .all()
-            .iter()
-            .all(|p| match self.fit.model.domain {
-                fdid::model::Domain::Continuous => p.re < 0.0,
-                fdid::model::Domain::Discrete { .. } => p.norm() < 1.0,
-            })
+        let model = &self.fit.model;
+        model.poles.is_stable(model.domain)
     }
 
     /// G at the frequencies `f` (Hz): lines × ny × nu.

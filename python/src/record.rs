@@ -9,39 +9,9 @@ use fdid::{FrequencyData, TimeData};
 use num_complex::Complex64;
 use pyo3::PyResult;
 
-/// How far the steps of `t` may stray from their mean (relative) before the record is
-/// refused as not uniformly sampled.
-const UNIFORM: f64 = 1e-6;
-
-/// The sample time of the uniform time grid `t` (s).
+/// The sample time of the uniform time grid `t` (s), by the check of a `t,u,y` file.
 pub fn sample_time(t: &[f64]) -> PyResult<f64> {
-    let n = t.len();
-    if n < 2 {
-        return Err(value_error(format!(
-            "t has {n} samples: a time record needs at least 2"
-        )));
-    }
-    if let Some(k) = t.iter().position(|v| !v.is_finite()) {
-        return Err(value_error(format!("t[{k}] = {} is not finite", t[k])));
-    }
-    let ts = (t[n - 1] - t[0]) / (n - 1) as f64;
-    if ts <= 0.0 {
-        return Err(value_error(format!(
-            "t runs from {} to {}: it must increase",
-            t[0],
-            t[n - 1]
-        )));
-    }
-    for k in 1..n {
-        let step = t[k] - t[k - 1];
-        if (step - ts).abs() > UNIFORM * ts {
-            return Err(value_error(format!(
-                "t is not uniformly sampled: t[{k}] − t[{}] = {step}, the mean step is {ts}",
-                k - 1
-            )));
-        }
-    }
-    Ok(ts)
+    fdid::io::uniform_sample_time(t).map_err(value_error)
 }
 
 /// The fitted lines of the record (`u`, `y`) sampled every `ts` s: averaged over

@@ -10,9 +10,7 @@ use serde::Serialize;
 use serde::de::DeserializeOwned;
 use serde_json::{Value, json};
 
-/// The saved-model format name and version `fdid eval` reads.
-const FORMAT: &str = "fdid-model";
-const VERSION: u64 = 1;
+use fdid::fitted::{SAVED_FORMAT as FORMAT, SAVED_VERSION as VERSION};
 
 /// The fitted model of each kind of [`RationalFit`].
 pub enum Fitted {
@@ -34,10 +32,11 @@ macro_rules! each {
     };
 }
 
-/// A fitted model with its domain.
+/// A fitted model with its domain and its `kind` in the saved-model file.
 pub struct Saved {
     pub model: Fitted,
     pub domain: Domain<f64>,
+    kind: &'static str,
 }
 
 impl Saved {
@@ -48,15 +47,10 @@ impl Saved {
             RationalFit::NoiseModel(f) => Fitted::NoiseModel(fitted(f)),
             RationalFit::DelayedNoiseModel(f) => Fitted::DelayedNoiseModel(fitted(f)),
         };
-        Self { model, domain }
-    }
-
-    fn kind(&self) -> &'static str {
-        match self.model {
-            Fitted::Plain(_) => "rational",
-            Fitted::Delayed(_) => "delayed",
-            Fitted::NoiseModel(_) => "noise_model",
-            Fitted::DelayedNoiseModel(_) => "delayed_noise_model",
+        Self {
+            model,
+            domain,
+            kind: fit.kind(),
         }
     }
 
@@ -118,7 +112,7 @@ impl Saved {
         let v = json!({
             "format": FORMAT,
             "version": VERSION,
-            "kind": self.kind(),
+            "kind": self.kind,
             "domain": domain,
             "ts": ts,
             "source": "python",
@@ -155,11 +149,14 @@ impl Saved {
             }
         };
         let fitted = &v["fitted"];
-        let model = match v["kind"].as_str() {
-            Some("rational") => Fitted::Plain(parse(fitted)?),
-            Some("delayed") => Fitted::Delayed(parse(fitted)?),
-            Some("noise_model") => Fitted::NoiseModel(parse(fitted)?),
-            Some("delayed_noise_model") => Fitted::DelayedNoiseModel(parse(fitted)?),
+        let (kind, model) = match v["kind"].as_str() {
+            Some("rational") => ("rational", Fitted::Plain(parse(fitted)?)),
+            Some("delayed") => ("delayed", Fitted::Delayed(parse(fitted)?)),
+            Some("noise_model") => ("noise_model", Fitted::NoiseModel(parse(fitted)?)),
+            Some("delayed_noise_model") => (
+                "delayed_noise_model",
+                Fitted::DelayedNoiseModel(parse(fitted)?),
+            ),
             _ => {
                 return Err(format!(
                     "model kind {} is not a single-entry model (rational, delayed, \
@@ -168,7 +165,11 @@ impl Saved {
                 ));
             }
         };
-        Ok(Self { model, domain })
+        Ok(Self {
+            model,
+            domain,
+            kind,
+        })
     }
 }
 

@@ -306,7 +306,7 @@ def test_diagnose_of_a_frequency_response_finds_a_missing_resonance():
 def test_bad_time_grids_are_value_errors():
     t = np.arange(100) * 0.1
     u = np.sin(t)
-    with pytest.raises(ValueError, match="uniformly"):
+    with pytest.raises(ValueError, match="non-uniform"):
         fdid.fit_record(np.r_[t[:50], t[50:] + 0.05], u, u, domain="z", na=1, nb=0)
     with pytest.raises(ValueError, match="increase"):
         fdid.fit_record(t[::-1], u, u, domain="z", na=1, nb=0)

@@ -15,20 +15,7 @@ use serde_json::{Value, json};
 use std::fmt::Write as _;
 use std::result::Result;
 
-/// The `format` key of a saved model file.
-pub const FORMAT: &str = "fdid-model";
-/// Its `version` key.
-pub const VERSION: u64 = 1;
-
-/// The `kind` key of a saved model: which model structure the file holds.
-fn kind(fit: &RationalFit) -> &'static str {
-    match fit {
-        RationalFit::Plain(_) => "rational",
-        RationalFit::Delayed(_) => "delayed",
-        RationalFit::NoiseModel(_) => "noise_model",
-        RationalFit::DelayedNoiseModel(_) => "delayed_noise_model",
-    }
-}
+use fdid::fitted::{SAVED_FORMAT as FORMAT, SAVED_VERSION as VERSION};
 
 /// The saved-model JSON object of `fit`, a fit in `domain` of the data in `source`:
 /// `{"format":"fdid-model","version":1,"kind":..,"domain":"s"|"z","ts":x|null,
@@ -57,7 +44,7 @@ pub fn saved(
     Ok(json!({
         "format": FORMAT,
         "version": VERSION,
-        "kind": kind(fit),
+        "kind": fit.kind(),
         "domain": domain,
         "ts": ts,
         "source": source,

@@ -839,6 +839,22 @@ impl RationalFit {
         each_fit!(self, f => f.cost())
     }
 
+    /// The validation statistics of the fit (cost and whiteness tests).
+    pub fn validation(&self) -> &crate::validation::Validation {
+        each_fit!(self, f => f.validation())
+    }
+
+    /// The model structure's name in a saved model's `kind` key: `rational`, `delayed`,
+    /// `noise_model` or `delayed_noise_model`.
+    pub fn kind(&self) -> &'static str {
+        match self {
+            RationalFit::Plain(_) => "rational",
+            RationalFit::Delayed(_) => "delayed",
+            RationalFit::NoiseModel(_) => "noise_model",
+            RationalFit::DelayedNoiseModel(_) => "delayed_noise_model",
+        }
+    }
+
     /// Poles of the system part.
     ///
     /// # Errors

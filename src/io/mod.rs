@@ -21,7 +21,7 @@ pub const MAX_PORTS: usize = 64;
 
 pub use self::csv::{
     ChannelSelection, Column, MultiChannelSelection, is_frf_matrix_csv, parse_channels, parse_csv,
-    parse_multichannel, read_channels, read_csv, read_multichannel,
+    parse_multichannel, read_channels, read_csv, read_multichannel, uniform_sample_time,
 };
 pub use self::touchstone::{
     NetworkParameter, NumberFormat, Touchstone, TouchstoneVersion, is_touchstone, parse_touchstone,

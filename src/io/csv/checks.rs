@@ -42,6 +42,42 @@ pub(super) fn check_frequencies(
     Ok(())
 }
 
+/// The sample time of the time column `t` of a record (s): `t` must hold at least two
+/// finite values that increase strictly on a uniform grid, as a `t,u,y` file's column
+/// must (the check of [`parse_csv`](super::parse_csv); errors name the sample index).
+///
+/// ```
+/// assert_eq!(fdid::io::uniform_sample_time(&[0.0, 0.5, 1.0]).unwrap(), 0.5);
+/// assert!(fdid::io::uniform_sample_time(&[0.0, 0.5, 1.2]).is_err());
+/// ```
+///
+/// # Errors
+/// [`FdidError::InvalidArgument`](crate::error::FdidError::InvalidArgument) naming the
+/// first bad sample.
+pub fn uniform_sample_time(t: &[f64]) -> crate::error::Result<f64> {
+    let bad = |name, value, reason| crate::error::FdidError::InvalidArgument {
+        name,
+        value,
+        reason,
+    };
+    if t.len() < 2 {
+        return Err(bad(
+            "time column",
+            format!("{} value(s)", t.len()),
+            "a record needs at least 2 samples".into(),
+        ));
+    }
+    if let Some(k) = t.iter().position(|v| !v.is_finite()) {
+        return Err(bad(
+            "time sample",
+            format!("t[{k}] = {}", t[k]),
+            "not finite".into(),
+        ));
+    }
+    let index: Vec<usize> = (0..t.len()).collect();
+    check_time_grid(t, &index).map_err(|(k, m)| bad("time sample", format!("t[{k}]"), m))
+}
+
 /// Checks that the times increase strictly and lie on a uniform grid; returns
 /// `Ts = (t_{N−1} − t_0)/(N − 1)`. Errors carry the line number: a step far from the
 /// median step (a missing or extra row) is reported where it occurs, before the grid test

@@ -11,6 +11,7 @@ pub use self::channels::{
     read_channels, read_multichannel,
 };
 
+pub use self::checks::uniform_sample_time;
 use self::checks::{check_frequencies, check_time_grid};
 use self::header::{Kind, Layout};
 use self::records::Lines;

@@ -182,16 +182,18 @@ fn parse_part<T: Real>(
         for raw in text_lines(text) {
             number += 1;
             let trimmed = raw.trim();
-            if raw.len() > MAX_LINE_BYTES
-                || (!(trimmed.is_empty() || trimmed.starts_with('#'))
-                    && parse_row::<T>(trimmed, names, &mut values).is_err())
-            {
+            if raw.len() > MAX_LINE_BYTES {
                 fine = false;
                 break;
             }
-            if !(trimmed.is_empty() || trimmed.starts_with('#')) {
-                rows.push(number);
+            if trimmed.is_empty() || trimmed.starts_with('#') {
+                continue;
             }
+            if parse_row::<T>(trimmed, names, &mut values).is_err() {
+                fine = false;
+                break;
+            }
+            rows.push(number);
         }
         if fine {
             return Ok((values, rows));
