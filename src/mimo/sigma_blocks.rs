@@ -17,6 +17,9 @@ const BATCH: usize = 8;
 /// not mapped afresh (page faults cost as much as the products on large fits).
 const CHUNK_VALUES: usize = 1 << 20;
 
+/// Parts of the packed Gram basis formed and multiplied in parallel.
+const GRAM_PARTS: usize = 8;
+
 /// Every block's R₂₂ ((n + 1) × (n + 1)) for the data `h` (one vector per block over
 /// the lines), the basis φ (L × n), the orthonormal Q (2L × m) of the shared regressor
 /// and the residuals of the blocks' linear fits h_e − QQᵀh_e (2L × blocks).
@@ -115,7 +118,7 @@ fn block<T: Real>(
     let n1 = sigma.ncols();
     let last = n1 - 1;
     let kept = Float::sqrt(T::default_epsilon());
-    let mut g = &gram - p.tr_mul(&p);
+    let mut g = &gram - p.transpose() * p;
     if (0..last).all(|i| g[(i, i)] >= kept * gram[(i, i)]) {
         for i in 0..last {
             g[(i, last)] = residual.cross[i];
@@ -134,30 +137,53 @@ fn block<T: Real>(
 
 /// B_eᵀB_e of every block, packed (upper triangle by columns, one row per block):
 /// Σ_k |h_e,k|² Re(conj φ̃_i(x_k) φ̃_j(x_k)) as the product of |h|² (blocks × L) and the
-/// Gram basis (L × (n + 1)(n + 2)/2), over chunks of lines.
+/// Gram basis (L × (n + 1)(n + 2)/2), in parallel over parts of the packed columns and,
+/// within a part, over chunks of lines.
 fn block_grams<T: Real>(h: &[Vec<Complex<T>>], phi: &DMatrix<Complex<T>>) -> DMatrix<T> {
     let (l, n) = phi.shape();
     let n1 = n + 1;
     let packed = n1 * (n1 + 1) / 2;
     let pairs: Vec<(usize, usize)> = (0..n1).flat_map(|j| (0..=j).map(move |i| (i, j))).collect();
-    let column = |k: usize, c: usize| {
-        if c < n {
-            phi[(k, c)]
-        } else {
-            Complex::new(T::one(), T::zero())
+    let power = DMatrix::from_fn(h.len(), l, |e, k| h[e][k].norm_sqr());
+    // φ by columns (column-major storage)
+    let values = phi.as_slice();
+    let width = packed.div_ceil(GRAM_PARTS);
+    let chunk = (CHUNK_VALUES / width).max(1);
+    let parts = crate::linalg::parallel::map_indices(packed.div_ceil(width), |part| {
+        let columns = &pairs[part * width..packed.min((part + 1) * width)];
+        let mut out = DMatrix::<T>::zeros(h.len(), columns.len());
+        for first in (0..l).step_by(chunk) {
+            let len = chunk.min(l - first);
+            let mut basis = DMatrix::<T>::zeros(len, columns.len());
+            for (c, &(i, j)) in columns.iter().enumerate() {
+                let mut column = basis.column_mut(c);
+                let dst = column.as_mut_slice();
+                match (i < n, j < n) {
+                    (true, true) => {
+                        let a = &values[i * l + first..i * l + first + len];
+                        let b = &values[j * l + first..j * l + first + len];
+                        for ((d, a), b) in dst.iter_mut().zip(a).zip(b) {
+                            *d = a.re * b.re + a.im * b.im;
+                        }
+                    }
+                    (true, false) => {
+                        let a = &values[i * l + first..i * l + first + len];
+                        for (d, a) in dst.iter_mut().zip(a) {
+                            *d = a.re;
+                        }
+                    }
+                    _ => dst.fill(T::one()),
+                }
+            }
+            out.gemm(T::one(), &power.columns(first, len), &basis, T::one());
         }
-    };
-    let chunk = (CHUNK_VALUES / packed).max(1);
+        out
+    });
     let mut grams = DMatrix::<T>::zeros(h.len(), packed);
-    for start in (0..l).step_by(chunk) {
-        let len = chunk.min(l - start);
-        let basis = DMatrix::from_fn(len, packed, |r, t| {
-            let (i, j) = pairs[t];
-            let k = start + r;
-            (column(k, i).conj() * column(k, j)).re
-        });
-        let power = DMatrix::from_fn(h.len(), len, |e, r| h[e][start + r].norm_sqr());
-        grams += power * basis;
+    for (part, values) in parts.iter().enumerate() {
+        grams
+            .columns_mut(part * width, values.ncols())
+            .copy_from(values);
     }
     grams
 }
