@@ -13,6 +13,11 @@ use serde_json::{Value, json};
 use std::fmt::Write as _;
 use std::result::Result;
 
+/// The note of a report whose common-denominator form overflows (`matrix_fraction` null).
+pub(super) const OVERFLOW_NOTE: &str = "matrix_fraction is null: its polynomial \
+     coefficients overflow double precision at this order and frequency scale (use the \
+     poles and residues or the state space)";
+
 /// Grid points of the passivity check of scattering data.
 const PASSIVITY_POINTS: usize = 4000;
 
@@ -685,10 +690,10 @@ impl Report<'_> {
             "residues": residues,
             "direct": model.direct.as_ref().map(matrix_json),
             "modes": modes_json,
-            "matrix_fraction": {
+            "matrix_fraction": mf.is_finite().then(|| json!({
                 "denominator": mf.denominator,
                 "numerators": mf.numerators,
-            },
+            })),
             "state_space": {
                 "a": matrix_json(&ss.a),
                 "b": matrix_json(&ss.b),
@@ -718,7 +723,11 @@ impl Report<'_> {
             "passivity": passivity,
             "entries": entries,
             "output_errors": output_errors_json,
-            "notes": self.stopped.map(|n| vec![n]).unwrap_or_default(),
+            "notes": self
+                .stopped
+                .into_iter()
+                .chain((!mf.is_finite()).then_some(OVERFLOW_NOTE))
+                .collect::<Vec<_>>(),
         });
         serde_json::to_string_pretty(&v)
             .map(|s| s + "\n")

@@ -57,9 +57,10 @@ pub fn saved(
 /// The saved-model JSON object of a common-pole model fitted to every entry of the data in
 /// `source`: `{"format":"fdid-model","version":1,"kind":"common_poles","domain":"s"|"z",
 /// "ts":x|null,"source":FILE,"model":{domain,poles,residues,direct},"state_space":{a,b,c,d},
-/// "matrix_fraction":{denominator,numerators}}` (the fields of
+/// "matrix_fraction":{denominator,numerators}|null}` (the fields of
 /// [`fdid::mimo::CommonPoleModel`]; the realisation and the common-denominator form are
-/// for other tools: `fdid eval` reads `model`).
+/// for other tools: `fdid eval` reads `model`; the form is null when its coefficients
+/// overflow, [`fdid::mimo::MatrixFraction::is_finite`]).
 pub fn common_poles(model: &CommonPoleModel<f64>, source: &str) -> Result<Value, Failure> {
     let ss = model.state_space();
     let mf = model.matrix_fraction();
@@ -79,7 +80,9 @@ pub fn common_poles(model: &CommonPoleModel<f64>, source: &str) -> Result<Value,
         "state_space": {
             "a": rows(&ss.a), "b": rows(&ss.b), "c": rows(&ss.c), "d": rows(&ss.d)
         },
-        "matrix_fraction": {"denominator": mf.denominator, "numerators": mf.numerators},
+        "matrix_fraction": mf.is_finite().then(|| {
+            json!({"denominator": mf.denominator, "numerators": mf.numerators})
+        }),
     }))
 }
 

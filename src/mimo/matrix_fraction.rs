@@ -36,6 +36,18 @@ pub struct MatrixFraction<T: Real> {
     pub nu: usize,
 }
 
+impl<T: Real> MatrixFraction<T> {
+    /// True when every coefficient is finite. The coefficients grow as products of the
+    /// poles: in s, high orders with poles far from 1 rad/s overflow (order 50 with
+    /// poles near 10¹⁰ rad/s reaches 10³⁰⁸), and the form is then not representable.
+    pub fn is_finite(&self) -> bool {
+        self.denominator
+            .iter()
+            .chain(self.numerators.iter().flatten())
+            .all(|v| v.is_finite())
+    }
+}
+
 impl<T: Real> CommonPoleModel<T> {
     /// The common-denominator form of the model ([`MatrixFraction`]).
     ///
@@ -147,4 +159,37 @@ fn multiply<T: Real>(a: &[T], b: &[T]) -> Vec<T> {
 fn horner<T: Real>(c: &[T], x: Complex<T>) -> Complex<T> {
     c.iter()
         .fold(Complex::new(T::zero(), T::zero()), |s, v| s * x + *v)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mimo::PoleSet;
+    use nalgebra::DMatrix;
+
+    /// `pairs` lightly damped pairs spread over [w, 10 w] rad/s, unit residues.
+    fn model(pairs: usize, w: f64) -> CommonPoleModel<f64> {
+        let poles: Vec<Complex<f64>> = (0..pairs)
+            .map(|m| {
+                let wm = w * (1.0 + 9.0 * m as f64 / pairs as f64);
+                Complex::new(-0.01 * wm, wm)
+            })
+            .collect();
+        CommonPoleModel {
+            domain: Domain::Continuous,
+            residues: vec![DMatrix::from_element(1, 1, Complex::new(1.0, 0.5)); pairs],
+            poles: PoleSet {
+                real: vec![],
+                pairs: poles,
+            },
+            direct: None,
+        }
+    }
+
+    #[test]
+    fn coefficients_that_overflow_are_reported() {
+        // order 6 near 1 rad/s: representable; order 50 near 10¹⁰ rad/s: |p|⁵⁰ ≫ 10³⁰⁸
+        assert!(model(3, 1.0).matrix_fraction().is_finite());
+        assert!(!model(25, 1e10).matrix_fraction().is_finite());
+    }
 }
