@@ -2,9 +2,9 @@
 //! record, and to many frequency responses on the thread pool.
 
 use crate::fit::Fit;
-use crate::{Model, angular, record, sample_time, value_error, vector};
+use crate::{Model, angular, angular_of, in_hz, record, sample_time, value_error, vector};
 use fdid::estimate::ModelSpec;
-use fdid::{FrequencyData, NoiseVariances, TimeData};
+use fdid::{FdidError, FrequencyData, NoiseVariances, TimeData};
 use num_complex::Complex64;
 use numpy::PyReadonlyArray1;
 use pyo3::prelude::*;
@@ -22,15 +22,15 @@ pub fn fit_frf(
     band: Option<(f64, f64)>,
     model: Model,
 ) -> PyResult<Fit> {
-    let f_hz = vector(&f, "f", None)?;
-    let g = vector(&frf, "frf", Some(f_hz.len()))?;
+    let omega = angular_of(&f);
+    let g = vector(&frf, "frf", Some(omega.len()))?;
     let var = var
-        .map(|v| vector(&v, "var", Some(f_hz.len())))
+        .map(|v| vector(&v, "var", Some(omega.len())))
         .transpose()?;
     let spec = model.spec(None)?;
     let ts = sample_time(&spec);
     // the fit runs without the GIL: other Python threads go on meanwhile
-    py.allow_threads(|| fit_spec(&spec, frf_data(&f_hz, g, var, ts)?, band))
+    py.allow_threads(|| fit_spec(&spec, frf_of(omega, g, var, ts)?, band))
 }
 
 /// Fits a rational model to input and output spectra (errors in the output).
@@ -159,9 +159,25 @@ pub(crate) fn frf_data(
     var: Option<Vec<f64>>,
     ts: Option<f64>,
 ) -> PyResult<FrequencyData<f64>> {
-    let omega = angular(f_hz)?;
-    finite_complex("frf", &g)?;
-    let data = FrequencyData::from_frf(omega, g, ts).map_err(value_error)?;
+    frf_of(angular(f_hz)?, g, var, ts)
+}
+
+/// [`frf_data`] from the angular frequencies. The frequencies and the frequency response
+/// are checked by the library (one pass each), its errors named after the arguments.
+fn frf_of(
+    omega: Vec<f64>,
+    g: Vec<Complex64>,
+    var: Option<Vec<f64>>,
+    ts: Option<f64>,
+) -> PyResult<FrequencyData<f64>> {
+    let data = FrequencyData::from_frf(omega, g, ts).map_err(|e| match e {
+        FdidError::NonFinite {
+            what: "y",
+            index,
+            value,
+        } => value_error(format!("frf[{index}] = {value} is not finite")),
+        e => in_hz(e),
+    })?;
     with_variances(data, var)
 }
 
@@ -180,8 +196,16 @@ fn with_variances(data: FrequencyData<f64>, var: Option<Vec<f64>>) -> PyResult<F
         .map_err(value_error)
 }
 
-/// Every value of `name` finite.
+/// Every value of `name` finite (first or-ed over every value without an early exit,
+/// which runs on vector lanes; the bad value is searched only when there is one).
 pub(crate) fn finite_complex(name: &str, v: &[Complex64]) -> PyResult<()> {
+    let suspect = v.iter().fold(false, |bad, v| {
+        let s = v.re + v.im;
+        bad | (s - s != 0.0)
+    });
+    if !suspect {
+        return Ok(());
+    }
     match v
         .iter()
         .position(|v| !(v.re.is_finite() && v.im.is_finite()))

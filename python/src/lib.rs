@@ -71,7 +71,11 @@ pub(crate) fn vector<T: numpy::Element + Copy>(
     name: &str,
     len: Option<usize>,
 ) -> PyResult<Vec<T>> {
-    let v: Vec<T> = a.as_array().iter().copied().collect();
+    // one copy of the contiguous memory (the package's wrappers pass contiguous arrays)
+    let v: Vec<T> = match a.as_slice() {
+        Ok(s) => s.to_vec(),
+        Err(_) => a.as_array().iter().copied().collect(),
+    };
     match len {
         Some(n) if v.len() != n => Err(value_error(format!(
             "{name} has {} values, f has {n}: one per frequency",
@@ -134,10 +138,51 @@ fn sample_time(spec: &ModelSpec) -> Option<f64> {
 
 /// ω = 2πf, every f finite.
 pub(crate) fn angular(f_hz: &[f64]) -> PyResult<Vec<f64>> {
-    if let Some(k) = f_hz.iter().position(|f| !f.is_finite()) {
+    // or-ed over every value first (vector lanes), the bad one searched only if any
+    if f_hz.iter().fold(false, |bad, f| bad | (f - f != 0.0))
+        && let Some(k) = f_hz.iter().position(|f| !f.is_finite())
+    {
         return Err(value_error(format!("f[{k}] = {} is not finite", f_hz[k])));
     }
     Ok(f_hz.iter().map(|f| std::f64::consts::TAU * f).collect())
+}
+
+/// fdid's error about data, with the frequencies named as the argument `f` and in Hz
+/// (the library checks and reports ω in rad/s).
+pub(crate) fn in_hz(e: fdid::FdidError) -> PyErr {
+    use fdid::FdidError::{NegativeFrequency, NonFinite, Unsorted};
+    let hz = |w: f64| w / std::f64::consts::TAU;
+    match e {
+        Unsorted {
+            index,
+            value,
+            previous,
+        } => value_error(format!(
+            "f must increase: f[{index}] = {} Hz follows f[{}] = {} Hz",
+            hz(value),
+            index - 1,
+            hz(previous)
+        )),
+        NegativeFrequency { index, value } => {
+            value_error(format!("f[{index}] = {} Hz is negative", hz(value)))
+        }
+        NonFinite {
+            what: "omega",
+            index,
+            value,
+        } => value_error(format!("f[{index}] is not finite (2π f = {value})")),
+        e => value_error(e),
+    }
+}
+
+/// ω = 2πf of a numpy array (read in place when it is contiguous), not checked: for
+/// data whose constructor checks the frequencies (`FrequencyData`).
+pub(crate) fn angular_of(f: &PyReadonlyArray1<'_, f64>) -> Vec<f64> {
+    let tau = |f: &f64| std::f64::consts::TAU * f;
+    match f.as_slice() {
+        Ok(f_hz) => f_hz.iter().map(tau).collect(),
+        Err(_) => f.as_array().iter().map(tau).collect(),
+    }
 }
 
 /// A model saved with `Fit.to_json` or `fdid fit --save`, from its JSON text.

@@ -93,7 +93,7 @@ pub fn fit_common_poles_py(
         fdid::model::Domain::Continuous => None,
     };
     py.allow_threads(|| {
-        let mut data = FrfMatrix::from_entries(omega, ny, nu, entries, ts).map_err(value_error)?;
+        let mut data = FrfMatrix::from_entries(omega, ny, nu, entries, ts).map_err(crate::in_hz)?;
         if let Some(v) = variances {
             data = data.with_variances(v).map_err(value_error)?;
         }

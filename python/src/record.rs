@@ -94,5 +94,5 @@ pub fn spectra(
 ) -> PyResult<FrequencyData<f64>> {
     crate::fits::finite_complex("u", &u)?;
     crate::fits::finite_complex("y", &y)?;
-    FrequencyData::new(omega, y, u, ts).map_err(value_error)
+    FrequencyData::new(omega, y, u, ts).map_err(crate::in_hz)
 }

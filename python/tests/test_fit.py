@@ -131,7 +131,11 @@ def test_a_model_saved_by_the_command_loads(tmp_path):
     [
         (lambda f, g: fdid.fit(f, g[:-1], domain="s", na=2, nb=0), "one per frequency"),
         (lambda f, g: fdid.fit(f.reshape(2, -1), g, domain="s", na=2, nb=0), "one-dimensional"),
-        (lambda f, g: fdid.fit(f, np.where(f > 1, np.nan, g), domain="s", na=2, nb=0), "not finite"),
+        (lambda f, g: fdid.fit(f, np.where(f > 1, np.nan, g), domain="s", na=2, nb=0), r"frf\[50\] = NaN.* is not finite"),
+        (lambda f, g: fdid.fit(np.where(f > 1, np.inf, f), g, domain="s", na=2, nb=0), r"f\[50\] is not finite"),
+        # the frequencies are reported as given, in Hz
+        (lambda f, g: fdid.fit(f[::-1], g, domain="s", na=2, nb=0), r"f must increase: f\[1\] = 1\.9798.* Hz follows f\[0\] = 2"),
+        (lambda f, g: fdid.fit(f - 0.5, g, domain="s", na=2, nb=0), r"f\[0\] = -0\.49 Hz is negative"),
         (lambda f, g: fdid.fit(f, g, domain="q", na=2, nb=0), "domain"),
         (lambda f, g: fdid.fit(f, g, domain="z", na=2, nb=0), "ts="),
         (lambda f, g: fdid.fit(f, g, domain="s", ts=0.1, na=2, nb=0), "sample time"),

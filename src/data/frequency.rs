@@ -116,6 +116,18 @@ impl<T: Real> FrequencyData<T> {
         u: Vec<Complex<T>>,
         ts: Option<T>,
     ) -> Result<Self> {
+        Self::checked(omega, y, u, ts, true)
+    }
+
+    /// [`Self::new`], checking the values of `u` only when `check_u` (not for the unit
+    /// input of an FRF).
+    fn checked(
+        omega: Vec<T>,
+        y: Vec<Complex<T>>,
+        u: Vec<Complex<T>>,
+        ts: Option<T>,
+        check_u: bool,
+    ) -> Result<Self> {
         let n = omega.len();
         if n == 0 {
             return Err(FdidError::TooShort {
@@ -133,16 +145,29 @@ impl<T: Real> FrequencyData<T> {
                 });
             }
         }
-        check_finite("omega", &omega)?;
+        // the frequencies' tests (finite, not negative, not decreasing) or-ed over every
+        // line in two passes on vector lanes; the bad line is searched (in the order of
+        // the errors) only when there is one
+        let suspect = omega.iter().fold(false, |bad, w| {
+            bad | (*w - *w != T::zero()) | (*w < T::zero())
+        }) | omega
+            .iter()
+            .zip(&omega[1..])
+            .fold(false, |bad, (a, b)| bad | (*b < *a));
+        if suspect {
+            check_finite("omega", &omega)?;
+        }
         check_finite_complex("y", &y)?;
-        check_finite_complex("u", &u)?;
-        if let Some(index) = omega.iter().position(|w| *w < T::zero()) {
+        if check_u {
+            check_finite_complex("u", &u)?;
+        }
+        if suspect && let Some(index) = omega.iter().position(|w| *w < T::zero()) {
             return Err(FdidError::NegativeFrequency {
                 index,
                 value: omega[index].to_f64_lossless(),
             });
         }
-        if let Some(i) = omega.windows(2).position(|w| w[1] < w[0]) {
+        if suspect && let Some(i) = omega.windows(2).position(|w| w[1] < w[0]) {
             return Err(FdidError::Unsorted {
                 index: i + 1,
                 value: omega[i + 1].to_f64_lossless(),
@@ -175,7 +200,7 @@ impl<T: Real> FrequencyData<T> {
     /// As [`FrequencyData::new`].
     pub fn from_frf(omega: Vec<T>, frf: Vec<Complex<T>>, ts: Option<T>) -> Result<Self> {
         let u = vec![Complex::new(T::one(), T::zero()); frf.len()];
-        Self::new(omega, frf, u, ts)
+        Self::checked(omega, frf, u, ts, false)
     }
 
     /// Attaches per-line noise (co)variances.
