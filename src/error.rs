@@ -154,11 +154,12 @@ pub enum FdidError {
 /// `Result` with [`FdidError`].
 pub type Result<T> = std::result::Result<T, FdidError>;
 
-/// True when any value is not finite: x − x is 0 exactly for finite x and NaN for ±∞ and
-/// NaN, and the flags are or-ed without an early exit, so that the loop runs on vector
-/// lanes (a search for the first bad value takes several times longer on clean data).
+/// True when any value is not finite: 0·x is 0 for finite x and NaN for ±∞ and NaN, and
+/// the flags are or-ed without an early exit, so that the loop runs on vector lanes (a
+/// search for the first bad value takes several times longer on clean data; `is_finite`
+/// or-ed the same way measured slower).
 pub(crate) fn any_non_finite<T: crate::scalar::Real>(values: impl Iterator<Item = T>) -> bool {
-    values.fold(false, |bad, v| bad | ((v - v) != T::zero()))
+    values.fold(false, |bad, v| bad | (v * T::zero() != T::zero()))
 }
 
 /// Checks that every value is finite; names the first bad one.

@@ -199,10 +199,9 @@ fn with_variances(data: FrequencyData<f64>, var: Option<Vec<f64>>) -> PyResult<F
 /// Every value of `name` finite (first or-ed over every value without an early exit,
 /// which runs on vector lanes; the bad value is searched only when there is one).
 pub(crate) fn finite_complex(name: &str, v: &[Complex64]) -> PyResult<()> {
-    let suspect = v.iter().fold(false, |bad, v| {
-        let s = v.re + v.im;
-        bad | (s - s != 0.0)
-    });
+    let suspect = v
+        .iter()
+        .fold(false, |bad, v| bad | ((v.re + v.im) * 0.0 != 0.0));
     if !suspect {
         return Ok(());
     }

@@ -139,7 +139,7 @@ fn sample_time(spec: &ModelSpec) -> Option<f64> {
 /// ω = 2πf, every f finite.
 pub(crate) fn angular(f_hz: &[f64]) -> PyResult<Vec<f64>> {
     // or-ed over every value first (vector lanes), the bad one searched only if any
-    if f_hz.iter().fold(false, |bad, f| bad | (f - f != 0.0))
+    if f_hz.iter().fold(false, |bad, f| bad | (f * 0.0 != 0.0))
         && let Some(k) = f_hz.iter().position(|f| !f.is_finite())
     {
         return Err(value_error(format!("f[{k}] = {} is not finite", f_hz[k])));

@@ -149,7 +149,7 @@ impl<T: Real> FrequencyData<T> {
         // line in two passes on vector lanes; the bad line is searched (in the order of
         // the errors) only when there is one
         let suspect = omega.iter().fold(false, |bad, w| {
-            bad | (*w - *w != T::zero()) | (*w < T::zero())
+            bad | (*w * T::zero() != T::zero()) | (*w < T::zero())
         }) | omega
             .iter()
             .zip(&omega[1..])
