@@ -14,7 +14,7 @@ use std::fmt::Write as _;
 use std::result::Result;
 
 /// The note of a report whose common-denominator form overflows (`matrix_fraction` null).
-pub(super) const OVERFLOW_NOTE: &str = "matrix_fraction is null: its polynomial \
+const OVERFLOW_NOTE: &str = "matrix_fraction is null: its polynomial \
      coefficients overflow double precision at this order and frequency scale (use the \
      poles and residues or the state space)";
 
