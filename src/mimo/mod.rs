@@ -10,7 +10,10 @@
 //! 1. **Pole relocation** (Sanathanan–Koerner as vector fitting, McKelvey eq. 41):
 //!    relaxed vector fitting with the fast block solution — one QR per entry, then one
 //!    small least squares for the shared denominator — so the cost grows linearly with
-//!    the number of entries.
+//!    the number of entries. Unweighted entries that the ML will fit are relocated as
+//!    their leading real orthonormal combinations, dropping directions that hold at most
+//!    10⁻⁶ of the data's energy (the same least squares up to that share: a reciprocal
+//!    4-port's 16 entries are 10 directions and noise).
 //! 2. **Maximum likelihood** (McKelvey eq. 23, output error, weighted by the entries'
 //!    variances): Levenberg–Marquardt over the poles alone with the residues eliminated
 //!    by variable projection, with the poles' asymptotic covariance (eq. 32).
@@ -428,13 +431,18 @@ fn fit_weighted<T: Real>(
             parameters: needed,
         });
     }
+    // with ML to follow, the relocations run on the entries' leading directions (the
+    // same least squares up to a share of 10⁻⁶ of the data); the ML fits every entry
+    let compressed = (options.ml && whitening.is_none())
+        .then(|| weighted.compressed())
+        .flatten();
     let vector_fit::Relocated {
         poles,
         coeffs,
         costs,
         relocations,
     } = relocation_loop(
-        weighted,
+        compressed.as_ref().unwrap_or(weighted),
         options.domain,
         order,
         options.stable,
@@ -449,9 +457,10 @@ fn fit_weighted<T: Real>(
     });
     // with correlated blocks the relocation's diagonal weights only start the search:
     // the cost is the full-covariance one
-    let (coeffs, costs) = match &joint {
-        Some(j) => j.linear_fit(&poles)?,
-        None => (coeffs, costs),
+    let (coeffs, costs) = match (&joint, &compressed) {
+        (Some(j), _) => j.linear_fit(&poles)?,
+        (None, Some(_)) => weighted.linear_fit(&poles)?,
+        (None, None) => (coeffs, costs),
     };
     let relocation_cost = vector_fit::total(&costs);
     let mut fit = CommonPoleFit {

@@ -11,6 +11,9 @@ use crate::scalar::{Complex, Real};
 use nalgebra::{DMatrix, DVector};
 use num_traits::Float;
 
+/// The share of the data's energy the relocation may drop ([`Weighted::compressed`]).
+const COMPRESSION: f64 = 1e-6;
+
 /// The weighted data of a common-pole fit in the fitting variable: the points x_k (iω/ω_s
 /// in s, e^{iωTs} in z), the fitted blocks — each entry's FRF of a frequency response
 /// matrix, or each output's spectrum of a multi-input record — and their weights 1/σ
@@ -110,6 +113,65 @@ impl<T: Real> Weighted<T> {
 
     pub(crate) fn lines(&self) -> usize {
         self.x.len()
+    }
+
+    /// Unweighted FRF entries replaced by fewer real orthonormal combinations of them: the
+    /// leading directions of the real-stacked data D = [Re h_e; Im h_e] (2L × entries),
+    /// dropping the trailing ones while their energy stays within [`COMPRESSION`] of
+    /// ‖D‖²_F. A real orthogonal V leaves the relocation's least squares unchanged
+    /// (σ is shared and every block has its own residues: Σ_e ‖σh_e − N_e‖² =
+    /// ‖(σH − N)V‖²_F), and the dropped directions carry at most that share of the data
+    /// (the noise of a reciprocal network's S_ij − S_ji, say). `None` for weighted
+    /// data, records, or when no direction is dropped.
+    pub(crate) fn compressed(&self) -> Option<Self> {
+        let ne = self.h.len();
+        if self.w.is_some() || self.inputs.is_some() || self.transient.is_some() || ne < 2 {
+            return None;
+        }
+        let l = self.lines();
+        let d = DMatrix::from_fn(2 * l, ne, |r, e| {
+            let v = self.h[e][r / 2];
+            if r % 2 == 0 { v.re } else { v.im }
+        });
+        let eigen = (d.transpose() * &d).symmetric_eigen();
+        let energy = |f: usize| Float::max(eigen.eigenvalues[f], T::zero());
+        let mut order: Vec<usize> = (0..ne).collect();
+        order.sort_by(|a, b| {
+            energy(*b)
+                .partial_cmp(&energy(*a))
+                .unwrap_or(std::cmp::Ordering::Equal)
+        });
+        let total = (0..ne).fold(T::zero(), |s, f| s + energy(f));
+        let allowed = total * T::lit(COMPRESSION);
+        let mut dropped = total;
+        let mut keep = 0;
+        while keep < ne && dropped > allowed {
+            dropped -= energy(order[keep]);
+            keep += 1;
+        }
+        if keep == 0 || keep >= ne || !Float::is_finite(total) {
+            return None;
+        }
+        let v = DMatrix::from_fn(ne, keep, |e, f| eigen.eigenvectors[(e, order[f])]);
+        let combined = d * v;
+        let h = (0..keep)
+            .map(|f| {
+                (0..l)
+                    .map(|k| Complex::new(combined[(2 * k, f)], combined[(2 * k + 1, f)]))
+                    .collect()
+            })
+            .collect();
+        Some(Self {
+            x: self.x.clone(),
+            scale: self.scale,
+            h,
+            w: None,
+            direct: self.direct,
+            ny: keep,
+            nu: 1,
+            inputs: None,
+            transient: None,
+        })
     }
 
     pub(crate) fn weight(&self, e: usize, k: usize) -> T {
@@ -626,6 +688,53 @@ mod tests {
         let mut b = DVector::zeros(120);
         b[119] = 3.0;
         (a, b)
+    }
+
+    /// A 2 × 2 reciprocal response (G₁₂ = G₂₁) with G₂₂ = 2 G₁₁ − G₁₂: rank 2.
+    fn reciprocal() -> Weighted<f64> {
+        let omega: Vec<f64> = (1..=120).map(|k| 0.05 * k as f64).collect();
+        let poles = [Complex::new(-0.1, 2.0), Complex::new(-0.3, 4.5)];
+        let entry = |r: [f64; 2]| -> Vec<Complex<f64>> {
+            omega
+                .iter()
+                .map(|w| {
+                    let s = Complex::new(0.0, *w);
+                    poles
+                        .iter()
+                        .zip(r)
+                        .fold(Complex::new(0.1, 0.0), |g, (p, r)| {
+                            g + Complex::new(r, 0.3 * r) / (s - p)
+                                + Complex::new(r, -0.3 * r) / (s - p.conj())
+                        })
+                })
+                .collect()
+        };
+        let g11 = entry([1.0, 0.5]);
+        let g12 = entry([-0.4, 1.2]);
+        let g22: Vec<Complex<f64>> = g11.iter().zip(&g12).map(|(a, b)| a * 2.0 - b).collect();
+        let data =
+            FrfMatrix::from_entries(omega, 2, 2, vec![g11, g12.clone(), g12, g22], None).unwrap();
+        Weighted::new(&data, Domain::Continuous, true).unwrap()
+    }
+
+    #[test]
+    fn compression_keeps_the_relocation_of_dependent_entries() {
+        let data = reciprocal();
+        let compressed = data.compressed().expect("four entries of rank two");
+        assert_eq!(compressed.h.len(), 2);
+        let start = PoleSet {
+            real: vec![],
+            pairs: vec![Complex::new(-0.05, 0.3), Complex::new(-0.05, 0.9)],
+        };
+        let full = data.relocate(&start, None).unwrap();
+        let fewer = compressed.relocate(&start, None).unwrap();
+        for (a, b) in full.pairs.iter().zip(&fewer.pairs) {
+            assert!((a - b).norm() < 1e-9 * a.norm(), "{a} vs {b}");
+        }
+        // independent entries are not compressed
+        let mut independent = reciprocal();
+        independent.h.truncate(2);
+        assert!(independent.compressed().is_none());
     }
 
     #[test]
