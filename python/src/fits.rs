@@ -2,7 +2,9 @@
 //! record, and to many frequency responses on the thread pool.
 
 use crate::fit::Fit;
-use crate::{Model, angular, angular_of, in_hz, record, sample_time, value_error, vector};
+use crate::{
+    Model, angular_of, angular_unchecked, in_hz, record, sample_time, value_error, vector,
+};
 use fdid::estimate::ModelSpec;
 use fdid::{FdidError, FrequencyData, NoiseVariances, TimeData};
 use num_complex::Complex64;
@@ -47,16 +49,16 @@ pub fn fit_spectra(
     band: Option<(f64, f64)>,
     model: Model,
 ) -> PyResult<Fit> {
-    let f_hz = vector(&f, "f", None)?;
-    let u = vector(&u, "u", Some(f_hz.len()))?;
-    let y = vector(&y, "y", Some(f_hz.len()))?;
+    let omega = angular_of(&f);
+    let u = vector(&u, "u", Some(omega.len()))?;
+    let y = vector(&y, "y", Some(omega.len()))?;
     let var = var
-        .map(|v| vector(&v, "var", Some(f_hz.len())))
+        .map(|v| vector(&v, "var", Some(omega.len())))
         .transpose()?;
     let spec = model.spec(None)?;
     let ts = sample_time(&spec);
     py.allow_threads(|| {
-        let data = record::spectra(angular(&f_hz)?, u, y, ts)?;
+        let data = record::spectra(omega, u, y, ts)?;
         fit_spec(&spec, with_variances(data, var)?, band)
     })
 }
@@ -159,7 +161,7 @@ pub(crate) fn frf_data(
     var: Option<Vec<f64>>,
     ts: Option<f64>,
 ) -> PyResult<FrequencyData<f64>> {
-    frf_of(angular(f_hz)?, g, var, ts)
+    frf_of(angular_unchecked(f_hz), g, var, ts)
 }
 
 /// [`frf_data`] from the angular frequencies. The frequencies and the frequency response
@@ -194,24 +196,6 @@ fn with_variances(data: FrequencyData<f64>, var: Option<Vec<f64>>) -> PyResult<F
     }
     data.with_noise(NoiseVariances::output_only(var))
         .map_err(value_error)
-}
-
-/// Every value of `name` finite (first or-ed over every value without an early exit,
-/// which runs on vector lanes; the bad value is searched only when there is one).
-pub(crate) fn finite_complex(name: &str, v: &[Complex64]) -> PyResult<()> {
-    let suspect = v
-        .iter()
-        .fold(false, |bad, v| bad | ((v.re + v.im) * 0.0 != 0.0));
-    if !suspect {
-        return Ok(());
-    }
-    match v
-        .iter()
-        .position(|v| !(v.re.is_finite() && v.im.is_finite()))
-    {
-        Some(k) => Err(value_error(format!("{name}[{k}] = {} is not finite", v[k]))),
-        None => Ok(()),
-    }
 }
 
 /// `data` restricted to `band` (Hz), fitted with `spec`.

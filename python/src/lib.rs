@@ -144,7 +144,13 @@ pub(crate) fn angular(f_hz: &[f64]) -> PyResult<Vec<f64>> {
     {
         return Err(value_error(format!("f[{k}] = {} is not finite", f_hz[k])));
     }
-    Ok(f_hz.iter().map(|f| std::f64::consts::TAU * f).collect())
+    Ok(angular_unchecked(f_hz))
+}
+
+/// ω = 2πf, not checked: for data whose constructor checks the frequencies
+/// (`FrequencyData`, `FrfMatrix`; its errors renamed by [`in_hz`]).
+pub(crate) fn angular_unchecked(f_hz: &[f64]) -> Vec<f64> {
+    f_hz.iter().map(|f| std::f64::consts::TAU * f).collect()
 }
 
 /// fdid's error about data, with the frequencies named as the argument `f` and in Hz
@@ -175,13 +181,11 @@ pub(crate) fn in_hz(e: fdid::FdidError) -> PyErr {
     }
 }
 
-/// ω = 2πf of a numpy array (read in place when it is contiguous), not checked: for
-/// data whose constructor checks the frequencies (`FrequencyData`).
+/// [`angular_unchecked`] of a numpy array, read in place when it is contiguous.
 pub(crate) fn angular_of(f: &PyReadonlyArray1<'_, f64>) -> Vec<f64> {
-    let tau = |f: &f64| std::f64::consts::TAU * f;
     match f.as_slice() {
-        Ok(f_hz) => f_hz.iter().map(tau).collect(),
-        Err(_) => f.as_array().iter().map(tau).collect(),
+        Ok(f_hz) => angular_unchecked(f_hz),
+        Err(_) => angular_unchecked(&f.as_array().to_vec()),
     }
 }
 

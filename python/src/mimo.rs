@@ -3,7 +3,7 @@
 //! with the fast block solution and refined by maximum likelihood, as `fdid fit` fits
 //! every entry of a multi-port file.
 
-use crate::{angular, domain, value_error, vector};
+use crate::{angular, angular_of, domain, value_error, vector};
 use fdid::data::FrfMatrix;
 use fdid::mimo::{CommonPoleFit as Fitted, CommonPoleOptions, MlOutcome, fit_common_poles};
 use nalgebra::DMatrix;
@@ -34,14 +34,13 @@ pub fn fit_common_poles_py(
     ml: bool,
     band: Option<(f64, f64)>,
 ) -> PyResult<CommonPoleFit> {
-    let f_hz = vector(&f, "f", None)?;
-    let omega = angular(&f_hz)?;
+    let omega = angular_of(&f);
     let shape = frf.as_array().shape().to_vec();
     let (n, ny, nu) = (shape[0], shape[1], shape[2]);
-    if n != f_hz.len() {
+    if n != omega.len() {
         return Err(value_error(format!(
             "frf has {n} lines (its first axis), f has {}: one per frequency",
-            f_hz.len()
+            omega.len()
         )));
     }
     let frf = frf.as_array();
