@@ -182,17 +182,19 @@ pub(crate) fn partial_fraction_leading<T: Real>(basis: &PolyBasis<T>, coeffs: &[
     Some(pf.markov().1)
 }
 
-/// Eigenvalues of a real matrix from its real Schur form; typed errors when the iteration
-/// does not converge or a value is not finite.
+/// Eigenvalues of a real matrix (balanced Hessenberg QR, [`crate::linalg::eigenvalues`]);
+/// typed errors when a value is not finite or the iteration does not converge.
 pub(crate) fn eigenvalues<T: Real>(m: DMatrix<T>) -> Result<Vec<Complex<T>>> {
     let d = m.nrows();
-    let schur = nalgebra::Schur::try_new(m, T::default_epsilon(), 200 * d.max(10)).ok_or(
-        FdidError::NotConverged {
-            method: "Schur eigenvalue iteration",
-            reason: format!("no convergence for a companion matrix of size {d}"),
-        },
-    )?;
-    let ev = schur.complex_eigenvalues();
+    if m.iter().any(|v| !Float::is_finite(*v)) {
+        return Err(FdidError::Numerical {
+            what: "eigenvalues of the companion matrix".into(),
+        });
+    }
+    let ev = crate::linalg::eigenvalues::eigenvalues(m).ok_or(FdidError::NotConverged {
+        method: "Hessenberg QR eigenvalue iteration",
+        reason: format!("no convergence for a companion matrix of size {d}"),
+    })?;
     if ev
         .iter()
         .any(|e| !(Float::is_finite(e.re) && Float::is_finite(e.im)))
@@ -201,7 +203,7 @@ pub(crate) fn eigenvalues<T: Real>(m: DMatrix<T>) -> Result<Vec<Complex<T>>> {
             what: "eigenvalues of the companion matrix".into(),
         });
     }
-    Ok(ev.iter().map(|e| Complex::new(e.re, e.im)).collect())
+    Ok(ev)
 }
 
 #[cfg(test)]

@@ -2,6 +2,7 @@
 //! its modes, residue matrices, state-space realisation and per-entry errors.
 
 use super::args::{CommonArgs, CriterionArg, FitArgs, parse_band};
+use super::json_arrays::{Response, Rows};
 use super::{Failure, budget};
 use fdid::data::{FrfMatrix, MimoSpectra};
 use fdid::io::NetworkParameter;
@@ -572,40 +573,49 @@ impl Report<'_> {
     fn json(&self) -> Result<String, Failure> {
         let fit = self.fit;
         let model = &fit.model;
-        let modes = model.modes().map_err(Failure::from)?;
-        let ss = model.state_space();
-        let mf = model.matrix_fraction();
-        let g = model.response(self.data.omega());
+        // the passivity check (a dense grid) runs beside the model's other forms
+        let (checked, (modes, ss, mf, g)) = rayon::join(
+            || self.passivity(),
+            || {
+                (
+                    model.modes(),
+                    model.state_space(),
+                    model.matrix_fraction(),
+                    model.response(self.data.omega()),
+                )
+            },
+        );
+        let modes = modes.map_err(Failure::from)?;
         let f_hz: Vec<f64> = self
             .data
             .omega()
             .iter()
             .map(|w| w / std::f64::consts::TAU)
             .collect();
-        let frf = |i: usize, j: usize| -> Vec<Value> {
-            f_hz.iter()
-                .zip(&g)
-                .map(|(f, m)| {
-                    let v = m[(i - 1, j - 1)];
-                    json!([f, v.re, v.im])
-                })
-                .collect()
+        let entry = |i: usize, j: usize, errors: Option<(f64, f64)>| Entry {
+            output: i,
+            input: j,
+            rms_error: errors.map(|e| e.0),
+            rms_data: errors.map(|e| e.1),
+            frf: Response {
+                f_hz: &f_hz,
+                g: &g,
+                i: i - 1,
+                j: j - 1,
+            },
         };
-        let (entries, output_errors_json): (Vec<Value>, Value) = match self.data {
+        let (entries, output_errors_json): (Vec<Entry>, Value) = match self.data {
             Fitted::Matrix(m) => (
                 entry_errors(m, fit)
                     .iter()
-                    .map(|(i, j, err, size)| {
-                        json!({"output": i, "input": j, "rms_error": err, "rms_data": size,
-                               "frf": frf(*i, *j)})
-                    })
+                    .map(|(i, j, err, size)| entry(*i, *j, Some((*err, *size))))
                     .collect(),
                 Value::Null,
             ),
             Fitted::Spectra(s) => (
                 (1..=s.nu())
                     .flat_map(|j| (1..=s.ny()).map(move |i| (i, j)))
-                    .map(|(i, j)| json!({"output": i, "input": j, "frf": frf(i, j)}))
+                    .map(|(i, j)| entry(i, j, None))
                     .collect(),
                 Value::Array(
                     output_errors(s, fit)
@@ -651,7 +661,7 @@ impl Report<'_> {
             ),
             None => Value::Null,
         };
-        let passivity = self.passivity().map(|p| {
+        let passivity = checked.map(|p| {
             let mut v = json!({
                 "max_singular_value": p.max_singular_value,
                 "at_hz": p.at_hz,
@@ -694,12 +704,6 @@ impl Report<'_> {
                 "denominator": mf.denominator,
                 "numerators": mf.numerators,
             })),
-            "state_space": {
-                "a": matrix_json(&ss.a),
-                "b": matrix_json(&ss.b),
-                "c": matrix_json(&ss.c),
-                "d": matrix_json(&ss.d),
-            },
             "cost": fit.cost,
             "weighted": fit.weighted,
             "weighting": if fit.correlated && self.data.has_input_noise() {
@@ -721,7 +725,6 @@ impl Report<'_> {
             "relocations": fit.relocations,
             "ml": ml_text(fit.ml),
             "passivity": passivity,
-            "entries": entries,
             "output_errors": output_errors_json,
             "notes": self
                 .stopped
@@ -729,10 +732,52 @@ impl Report<'_> {
                 .chain((!mf.is_finite()).then_some(OVERFLOW_NOTE))
                 .collect::<Vec<_>>(),
         });
-        serde_json::to_string_pretty(&v)
+        let document = Document {
+            summary: v,
+            state_space: StateSpace {
+                a: Rows(&ss.a),
+                b: Rows(&ss.b),
+                c: Rows(&ss.c),
+                d: Rows(&ss.d),
+            },
+            entries,
+        };
+        serde_json::to_string(&document)
             .map(|s| s + "\n")
             .map_err(|e| Failure::runtime(format!("cannot write the JSON report: {e}")))
     }
+}
+
+/// The `--json` report of a common-pole fit: the summary's fields, then the state space
+/// and the entries' responses, written from the numbers (see [`super::json_arrays`]).
+#[derive(serde::Serialize)]
+struct Document<'a> {
+    #[serde(flatten)]
+    summary: Value,
+    state_space: StateSpace<'a>,
+    entries: Vec<Entry<'a>>,
+}
+
+/// The real realisation (A, B, C, D) of the model.
+#[derive(serde::Serialize)]
+struct StateSpace<'a> {
+    a: Rows<'a>,
+    b: Rows<'a>,
+    c: Rows<'a>,
+    d: Rows<'a>,
+}
+
+/// One entry of the report: its indices (from 1), its RMS error and the data's RMS (FRF
+/// matrices) and the model's response over the lines.
+#[derive(serde::Serialize)]
+struct Entry<'a> {
+    output: usize,
+    input: usize,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    rms_error: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    rms_data: Option<f64>,
+    frf: Response<'a>,
 }
 
 /// The periods a record's spectra were averaged over and the correlation of the outputs'

@@ -4,6 +4,7 @@ pub mod args;
 mod budget;
 mod data;
 mod diagnose;
+mod json_arrays;
 mod ltv;
 pub mod message;
 mod mimo;

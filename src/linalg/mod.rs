@@ -1,8 +1,9 @@
 //! Linear-algebra kernels shared by the models, criteria and solvers: dense least squares
 //! by QR and SVD ([`least_squares`]), a never-panicking SVD, the guarded normal equations
-//! over blocks of lines (`gram`), Householder reflectors (`householder`) and independent
-//! items in parallel (`parallel`).
+//! over blocks of lines (`gram`), Householder reflectors (`householder`), the eigenvalues
+//! of a real matrix (`eigenvalues`) and independent items in parallel (`parallel`).
 
+pub(crate) mod eigenvalues;
 pub(crate) mod gram;
 pub(crate) mod householder;
 mod lstsq;

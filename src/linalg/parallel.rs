@@ -19,6 +19,24 @@ where
     }
 }
 
+/// `(a(), b())`, the two computed in parallel with the `rayon` feature.
+pub(crate) fn join<A, B, RA, RB>(a: A, b: B) -> (RA, RB)
+where
+    A: FnOnce() -> RA + Send,
+    B: FnOnce() -> RB + Send,
+    RA: Send,
+    RB: Send,
+{
+    #[cfg(feature = "rayon")]
+    {
+        rayon::join(a, b)
+    }
+    #[cfg(not(feature = "rayon"))]
+    {
+        (a(), b())
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::map_indices;
@@ -28,5 +46,10 @@ mod tests {
         let squares = map_indices(1000, |k| k * k);
         assert!(squares.iter().enumerate().all(|(k, s)| *s == k * k));
         assert!(map_indices(0, |k| k).is_empty());
+    }
+
+    #[test]
+    fn joins_both_results() {
+        assert_eq!(super::join(|| 2 + 2, || "b"), (4, "b"));
     }
 }

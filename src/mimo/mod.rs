@@ -448,6 +448,7 @@ fn fit_weighted<T: Real>(
         options.stable,
         options.relocations,
         start.map(|p| p.scaled(T::one() / weighted.scale)),
+        options.ml,
     )?;
     let joint = whitening.map(|whitening| correlated::JointVarPro {
         data: weighted,
@@ -455,13 +456,38 @@ fn fit_weighted<T: Real>(
         n_real: poles.real.len(),
         order,
     });
-    // with correlated blocks the relocation's diagonal weights only start the search:
-    // the cost is the full-covariance one
-    let (coeffs, costs) = match (&joint, &compressed) {
-        (Some(j), _) => j.linear_fit(&poles)?,
-        (None, Some(_)) => weighted.linear_fit(&poles)?,
-        (None, None) => (coeffs, costs),
+    let separate = varpro::VarPro {
+        data: weighted,
+        n_real: poles.real.len(),
+        order,
     };
+    let problem: &(dyn NonlinearProblem<T> + Sync) = match &joint {
+        Some(j) => j,
+        None => &separate,
+    };
+    let linear_fit = |p: &PoleSet<T>| match &joint {
+        Some(j) => j.linear_fit(p),
+        None => weighted.linear_fit(p),
+    };
+    // with correlated blocks the relocation's diagonal weights only start the search (the
+    // cost is the full-covariance one), and a compressed relocation fitted fewer blocks:
+    // the linear fit of every block at the relocated poles runs beside the ML from them
+    let refit = joint.is_some() || compressed.is_some();
+    let start_theta = poles.theta();
+    let (relocated_fit, solved) = crate::linalg::parallel::join(
+        || match refit {
+            true => linear_fit(&poles).map(Some),
+            false => Ok(None),
+        },
+        || {
+            options.ml.then(|| {
+                GramLevenbergMarquardt::default()
+                    .solve(problem, Some(&start_theta))
+                    .or_else(|_| LevenbergMarquardt::default().solve(problem, Some(&start_theta)))
+            })
+        },
+    );
+    let (coeffs, costs) = relocated_fit?.unwrap_or((coeffs, costs));
     let relocation_cost = vector_fit::total(&costs);
     let mut fit = CommonPoleFit {
         model: model_of(weighted, options.domain, &poles, &coeffs),
@@ -479,43 +505,37 @@ fn fit_weighted<T: Real>(
     };
     let mut final_poles = poles.clone();
     let mut final_coeffs = coeffs;
-    if options.ml {
-        let separate = varpro::VarPro {
-            data: weighted,
-            n_real: poles.real.len(),
-            order,
-        };
-        let problem: &dyn NonlinearProblem<T> = match &joint {
-            Some(j) => j,
-            None => &separate,
-        };
-        let linear_fit = |p: &PoleSet<T>| match &joint {
-            Some(j) => j.linear_fit(p),
-            None => weighted.linear_fit(p),
-        };
-        let start = poles.theta();
-        let solved = GramLevenbergMarquardt::default()
-            .solve(problem, Some(&start))
-            .or_else(|_| LevenbergMarquardt::default().solve(problem, Some(&start)));
+    if let Some(solved) = solved {
         fit.ml = MlOutcome::Failed;
+        // the linear fit at the ML's poles and the normal equations there (the poles'
+        // covariance when they are kept) in parallel
+        let mut normal = None;
         if let Ok(solution) = solved {
             let candidate = PoleSet::from_theta(poles.real.len(), &solution.theta);
             if options.stable && !candidate.is_stable(unit(options.domain)) {
                 fit.ml = MlOutcome::Unstable;
-            } else if let Ok((c, costs)) = linear_fit(&candidate)
-                && vector_fit::total(&costs) <= relocation_cost
-            {
-                fit.model = model_of(weighted, options.domain, &candidate, &c);
-                final_coeffs = c;
-                fit.cost = vector_fit::total(&costs);
-                fit.costs = costs;
-                fit.ml = MlOutcome::Kept {
-                    converged: solution.converged(),
-                };
-                final_poles = candidate;
+            } else {
+                let (fitted, at_candidate) = crate::linalg::parallel::join(
+                    || linear_fit(&candidate),
+                    || normal_matrix(problem, &candidate),
+                );
+                if let Ok((c, costs)) = fitted
+                    && vector_fit::total(&costs) <= relocation_cost
+                {
+                    fit.model = model_of(weighted, options.domain, &candidate, &c);
+                    final_coeffs = c;
+                    fit.cost = vector_fit::total(&costs);
+                    fit.costs = costs;
+                    fit.ml = MlOutcome::Kept {
+                        converged: solution.converged(),
+                    };
+                    final_poles = candidate;
+                    normal = Some(at_candidate);
+                }
             }
         }
-        fit.pole_covariance = covariance(problem, order, &final_poles, &fit, weighted);
+        let normal = normal.unwrap_or_else(|| normal_matrix(problem, &final_poles));
+        fit.pole_covariance = normal.and_then(|n| covariance(n, order, &fit, weighted));
     }
     fit.residual_power = match weighted.w {
         None => fit.costs.clone(),
@@ -533,23 +553,31 @@ fn unit<T: Real>(domain: Domain<T>) -> Domain<T> {
     }
 }
 
-/// The poles' covariance s²(JᵀJ)⁻¹ at the final poles, in physical units.
-fn covariance<T: Real>(
+/// The Gram matrix JᵀJ of the ML problem at `poles` and its number of residuals; `None`
+/// when the evaluation fails.
+fn normal_matrix<T: Real>(
     problem: &dyn NonlinearProblem<T>,
-    order: usize,
     poles: &PoleSet<T>,
-    fit: &CommonPoleFit<T>,
-    data: &Weighted<T>,
-) -> Option<DMatrix<T>> {
+) -> Option<(DMatrix<T>, usize)> {
     let theta = poles.theta();
     let m = problem.n_residuals();
     let mut r = vec![T::zero(); m];
     let mut jac = DMatrix::zeros(0, 0);
     let mut gram = DMatrix::zeros(0, 0);
     let mut grad = nalgebra::DVector::zeros(0);
-    if !problem.normal_equations_into(&theta, &mut r, &mut jac, &mut gram, &mut grad) {
-        return None;
-    }
+    problem
+        .normal_equations_into(&theta, &mut r, &mut jac, &mut gram, &mut grad)
+        .then_some((gram, m))
+}
+
+/// The poles' covariance s²(JᵀJ)⁻¹ at the final poles, in physical units, from the
+/// Gram matrix and residual count of [`normal_matrix`] there.
+fn covariance<T: Real>(
+    (gram, m): (DMatrix<T>, usize),
+    order: usize,
+    fit: &CommonPoleFit<T>,
+    data: &Weighted<T>,
+) -> Option<DMatrix<T>> {
     let params = order + data.h.len() * data.linear_parameters(order);
     // V/(M − P): 1/2 when weighted by the true variances and the model fits to the noise
     // level, larger (and honest) when it does not

@@ -8,13 +8,9 @@ use crate::scalar::{Complex, Real};
 use nalgebra::{DMatrix, DMatrixView, DVector};
 use num_traits::Float;
 
-/// Most blocks per batch of the projection product Qᵀ[B_e | B_e+1 | …] (wide enough for
-/// the matrix-product kernels to run near their peak).
-const BATCH: usize = 8;
-
-/// Values held at once by a batch's σ-columns and by a chunk of the Gram basis: under
-/// the allocator's reuse threshold, so that the buffers of successive relocations are
-/// not mapped afresh (page faults cost as much as the products on large fits).
+/// Values held at once by a chunk of the Gram basis: under the allocator's reuse
+/// threshold, so that the buffers of successive relocations are not mapped afresh (page
+/// faults cost as much as the products on large fits).
 const CHUNK_VALUES: usize = 1 << 20;
 
 /// Parts of the packed Gram basis formed and multiplied in parallel.
@@ -30,9 +26,11 @@ const GRAM_PARTS: usize = 8;
 /// instead (B_eᵀr_e and r_eᵀr_e, free of the cancellation; r_e is the negated residual of
 /// the block's linear fit), then R₂₂ = chol(G_e). The
 /// B_eᵀB_e of all blocks are one product, |h|² times the Gram basis
-/// Re(conj φ̃_i φ̃_j)(x_k) (φ̃ = [φ | 1]), and the P_e of a batch of blocks one product
-/// Qᵀ[B_e | …]: both wide products, several times faster than a pair of thin products
-/// per block. A block takes the fast path when every other diagonal of G_e keeps at
+/// Re(conj φ̃_i φ̃_j)(x_k) (φ̃ = [φ | 1]), a wide product several times faster than one
+/// product per block; the P_e are one product per block, the blocks in parallel (one
+/// task per block balances the threads and keeps each task's buffers small: on the
+/// 4-port of `bench/multiport.py` 2.5 ms less than products over batches of 8 blocks,
+/// whose fresh buffers cost page faults). A block takes the fast path when every other diagonal of G_e keeps at
 /// least √ε of B_eᵀB_e's (so that G_e holds its entries to about √ε) and the Cholesky
 /// factorisation succeeds; otherwise its projection (I − QQᵀ)B_e and their QR.
 pub(crate) fn shared_blocks<T: Real>(
@@ -46,29 +44,19 @@ pub(crate) fn shared_blocks<T: Real>(
     let grams = block_grams(h, phi);
     let q_t = q.transpose();
     let ne = h.len();
-    let batch = (CHUNK_VALUES / (2 * l * n1)).clamp(1, BATCH);
-    let batches = map_indices(ne.div_ceil(batch), |b| {
-        let first = b * batch;
-        let count = batch.min(ne - first);
-        let mut sigma = DMatrix::<T>::zeros(2 * l, count * n1);
-        for i in 0..count {
-            fill_sigma_columns(&h[first + i], phi, &mut sigma, i * n1);
-        }
+    map_indices(ne, |e| {
+        let mut sigma = DMatrix::<T>::zeros(2 * l, n1);
+        fill_sigma_columns(&h[e], phi, &mut sigma, 0);
         let p = &q_t * &sigma;
-        (0..count)
-            .map(|i| {
-                let gram = unpack(grams.row(first + i).iter().copied(), n1);
-                // the σ₀ column's residual r_e = −(h_e − QQᵀh_e) and B_eᵀr_e
-                let fit = fit_residuals.column(first + i);
-                let r = Residual {
-                    norm_sqr: fit.norm_squared(),
-                    cross: -sigma.columns(i * n1, n1).tr_mul(&fit),
-                };
-                block(sigma.columns(i * n1, n1), p.columns(i * n1, n1), gram, r, q)
-            })
-            .collect::<Vec<_>>()
-    });
-    batches.into_iter().flatten().collect()
+        let gram = unpack(grams.row(e).iter().copied(), n1);
+        // the σ₀ column's residual r_e = −(h_e − QQᵀh_e) and B_eᵀr_e
+        let fit = fit_residuals.column(e);
+        let r = Residual {
+            norm_sqr: fit.norm_squared(),
+            cross: -sigma.tr_mul(&fit),
+        };
+        block(sigma.columns(0, n1), p.columns(0, n1), gram, r, q)
+    })
 }
 
 /// Writes the σ-columns −h_k[φ(x_k) | 1] of the data `h` (real-stacked: rows 2k and
@@ -243,7 +231,7 @@ mod tests {
         });
         let q = a.qr().q();
         // data near the model space (a rational function plus a small disturbance), and
-        // far from it, in more blocks than a batch holds
+        // far from it, in more blocks than there are threads
         let h: Vec<Vec<Complex<f64>>> = (0..11)
             .map(|e| {
                 (0..l)
