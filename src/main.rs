@@ -21,6 +21,7 @@ use cli::args::Cli;
 use cli::message::one_line;
 
 fn main() -> ExitCode {
+    keep_freed_memory();
     // A bug anywhere below must still end in one `error:` line, not a backtrace.
     std::panic::set_hook(Box::new(|info| {
         let what = info
@@ -56,6 +57,24 @@ fn main() -> ExitCode {
         }
         Ok(Err(f)) => report(&f),
         Err(_) => ExitCode::from(70),
+    }
+}
+
+/// Tunes glibc's allocator for a short run: buffers up to 8 MiB come from the heap
+/// instead of fresh mappings, and freed memory stays with the process (up to 64 MiB
+/// above the top, 8 MiB of padding) instead of being returned and faulted in again at the
+/// next use — the per-relocation buffers of a common-pole fit and the packing buffers of
+/// every matrix product. On the 4-port of `bench/multiport.py`: 2 700 → 1 900 page faults,
+/// about 0.7 ms less (`perf stat -r 100`); the 8-port unchanged (0.71 s, peak memory
+/// 126 → 138 MB).
+fn keep_freed_memory() {
+    #[cfg(all(target_os = "linux", target_env = "gnu"))]
+    // SAFETY: mallopt takes two integers and changes glibc's tuning only; it runs before
+    // any other thread exists, and a refused setting leaves the default.
+    unsafe {
+        libc::mallopt(libc::M_MMAP_THRESHOLD, 8 << 20);
+        libc::mallopt(libc::M_TRIM_THRESHOLD, 64 << 20);
+        libc::mallopt(libc::M_TOP_PAD, 8 << 20);
     }
 }
 
