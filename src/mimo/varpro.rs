@@ -110,10 +110,7 @@ impl<T: Real> VarPro<'_, T> {
             let Some(proj) = self.projection(&poles, None, sink.is_some()) else {
                 return false;
             };
-            let b = DMatrix::from_fn(rows, ne, |row, e| {
-                let v = self.data.h[e][row / 2];
-                if row % 2 == 0 { v.re } else { v.im }
-            });
+            let b = self.data.stacked();
             let qtb = at_b(&proj.q, &b);
             let res = b - &proj.q * &qtb;
             r.copy_from_slice(res.as_slice());

@@ -129,10 +129,7 @@ impl<T: Real> Weighted<T> {
             return None;
         }
         let l = self.lines();
-        let d = DMatrix::from_fn(2 * l, ne, |r, e| {
-            let v = self.h[e][r / 2];
-            if r % 2 == 0 { v.re } else { v.im }
-        });
+        let d = self.stacked();
         let eigen = (d.transpose() * &d).symmetric_eigen();
         let energy = |f: usize| Float::max(eigen.eigenvalues[f], T::zero());
         let mut order: Vec<usize> = (0..ne).collect();
@@ -174,6 +171,15 @@ impl<T: Real> Weighted<T> {
         })
     }
 
+    /// The blocks' data without weights, real-stacked: column e holds Re h_e,k and
+    /// Im h_e,k in rows 2k and 2k + 1.
+    pub(crate) fn stacked(&self) -> DMatrix<T> {
+        DMatrix::from_fn(2 * self.lines(), self.h.len(), |r, e| {
+            let v = self.h[e][r / 2];
+            if r % 2 == 0 { v.re } else { v.im }
+        })
+    }
+
     pub(crate) fn weight(&self, e: usize, k: usize) -> T {
         self.w.as_ref().map_or(T::one(), |w| w[e][k])
     }
@@ -212,10 +218,7 @@ impl<T: Real> Weighted<T> {
         let ne = self.h.len();
         match &self.w {
             None => {
-                let b = DMatrix::from_fn(2 * self.lines(), ne, |r, e| {
-                    let v = self.h[e][r / 2];
-                    if r % 2 == 0 { v.re } else { v.im }
-                });
+                let b = self.stacked();
                 let qr = ThinQr::new(crate::linalg::stack_rows(&a, None))?;
                 let (x, residuals) = qr.least_squares(&b)?;
                 let coeffs = (0..ne).map(|e| x.column(e).into_owned()).collect();
