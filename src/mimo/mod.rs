@@ -53,6 +53,7 @@ mod passivity_enforcement;
 mod poles;
 mod sigma_blocks;
 mod stabilisation;
+mod start;
 mod state_space;
 mod thin_qr;
 mod varpro;
@@ -242,7 +243,7 @@ impl<T: Real> CommonPoleFit<T> {
 }
 
 /// Fits a common-pole model of `order` poles to every entry of `data`: pole relocation
-/// from lightly damped starting poles spread over the band, then (by default) maximum
+/// from lightly damped starting poles spread over the band where the entries vary, then (by default) maximum
 /// likelihood by variable projection; see the [module documentation](self).
 ///
 /// # Errors
@@ -259,7 +260,7 @@ pub fn fit_common_poles<T: Real>(
 }
 
 /// [`fit_common_poles`] with the relocation started from the poles `start` (rad/s in s,
-/// z in z; its order is the model's) instead of poles spread over the band: a warm start,
+/// z in z; its order is the model's) instead of poles placed from the data: a warm start,
 /// e.g. a fitted model's poles with a pair added where a resonance is missing
 /// ([`crate::workflow::diagnose_common_poles`] refits from both).
 ///
@@ -482,7 +483,7 @@ fn fit_weighted<T: Real>(
         || {
             options.ml.then(|| {
                 GramLevenbergMarquardt::default()
-                    .solve(problem, Some(&start_theta))
+                    .solve_damped(problem, &start_theta)
                     .or_else(|_| LevenbergMarquardt::default().solve(problem, Some(&start_theta)))
             })
         },

@@ -1,7 +1,7 @@
 //! The poles shared by every entry of a multi-input multi-output model, and the real
 //! partial-fraction basis they span.
 
-use crate::error::{FdidError, Result};
+use crate::error::Result;
 use crate::model::Domain;
 use crate::scalar::{Complex, Real};
 use nalgebra::DMatrix;
@@ -226,67 +226,6 @@ pub(crate) fn points<T: Real>(omega: &[T], domain: Domain<T>, scale: T) -> Vec<C
             Domain::Discrete { ts } => Complex::new(T::zero(), *w * ts).exp(),
         })
         .collect()
-}
-
-/// Starting poles of vector fitting for order `n` over the band [`w_min`, `w_max`] (rad/s):
-/// ⌊n/2⌋ lightly damped pairs −β/100 ± iβ with β evenly spaced over [max(w_min,
-/// w_max/100), w_max] — in s over more than a decade, logarithmically spaced over
-/// [max(w_min, 10⁻⁶w_max), w_max] — and one real pole −w_max/10 for odd n (Gustavsen and
-/// Semlyen's recommended start), mapped to e^{pTs} in z. On the bench's 4-port (resonances
-/// over two decades) the log-spaced start needs 11 relocations instead of 18.
-pub(crate) fn starting_poles<T: Real>(
-    n: usize,
-    w_min: T,
-    w_max: T,
-    domain: Domain<T>,
-) -> Result<PoleSet<T>> {
-    if !(w_max > T::zero()) {
-        return Err(FdidError::InvalidArgument {
-            name: "band",
-            value: format!("[{w_min}, {w_max}] rad/s"),
-            reason: "vector fitting needs lines above 0".into(),
-        });
-    }
-    let np = n / 2;
-    // in s over more than a decade: log-spaced (the resonances of a wide band are spread
-    // over decades; evenly spaced starts crowd its top and cost relocations)
-    let log_spaced =
-        domain == Domain::Continuous && w_min > T::zero() && w_max > w_min * T::lit(10.0);
-    let lo = if log_spaced {
-        Float::max(w_min, w_max * T::lit(1e-6))
-    } else {
-        Float::max(w_min, w_max / T::lit(100.0))
-    };
-    let pairs_s: Vec<Complex<T>> = (0..np)
-        .map(|k| {
-            let f = if np == 1 {
-                T::lit(0.5)
-            } else {
-                T::from_usize_lossy(k) / T::from_usize_lossy(np - 1)
-            };
-            let beta = if log_spaced {
-                lo * Float::powf(w_max / lo, f)
-            } else {
-                lo + (w_max - lo) * f
-            };
-            Complex::new(-beta / T::lit(100.0), beta)
-        })
-        .collect();
-    let real_s: Vec<T> = if n % 2 == 1 {
-        vec![-w_max / T::lit(10.0)]
-    } else {
-        vec![]
-    };
-    Ok(match domain {
-        Domain::Continuous => PoleSet {
-            real: real_s,
-            pairs: pairs_s,
-        },
-        Domain::Discrete { ts } => PoleSet {
-            real: real_s.iter().map(|r| Float::exp(*r * ts)).collect(),
-            pairs: pairs_s.iter().map(|p| (*p * ts).exp()).collect(),
-        },
-    })
 }
 
 #[cfg(test)]

@@ -2,7 +2,8 @@
 //! with the fast block solution, and the residue matrices by linear least squares.
 
 use super::model::CommonPoleModel;
-use super::poles::{PoleSet, basis, coefficient_matrix, derivative_basis, points, starting_poles};
+use super::poles::{PoleSet, basis, coefficient_matrix, derivative_basis, points};
+use super::start;
 use super::thin_qr::{ThinQr, r_factor};
 use crate::data::{FrfMatrix, MimoSpectra};
 use crate::error::{FdidError, Result};
@@ -109,6 +110,27 @@ impl<T: Real> Weighted<T> {
             inputs: Some((0..data.nu()).map(|j| data.u(j).to_vec()).collect()),
             transient,
         })
+    }
+
+    /// The relocation's starting poles placed from the FRF entries ([`start::from_data`],
+    /// on the weighted values), or `None` for a record's output spectra (their variation is
+    /// the inputs' as much as the system's) and data that do not place them.
+    fn starting_poles(&self, order: usize, domain: Domain<T>) -> Option<PoleSet<T>> {
+        if self.inputs.is_some() {
+            return None;
+        }
+        let freq: Vec<T> = self
+            .x
+            .iter()
+            .map(|x| fitting_frequency(*x, domain))
+            .collect();
+        start::from_data(
+            &freq,
+            self.h.len(),
+            |e, k| self.h[e][k] * self.weight(e, k),
+            order,
+            unit_domain(domain),
+        )
     }
 
     pub(crate) fn lines(&self) -> usize {
@@ -593,7 +615,8 @@ pub(crate) fn total<T: Real>(costs: &[T]) -> T {
 }
 
 /// The relocation loop of [`super::fit_common_poles`]: from `start` (in the fitting
-/// variable) or else the lightly damped poles spread over the band, relocate (reflecting
+/// variable) or else lightly damped poles placed from the data ([`start::from_data`]) or
+/// spread over the band ([`start::over_band`]), relocate (reflecting
 /// unstable poles when `stable`) until the relative change of the weighted cost has
 /// [`settled`] or `iterations` relocations; returns the poles of lowest cost (in the
 /// fitting variable), their linear parameters, cost and the relocations made.
@@ -616,11 +639,23 @@ pub(crate) fn relocation_loop<T: Real>(
         .iter()
         .map(|x| fitting_frequency(*x, domain))
         .fold(T::zero(), Float::max);
-    let mut poles = match start {
-        Some(p) => p,
-        None => starting_poles(order, omega_min, omega_max, unit_domain(domain))?,
+    let fitted = |p: PoleSet<T>| data.factored_fit(&p).map(|fit| (p, fit));
+    let started = match start {
+        Some(p) => fitted(p)?,
+        // placed from the data, or over the band when the data do not place them or the
+        // basis cannot tell the placed poles apart
+        None => match data.starting_poles(order, domain).map(fitted) {
+            Some(Ok(started)) => started,
+            Some(Err(FdidError::Singular { .. })) | None => fitted(start::over_band(
+                order,
+                omega_min,
+                omega_max,
+                unit_domain(domain),
+            )?)?,
+            Some(Err(e)) => return Err(e),
+        },
     };
-    let (mut coeffs, mut costs, mut factor) = data.factored_fit(&poles)?;
+    let (mut poles, (mut coeffs, mut costs, mut factor)) = started;
     let mut cost = total(&costs);
     let mut best = (poles.clone(), coeffs.clone(), costs.clone(), cost);
     let mut before = T::infinity();

@@ -55,7 +55,8 @@ fn sum_sq<T: Real>(r: &[T]) -> T {
 
 impl<T: Real, P: NonlinearProblem<T> + ?Sized> Solver<T, P> for GramLevenbergMarquardt {
     fn solve(&self, problem: &P, start: Option<&[T]>) -> Result<Solution<T>> {
-        self.run(problem, start, None).map(|(solution, _)| solution)
+        self.run(problem, start, None, false)
+            .map(|(solution, _)| solution)
     }
 }
 
@@ -73,16 +74,34 @@ impl GramLevenbergMarquardt {
         start: &[T],
         damped: usize,
     ) -> Result<(Solution<T>, bool)> {
-        self.run(problem, Some(start), Some(damped))
+        self.run(problem, Some(start), Some(damped), false)
+    }
+
+    /// [`Solver::solve`] that neither fails on ill-conditioning nor discards its progress:
+    /// every iterate whose equilibrated Gram matrix is refused takes damped steps (as in
+    /// [`Self::solve_to_refusal`]), and an iterate no step lowers (the damping grown to
+    /// 10¹² with the cost unchanged: the cost's working precision in the normal equations)
+    /// ends the iteration there (`MaxIterations`) instead of with an error. For a
+    /// refinement whose result is compared with its start, where a full-Jacobian solver
+    /// after a failure would cost far more than the refinement is worth.
+    pub(crate) fn solve_damped<T: Real, P: NonlinearProblem<T> + ?Sized>(
+        &self,
+        problem: &P,
+        start: &[T],
+    ) -> Result<Solution<T>> {
+        self.run(problem, Some(start), Some(usize::MAX), true)
+            .map(|(solution, _)| solution)
     }
 
     /// The iteration; with `refusals` = `Some(k)` a refused Gram matrix is handled as in
-    /// [`Self::solve_to_refusal`], with `None` it is an error.
+    /// [`Self::solve_to_refusal`], with `None` it is an error; with `keep_stalled` an iterate
+    /// no step lowers ends it as in [`Self::solve_damped`].
     fn run<T: Real, P: NonlinearProblem<T> + ?Sized>(
         &self,
         problem: &P,
         start: Option<&[T]>,
         refusals: Option<usize>,
+        keep_stalled: bool,
     ) -> Result<(Solution<T>, bool)> {
         let mut damped_left = refusals.unwrap_or(0);
         let (m, p) = (problem.n_residuals(), problem.n_params());
@@ -234,6 +253,9 @@ impl GramLevenbergMarquardt {
                     mu * T::lit(10.0)
                 };
                 if !(mu < T::lit(1e12)) {
+                    if keep_stalled {
+                        return done(x, cost, evaluations, Termination::MaxIterations);
+                    }
                     return Err(FdidError::NotConverged {
                         method: "Levenberg–Marquardt (normal equations)",
                         reason: format!("no step lowers the cost (damping {mu})"),
@@ -355,5 +377,56 @@ mod tests {
         assert!(!refused);
         let reference = fast.solve(&p, Some(&start)).expect("solve");
         assert_eq!(s2, reference);
+    }
+
+    /// Residuals that no step changes, with a Jacobian that promises descent: the cost
+    /// cannot be lowered (as at the working precision of an ML cost).
+    struct Flat;
+
+    impl NonlinearProblem<f64> for Flat {
+        fn n_params(&self) -> usize {
+            2
+        }
+        fn n_residuals(&self) -> usize {
+            3
+        }
+        fn residuals_into(&self, _x: &[f64], r: &mut [f64]) -> bool {
+            r.copy_from_slice(&[1.0, -2.0, 0.5]);
+            true
+        }
+        fn jacobian_into(&self, x: &[f64], r: &mut [f64], jac: &mut DMatrix<f64>) -> bool {
+            self.residuals_into(x, r);
+            jac.copy_from(&DMatrix::from_row_slice(
+                3,
+                2,
+                &[1.0, 0.0, 0.0, 1.0, 1.0, 1.0],
+            ));
+            true
+        }
+    }
+
+    #[test]
+    fn solve_damped_keeps_a_stalled_iterate_and_damps_refusals() {
+        let start = [0.4, -0.2];
+        let fast = GramLevenbergMarquardt::default();
+        assert!(matches!(
+            fast.solve(&Flat, Some(&start)),
+            Err(FdidError::NotConverged { .. })
+        ));
+        let stalled = fast.solve_damped(&Flat, &start).expect("stalled");
+        assert_eq!(stalled.theta, start);
+        assert_eq!(stalled.termination, Termination::MaxIterations);
+        assert_eq!(stalled.cost, 5.25);
+        // singular at the start: damped steps instead of the refusal
+        let p = exp_problem(true);
+        let singular = [1.0, 0.0, -1.0];
+        assert!(fast.solve(&p, Some(&singular)).is_err());
+        let damped = fast.solve_damped(&p, &singular).expect("damped");
+        let r0: f64 = {
+            let mut r = vec![0.0; p.n_residuals()];
+            p.residuals_into(&singular, &mut r);
+            r.iter().map(|v| v * v).sum()
+        };
+        assert!(damped.cost < r0, "{} vs {r0}", damped.cost);
     }
 }
