@@ -53,12 +53,17 @@ pub(crate) fn over_band<T: Real>(
 ///    v_k = (Σ_e max(|h_e,k+1 − h_e,k|² − 2σ̂²_e, 0))^{1/2} / ½(‖h_k‖ + ‖h_k+1‖) — a
 ///    resonance turns each entry's phase by about π wherever its size;
 /// 3. the active band: the lines between 1 % and 99 % of the cumulative variation;
-/// 4. the pairs β_j at the quantiles (j + ½)/⌊n/2⌋ of the band's measure, logarithmic in s
-///    over more than a decade, linear otherwise (as [`over_band`] on the active band),
-///    with each line interval's share capped at one pair: two starting poles between the
-///    same two lines are one basis column twice.
+/// 4. the starting band: the active band when it covers less than 90 % of the measured
+///    band (in the spacing's coordinate: log ω in s over more than a decade, else ω),
+///    else the measured band, whose start is then [`over_band`]'s;
+/// 5. the pairs β_j spread over the starting band as in [`over_band`] (evenly in that
+///    coordinate, ends included), unless a line interval would hold two of them — two
+///    starting poles between the same two lines are one basis column twice: then at the
+///    quantiles (j + ½)/⌊n/2⌋ of the intervals' widths, each interval's share capped at
+///    one pair.
 ///
-/// The pairs are −β/100 ± iβ and an odd order adds −β_max/10 (as [`over_band`]). Data
+/// The pairs are −β/100 ± iβ and an odd order adds −ω_top/10, ω_top the starting band's
+/// top (as [`over_band`]). Data
 /// whose resonances fill a fraction of the measured band start where they are: the 4-port
 /// of `bench/multiport.py` (resonances over two of its 3.3 decades) relocates 3 times
 /// instead of 9, its 8-port 3 times instead of 7, to the same cost.
