@@ -1,5 +1,20 @@
 //! Distribution functions for the validation tests: χ² tail probabilities (the regularised
-//! incomplete gamma function) and normal quantiles. Computed in f64.
+//! incomplete gamma function) and normal quantiles. Computed in f64. And the median of a
+//! sample.
+
+use crate::scalar::Real;
+
+/// The median of `v` (reordered; the upper one of an even count), zero for an empty slice.
+pub(crate) fn median<T: Real>(v: &mut [T]) -> T {
+    if v.is_empty() {
+        return T::zero();
+    }
+    let mid = v.len() / 2;
+    v.select_nth_unstable_by(mid, |a, b| {
+        a.partial_cmp(b).unwrap_or(std::cmp::Ordering::Equal)
+    });
+    v[mid]
+}
 
 /// ln Γ(x) for x > 0 (Lanczos approximation, g = 7, n = 9; relative error < 1e-14).
 pub fn ln_gamma(x: f64) -> f64 {

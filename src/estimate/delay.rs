@@ -11,6 +11,7 @@ use crate::model::delay::delay_factor;
 use crate::model::{Delayed, ModelStructure, Output, remove_delay};
 use crate::scalar::{Complex, Real};
 use crate::solver::{GramLevenbergMarquardt, LevenbergMarquardt, Solution, Termination};
+use crate::stats::median;
 use num_traits::Float;
 
 /// A starting delay from [`delay_start`], with what its search did.
@@ -758,18 +759,6 @@ impl<'a, T: Real, M: FurtherStarts<T>> DelaySearch<'a, T, M> {
             })),
         }
     }
-}
-
-/// The median of `v` (reordered), zero for an empty slice.
-fn median<T: Real>(v: &mut [T]) -> T {
-    if v.is_empty() {
-        return T::zero();
-    }
-    let mid = v.len() / 2;
-    v.select_nth_unstable_by(mid, |a, b| {
-        a.partial_cmp(b).unwrap_or(std::cmp::Ordering::Equal)
-    });
-    v[mid]
 }
 
 /// The visited (τ, cost) with the lowest finite cost.

@@ -164,10 +164,7 @@ fn variation<T: Real>(
                     (value(e, w[2]) - value(e, w[1]) * T::lit(2.0) + value(e, w[0])).norm_sqr()
                 })
                 .collect();
-            let mid = d2.len() / 2;
-            let (_, median, _) =
-                d2.select_nth_unstable_by(mid, |a, b| a.partial_cmp(b).unwrap_or(Ordering::Equal));
-            *median / T::lit(6.0 * std::f64::consts::LN_2)
+            crate::stats::median(&mut d2) / T::lit(6.0 * std::f64::consts::LN_2)
         })
         .collect();
     let size =

@@ -119,18 +119,29 @@ impl<T: Real> Weighted<T> {
         if self.inputs.is_some() {
             return None;
         }
-        let freq: Vec<T> = self
-            .x
-            .iter()
-            .map(|x| fitting_frequency(*x, domain))
-            .collect();
         start::from_data(
-            &freq,
+            &self.fitting_frequencies(domain),
             self.h.len(),
             |e, k| self.h[e][k] * self.weight(e, k),
             order,
             unit_domain(domain),
         )
+    }
+
+    /// The band's starting poles ([`start::over_band`] over the lines' fitting frequencies).
+    fn band_starting_poles(&self, order: usize, domain: Domain<T>) -> Result<PoleSet<T>> {
+        let freq = self.fitting_frequencies(domain);
+        let lowest = freq.iter().copied().fold(T::infinity(), Float::min);
+        let highest = freq.iter().copied().fold(T::zero(), Float::max);
+        start::over_band(order, lowest, highest, unit_domain(domain))
+    }
+
+    /// The frequency of each line in the fitting variable ([`fitting_frequency`]).
+    fn fitting_frequencies(&self, domain: Domain<T>) -> Vec<T> {
+        self.x
+            .iter()
+            .map(|x| fitting_frequency(*x, domain))
+            .collect()
     }
 
     pub(crate) fn lines(&self) -> usize {
@@ -629,16 +640,6 @@ pub(crate) fn relocation_loop<T: Real>(
     start: Option<PoleSet<T>>,
     ml: bool,
 ) -> Result<Relocated<T>> {
-    let omega_min = data
-        .x
-        .iter()
-        .map(|x| fitting_frequency(*x, domain))
-        .fold(T::infinity(), Float::min);
-    let omega_max = data
-        .x
-        .iter()
-        .map(|x| fitting_frequency(*x, domain))
-        .fold(T::zero(), Float::max);
     let fitted = |p: PoleSet<T>| data.factored_fit(&p).map(|fit| (p, fit));
     let started = match start {
         Some(p) => fitted(p)?,
@@ -646,12 +647,9 @@ pub(crate) fn relocation_loop<T: Real>(
         // basis cannot tell the placed poles apart
         None => match data.starting_poles(order, domain).map(fitted) {
             Some(Ok(started)) => started,
-            Some(Err(FdidError::Singular { .. })) | None => fitted(start::over_band(
-                order,
-                omega_min,
-                omega_max,
-                unit_domain(domain),
-            )?)?,
+            Some(Err(FdidError::Singular { .. })) | None => {
+                fitted(data.band_starting_poles(order, domain)?)?
+            }
             Some(Err(e)) => return Err(e),
         },
     };
