@@ -1,7 +1,9 @@
-//! Fits with a time delay (McKelvey section 4): the starting delay from the phase slope
-//! and a scan of candidates by output-error cost ([`delay_start`]), then the joint ML of
+//! Fits with a time delay (McKelvey section 4): the starting delay from the phase slope,
+//! a profile of Levy's cost over delays and a scan of candidates by output-error cost
+//! ([`delay_start`]), then the joint ML of
 //! G_M(θ) e^{−iωτ} ([`Delayed::fit`], [`fit_delayed`]).
 
+use super::delay_profile::{levy_profile, profile_minima};
 use super::{FurtherStarts, Pipeline};
 use crate::criterion::{Criterion, MaximumLikelihood, output_error_cost_in};
 use crate::data::FrequencyData;
@@ -23,9 +25,10 @@ pub struct DelayStart<T: Real> {
     /// Its output-error cost V = Σ_k w_k²|Y_k − G(θ, ω_k) U_k|² (McKelvey eq. 23) after the
     /// ML refinement of the delayed model from that candidate.
     pub cost: T,
-    /// τ from the phase-slope iterations alone (before the scan).
+    /// τ from the phase slope: after the phase-slope iterations, or the raw slope when the
+    /// Levy profile's candidate ended the search before them.
     pub phase_slope: T,
-    /// Delay-free fits made (phase iterations, scan and refinements).
+    /// Delay-free fits made (the profile's basis, phase iterations, scan and refinements).
     pub fits: usize,
 }
 
@@ -54,11 +57,21 @@ pub(super) const SAMPLE_MULTIPLES: usize = 9;
 /// minima; the midpoint and quarter points towards the best delay's neighbour on each
 /// side).
 pub(super) const BETWEEN_STARTS: usize = 7;
+/// The most lines of the Levy profile's data ([`every_nth_line`]).
+pub(super) const PROFILE_LINES: usize = 256;
+/// The Levy profile's local minima refined before the phase-slope iterations: those whose
+/// cost is within [`PROFILE_WITHIN`] times the lowest, at most this many.
+pub(super) const PROFILE_MINIMA: usize = 3;
+/// The factor of the lowest Levy cost within which a minimum of the profile is refined:
+/// with noise two delays a few standard deviations apart can have nearly the same Levy
+/// cost and different ML costs.
+pub(super) const PROFILE_WITHIN: f64 = 2.0;
 /// Rounds of (delay-free fit, ML on the delayed model) per refined candidate.
 pub(super) const CANDIDATE_ROUNDS: usize = 3;
 
-/// A starting value τ₀ for the delay of `model` on `data`, from the phase slope and a scan
-/// of candidate delays by output-error cost, each delay-free fit made with `pipeline`
+/// A starting value τ₀ for the delay of `model` on `data`, from the phase slope, a profile
+/// of Levy's cost over candidate delays and, when that does not settle it, a scan of
+/// candidate delays by output-error cost, each delay-free fit made with `pipeline`
 /// without its ML stage (Levy → SK, every solve by the guarded normal equations — these
 /// fits only start the search's MLs — and without a fit's statistics).
 ///
@@ -70,21 +83,36 @@ pub(super) const CANDIDATE_ROUNDS: usize = 3;
 /// 1. τ_r ← −slope of the weighted linear regression φ_k ≈ c − τ ω_k of the unwrapped
 ///    phase φ_k = arg H_k (the intercept c is free: a sign of the gain or a constant phase
 ///    of G_M goes there);
-/// 2. up to four times from τ_r: fit G_M to the data compensated by the current τ,
+/// 2. the Levy profile: a screening fit of G_M (Levy → three SK iterations) at τ_r gives
+///    a basis (for a partial-fraction model, one relocated to that fit's poles, in which
+///    Levy's equation error, eq. 39, is the SK residual of eq. 41 weighted by those
+///    poles); in it Levy's cost V_L(τ) is evaluated at the delays τ_r + jδ,
+///    δ = π/(4 ω_max) — an eighth of the period of the highest frequency, Ts/4 for
+///    discrete time up to Nyquist — over −2h ≤ j ≤ h, h = 4(p_M/2 + 2) (the phase of a
+///    rational model of p_M parameters varies by about p_M·π/2 over the band: a few
+///    samples for a low-order discrete model; below τ_r twice as far, as the group delay
+///    of G_M biases τ_r upwards), for about one Gram matrix per delay from blocks formed
+///    once ([`levy_profile`]). The fit and the profile use at most 256 evenly spaced lines
+///    of the data. The profile's local minima within twice its lowest cost (at most
+///    three, lowest first, each placed between the grid's delays by a parabola in
+///    log V_L; with a sample time, none within δ/2 of a whole number of samples from one
+///    before — the numerator of a discrete model absorbs such a shift in Levy's cost, not
+///    in the ML's) are refined (as in step 5): with noise two minima a few standard
+///    deviations apart can have nearly the same Levy cost and different ML costs. When
+///    the best of them reaches the stopping cost (below) the search ends there;
+/// 3. up to four times from τ_r: fit G_M to the data compensated by the current τ,
 ///    regress the unwrapped phase of H_k e^{iω_kτ}/G_M(ω_k) (the phase of Y/U minus those
 ///    of the delay and of the delay-free fit) the same way and move τ by the remaining
-///    slope; stop when the step is below δ/8 (δ below);
-/// 3. the delay of step 2 is refined first (as in step 4); when that reaches the stopping
-///    cost (below) the search ends there. Otherwise: the phase slope is biased by the mean
-///    group delay of G_M (step 1), and a rational
-///    fit absorbs much of a residual linear phase (a Padé-like approximation of a delay,
-///    step 2), so a scan by cost follows: candidates τ_r + jδ, δ = π/(4 ω_max) — an eighth
-///    of the period of the highest frequency, Ts/4 for discrete time up to Nyquist —
-///    over |j| ≤ 4(p_M/2 + 2) (the phase of a rational model of p_M parameters varies by
-///    about p_M·π/2 over the band: a few samples for a low-order discrete model), each
-///    screened by V(τ) after three SK iterations; with bounds the scan covers [lo, hi]
-///    instead when that is no wider (at most 512 candidates, δ widened if needed);
-/// 4. the five lowest local minima of the scan are refined:
+///    slope; stop when the step is below δ/8;
+/// 4. the delay of step 3 is refined (as in step 5); when that reaches the stopping cost
+///    the search ends there. Otherwise: the phase slope is biased by the mean group delay
+///    of G_M (step 1), a rational fit absorbs much of a residual linear phase (a
+///    Padé-like approximation of a delay, step 3) and Levy's cost weights the lines by a
+///    basis fitted at a wrong delay (step 2), so a scan by output-error cost follows over
+///    the delays of step 2, each screened by V(τ) after three SK iterations; with bounds
+///    the scan covers [lo, hi] instead when that is no wider (at most 512 candidates, δ
+///    widened if needed);
+/// 5. the five lowest local minima of the scan are refined:
 ///    each by three rounds of a delay-free fit at the current τ — in full (Levy → SK), by
 ///    Levy alone, and in full on the lower half of the band, whose phase error from a
 ///    small delay error is halved — followed by output-error ML ([`MaximumLikelihood`],
@@ -96,9 +124,9 @@ pub(super) const CANDIDATE_ROUNDS: usize = 3;
 ///    coincide) is not repeated. The three delay-free fits fall into different local solutions when τ is
 ///    slightly wrong (a discrete model then often takes an unstable pole near z = −1), so
 ///    the joint ML from one of them usually reaches the true delay;
-/// 5. the same refinement at ±1 and ±2 multiples of π/ω_max from the best refined delay
+/// 6. the same refinement at ±1 and ±2 multiples of π/ω_max from the best refined delay
 ///    (a delay one sample off is the commonest wrong local minimum of a discrete model);
-/// 6. the same refinement between minima: the midpoint of the scan's two lowest local
+/// 7. the same refinement between minima: the midpoint of the scan's two lowest local
 ///    minima, and the midpoint and quarter points between the best refined delay and its
 ///    nearest refined neighbour on either side within 8δ. A rational model absorbs a small
 ///    delay error on either side of the true delay (zeros in the right or left half
@@ -119,8 +147,11 @@ pub(super) const CANDIDATE_ROUNDS: usize = 3;
 /// per kind, delays of 0–8 units of π/ω_max): the wrong minimum in 0 of 500 continuous-
 /// and 0 of 500 discrete-time cases in f64, 1 of 500 of each in f32.
 ///
-/// Every candidate is clamped into the model's bounds; without bounds τ may turn out
-/// negative (an advance).
+/// Every candidate is clamped into the model's bounds. A refinement whose ML delay leaves
+/// them ranks below every one that ends within them (its cost is lowered by leaving
+/// them), unless none of those reaches the stopping cost and its cost is lower: then the
+/// delay lies outside the bounds, and the joint ML reports it. Without bounds τ may turn
+/// out negative (an advance).
 ///
 /// # Errors
 /// No positive frequency (the delay is not identifiable), a zero input line, or every
@@ -161,22 +192,29 @@ fn search_delay<T: Real, M: FurtherStarts<T>>(
     );
     // 1. the slope of the raw phase
     let tau_r = search.raw_phase_slope(&h);
-    // 2. phase-slope iterations on delay-compensated fits, their delay refined first
+    // 2. the Levy profile's lowest minima, refined first
+    for t in search.profile_minima(tau_r) {
+        search.refine(t);
+    }
+    if search.done() {
+        return search.finish(tau_r);
+    }
+    // 3. phase-slope iterations on delay-compensated fits, their delay refined first
     let phase_slope = search.phase_iterations(&h, tau_r);
     search.refine(phase_slope);
     if search.done() {
         return search.finish(phase_slope);
     }
-    // 3. the screening scan
+    // 4. the screening scan
     let grid = search.scan_grid(tau_r);
     let scan = search.screen(grid);
-    // 4. the lowest local minima of the scan, refitted in full and refined by ML on the
+    // 5. the lowest local minima of the scan, refitted in full and refined by ML on the
     //    delayed model
     let candidates = search.candidates(phase_slope, &scan);
     search.refine_candidates(candidates);
-    // 5. multiples of π/ω_max away from the best
+    // 6. multiples of π/ω_max away from the best
     search.refine_sample_multiples();
-    // 6. between the two lowest minima
+    // 7. between the two lowest minima
     search.refine_between(&scan);
     search.finish(phase_slope)
 }
@@ -314,8 +352,10 @@ struct DelaySearch<'a, T: Real, M> {
     /// the noise level estimated from the best round's own residuals may raise it
     /// ([`Self::stop_cost`]).
     threshold: T,
-    /// The round of lowest ML cost so far.
+    /// The round of lowest ML cost so far whose ML delay lies within the bounds.
     best_round: Option<BestRound<T, M>>,
+    /// The round of lowest ML cost among those whose ML delay left the bounds.
+    best_outside: Option<BestRound<T, M>>,
     /// Delay-free fits made.
     fits: usize,
     /// The first failure of a fit.
@@ -402,6 +442,7 @@ impl<'a, T: Real, M: FurtherStarts<T>> DelaySearch<'a, T, M> {
             step: T::pi() / (T::lit(4.0) * w_max),
             threshold: stopping_cost(model, data, line_weights),
             best_round: None,
+            best_outside: None,
             fits: 0,
             first_error: None,
             refined: vec![],
@@ -419,7 +460,87 @@ impl<'a, T: Real, M: FurtherStarts<T>> DelaySearch<'a, T, M> {
         )
     }
 
-    /// Step 2: up to [`PHASE_ITERATIONS`] phase-slope iterations from `tau_r`; returns the
+    /// Step 2: the delays of lowest Levy cost ([`levy_profile`]) over the scan's range
+    /// ([`Self::scan_range`]) in the basis of a screening fit at `tau_r` (for a
+    /// partial-fraction model, relocated to that fit's poles), both on at most
+    /// [`PROFILE_LINES`] lines of the data ([`every_nth_line`]): the profile's local minima
+    /// within [`PROFILE_WITHIN`] of its lowest, at most [`PROFILE_MINIMA`], lowest first,
+    /// located between the grid's delays ([`profile_minima`]); empty when that fit fails
+    /// or no delay has a finite cost.
+    fn profile_minima(&mut self, tau_r: T) -> Vec<T> {
+        self.fits += 1;
+        let fewer = every_nth_line(self.data, self.search.weights, PROFILE_LINES);
+        let (data, weights) = match &fewer {
+            Some((d, w)) => (d, w.as_deref()),
+            None => (self.data, self.search.weights),
+        };
+        let basis = Search {
+            data,
+            weights,
+            ..self.search
+        };
+        let inner = match basis.fit_full(&self.screen, tau_r, false) {
+            Ok((inner, _, _)) => inner,
+            Err(e) => {
+                self.first_error.get_or_insert(e);
+                return vec![];
+            }
+        };
+        let (start, count) = self.scan_range(tau_r);
+        let cost = levy_profile(&inner, data, weights, start, self.step, count);
+        let minima: Vec<T> = profile_minima(&cost, T::lit(PROFILE_WITHIN), PROFILE_MINIMA)
+            .into_iter()
+            .map(|m| self.model.clamp(start + self.step * m))
+            .collect();
+        self.apart_from_sample_shifts(minima)
+    }
+
+    /// `minima` without those within δ/2 of a whole number of sample periods from one
+    /// kept before (all of them without a sample time). The Levy profile of a discrete
+    /// model is nearly flat across whole-sample shifts — its numerator absorbs them, and
+    /// Levy's cost is linear in it — while the ML cost is not: the lowest of such minima
+    /// stands for them, and step 6 refines the shifts when the search goes on.
+    fn apart_from_sample_shifts(&self, minima: Vec<T>) -> Vec<T> {
+        let Some(ts) = self.data.ts() else {
+            return minima;
+        };
+        let mut kept: Vec<T> = Vec::with_capacity(minima.len());
+        for t in minima {
+            let shift = |k: &T| {
+                let samples = Float::abs(t - *k) / ts;
+                Float::abs(samples - Float::round(samples)) * ts < self.step / T::lit(2.0)
+            };
+            if !kept.iter().any(shift) {
+                kept.push(t);
+            }
+        }
+        kept
+    }
+
+    /// The range of the candidates of the scan as a uniform grid of step δ: the first delay
+    /// and the number of delays ([`Self::scan_grid`]'s range: τ_r − 2hδ … τ_r + hδ, or the
+    /// bounds when they are narrower than that, else that range clipped to the bounds).
+    fn scan_range(&self, tau_r: T) -> (T, usize) {
+        let step = self.step;
+        let half = self.scan_half_width();
+        let mut lo = tau_r - step * T::from_usize_lossy(2 * half);
+        let mut hi = tau_r + step * T::from_usize_lossy(half);
+        if let Some((b_lo, b_hi)) = self.model.bounds() {
+            let (b_lo, b_hi) = (T::lit(b_lo), T::lit(b_hi));
+            if b_hi - b_lo <= step * T::from_usize_lossy(3 * half) {
+                (lo, hi) = (b_lo, b_hi);
+            } else {
+                (lo, hi) = (Float::max(lo, b_lo), Float::min(hi, b_hi));
+            }
+        }
+        let intervals = Float::min(
+            Float::floor(Float::max(hi - lo, T::zero()) / step),
+            T::from_usize_lossy(MAX_SCAN - 1),
+        );
+        (lo, intervals.to_f64_lossless() as usize + 1)
+    }
+
+    /// Step 3: up to [`PHASE_ITERATIONS`] phase-slope iterations from `tau_r`; returns the
     /// delay of the lowest-cost fit among them (the last τ when every fit failed).
     fn phase_iterations(&mut self, h: &[Complex<T>], tau_r: T) -> T {
         let omega = self.data.omega();
@@ -456,13 +577,18 @@ impl<'a, T: Real, M: FurtherStarts<T>> DelaySearch<'a, T, M> {
         best(&visited).map_or(tau, |b| b.0)
     }
 
-    /// Step 3, the candidates of the scan: τ_r + jδ over |j| ≤ 4(p_M/2 + 2), twice as far
+    /// h = 4(p_M/2 + 2): the scan reaches hδ above τ_r and 2hδ below.
+    fn scan_half_width(&self) -> usize {
+        4 * (ModelStructure::<T>::n_params(self.model.inner()) / 2 + 2)
+    }
+
+    /// Step 4, the candidates of the scan: τ_r + jδ over |j| ≤ 4(p_M/2 + 2), twice as far
     /// below τ_r as above (the group delay of G_M biases τ_r upwards); with bounds, [lo, hi]
     /// when that is no wider (at most [`MAX_SCAN`] candidates), else the candidates
     /// clamped into the bounds.
     fn scan_grid(&self, tau_r: T) -> Vec<T> {
         let step = self.step;
-        let half = 4 * (ModelStructure::<T>::n_params(self.model.inner()) / 2 + 2);
+        let half = self.scan_half_width();
         let mut grid: Vec<T> = (0..=3 * half)
             .map(|j| tau_r + step * (T::from_usize_lossy(j) - T::from_usize_lossy(2 * half)))
             .collect();
@@ -486,7 +612,7 @@ impl<'a, T: Real, M: FurtherStarts<T>> DelaySearch<'a, T, M> {
         grid
     }
 
-    /// Step 3: the screening fit at each delay of `grid`; returns (τ, V(τ)) of those with
+    /// Step 4: the screening fit at each delay of `grid`; returns (τ, V(τ)) of those with
     /// a finite cost, in the order of `grid`.
     fn screen(&mut self, grid: Vec<T>) -> Vec<(T, T)> {
         let mut scan: Vec<(T, T)> = vec![];
@@ -510,7 +636,7 @@ impl<'a, T: Real, M: FurtherStarts<T>> DelaySearch<'a, T, M> {
         scan
     }
 
-    /// Step 4, the candidates to refine: `phase_slope`, then the local minima of `scan`
+    /// Step 5, the candidates to refine: `phase_slope`, then the local minima of `scan`
     /// by increasing cost, each at least δ/2 from those before, [`REFINED_MINIMA`] at most.
     fn candidates(&self, phase_slope: T, scan: &[(T, T)]) -> Vec<T> {
         let mut candidates: Vec<T> = vec![phase_slope];
@@ -530,7 +656,7 @@ impl<'a, T: Real, M: FurtherStarts<T>> DelaySearch<'a, T, M> {
         candidates
     }
 
-    /// Step 4: refines the `candidates` in turn until one reaches the threshold.
+    /// Step 5: refines the `candidates` in turn until one reaches the threshold.
     fn refine_candidates(&mut self, candidates: Vec<T>) {
         for t in candidates {
             self.refine(t);
@@ -540,7 +666,7 @@ impl<'a, T: Real, M: FurtherStarts<T>> DelaySearch<'a, T, M> {
         }
     }
 
-    /// Step 5: unless the threshold is reached, refines the delays ±1 and ±2 sample periods
+    /// Step 6: unless the threshold is reached, refines the delays ±1 and ±2 sample periods
     /// from the best refined delay τ_b — the data's sample time T_s when they have one, else
     /// π/ω_max — and, with a sample time, the whole number of samples nearest to τ_b and
     /// ±1, ±2 samples from it (a delay of whole samples is exact for a discrete model),
@@ -598,7 +724,7 @@ impl<'a, T: Real, M: FurtherStarts<T>> DelaySearch<'a, T, M> {
         }
     }
 
-    /// Step 6: unless the threshold is reached, refines the delays between minima: the
+    /// Step 7: unless the threshold is reached, refines the delays between minima: the
     /// midpoint of the two lowest local minima of the screening `scan`, then the
     /// midpoint and quarter points between the best refined delay and its nearest refined
     /// neighbour on each side (at least δ/2 and at most 8δ away), until one reaches the
@@ -680,9 +806,11 @@ impl<'a, T: Real, M: FurtherStarts<T>> DelaySearch<'a, T, M> {
     }
 
     /// Round `round` of a refinement from `t` ([`Self::refine_round`]): the ML delay
-    /// (clamped into the bounds) and cost, `None` when the round failed or diverged. A
-    /// round already made from the same delay (starts clamped to a bound coincide) is
-    /// looked up, not repeated.
+    /// (clamped into the bounds) and cost, `None` when the round failed or diverged. An ML
+    /// delay outside the bounds is no candidate — its cost is lowered by leaving them, and
+    /// the joint ML from it would leave them again — so its cost counts as infinite and
+    /// its round is kept apart ([`Self::finish`]). A round already made from the same
+    /// delay (starts clamped to a bound coincide) is looked up, not repeated.
     fn round(&mut self, t: T, round: usize) -> Option<(T, T)> {
         if let Some((_, _, done)) = self.rounds.iter().find(|(r, s, _)| *r == round && *s == t) {
             return *done;
@@ -691,13 +819,19 @@ impl<'a, T: Real, M: FurtherStarts<T>> DelaySearch<'a, T, M> {
         let outcome = match self.refine_round(t, round) {
             Ok(made) if Float::is_finite(made.solution.theta[made.solution.theta.len() - 1]) => {
                 let sol = &made.solution;
-                let outcome = Some((self.model.clamp(sol.theta[sol.theta.len() - 1]), sol.cost));
-                if self
-                    .best_round
-                    .as_ref()
-                    .is_none_or(|b| sol.cost < b.solution.cost)
-                {
-                    self.best_round = Some(made);
+                let tau = sol.theta[sol.theta.len() - 1];
+                let inside = self.model.clamp(tau) == tau;
+                let outcome = Some((
+                    self.model.clamp(tau),
+                    if inside { sol.cost } else { T::infinity() },
+                ));
+                let best = if inside {
+                    &mut self.best_round
+                } else {
+                    &mut self.best_outside
+                };
+                if best.as_ref().is_none_or(|b| sol.cost < b.solution.cost) {
+                    *best = Some(made);
                 }
                 outcome
             }
@@ -744,16 +878,28 @@ impl<'a, T: Real, M: FurtherStarts<T>> DelaySearch<'a, T, M> {
     /// The refined delay of lowest ML cost with the round that reached it, or the first
     /// failure when none was refined.
     fn finish(self, phase_slope: T) -> Result<(DelayStart<T>, BestRound<T, M>)> {
-        match (best(&self.refined), self.best_round) {
-            (Some((tau, cost)), Some(round)) => Ok((
-                DelayStart {
-                    tau,
-                    cost,
-                    phase_slope,
-                    fits: self.fits,
-                },
-                round,
-            )),
+        let stop = self.stop_cost();
+        let start = |tau, cost| DelayStart {
+            tau,
+            cost,
+            phase_slope,
+            fits: self.fits,
+        };
+        // a round that left the bounds at a lower cost than every one within them, none of
+        // which reached the stopping cost: the delay lies outside the bounds, which its
+        // joint ML then reports
+        let outside = match (&self.best_round, &self.best_outside) {
+            (Some(b), Some(o)) => b.solution.cost > stop && o.solution.cost < b.solution.cost,
+            (None, Some(_)) => true,
+            _ => false,
+        };
+        match (best(&self.refined), self.best_round, self.best_outside) {
+            (_, _, Some(round)) if outside => {
+                let sol = &round.solution;
+                let tau = self.model.clamp(sol.theta[sol.theta.len() - 1]);
+                Ok((start(tau, sol.cost), round))
+            }
+            (Some((tau, cost)), Some(round), _) => Ok((start(tau, cost), round)),
             _ => Err(self.first_error.unwrap_or(FdidError::Numerical {
                 what: "delay-free fits of the delay search".into(),
             })),
@@ -768,6 +914,33 @@ fn best<T: Real>(visited: &[(T, T)]) -> Option<(T, T)> {
         .copied()
         .filter(|(_, c)| Float::is_finite(*c))
         .min_by(|a, b| a.1.partial_cmp(&b.1).unwrap_or(std::cmp::Ordering::Equal))
+}
+
+/// Every ⌈N/`most`⌉-th line of `data` (with its line weight), counted down from the last
+/// so that the highest line stays; `None` when the data have at most `most` lines. For
+/// the Levy profile: its resolution in τ is set by the highest frequency, which stays,
+/// and the kept lines' spacing (⌈N/most⌉ times the data's) puts the period in τ of evenly
+/// spaced lines (2π over that spacing, more than `most`·8δ) far beyond the scan.
+fn every_nth_line<T: Real>(
+    data: &FrequencyData<T>,
+    weights: Option<&[T]>,
+    most: usize,
+) -> Option<(FrequencyData<T>, Option<Vec<T>>)> {
+    let n = data.len();
+    let stride = n.div_ceil(most.max(1));
+    if stride <= 1 {
+        return None;
+    }
+    let keep: Vec<bool> = (0..n).map(|k| (n - 1 - k).is_multiple_of(stride)).collect();
+    let fewer = data.select_lines(&keep).ok()?;
+    let weights = weights.map(|w| {
+        w.iter()
+            .zip(&keep)
+            .filter(|(_, k)| **k)
+            .map(|(w, _)| *w)
+            .collect()
+    });
+    Some((fewer, weights))
 }
 
 /// What the delay search needs at every candidate.

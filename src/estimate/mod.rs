@@ -21,6 +21,7 @@
 pub mod batch;
 mod chain;
 mod delay;
+mod delay_profile;
 mod eiv;
 mod from_poles;
 pub mod greybox;

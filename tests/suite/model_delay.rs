@@ -777,6 +777,51 @@ fn bounds_confine_the_search_and_reject_outside_estimates() {
     }
 }
 
+/// A delay at the lower bound: G = 0.5 z⁻¹/((1 − 0.8 z⁻¹)(1 − 0.5 z⁻¹)) fitted as a
+/// second-order model with a first-order numerator and a delay in [0, 2N]. Both τ ≈ 0 (the
+/// numerator's z⁻¹ term) and τ ≈ 1 (its constant term) fit to the noise; with noise the ML
+/// at τ ≈ 0 often wants a slightly negative delay. The search ranks such a candidate
+/// below every one within the bounds, so the fit ends within them instead of failing.
+#[test]
+fn a_candidate_leaving_the_bounds_gives_way_to_one_within_them() {
+    let n = 128;
+    let omega: Vec<f64> = (1..=n)
+        .map(|k| k as f64 * std::f64::consts::PI / (n + 1) as f64)
+        .collect();
+    let model = Delayed::new(Rational::discrete(2, 1, 1.0).unwrap())
+        .with_bounds(0.0, 2.0 * n as f64)
+        .unwrap();
+    let var = 1e-4;
+    for seed in 0..10 {
+        let mut noise = fdid::simulate::SplitMix64::new(seed);
+        let s = (var / 2.0_f64).sqrt();
+        let y: Vec<Complex<f64>> = omega
+            .iter()
+            .map(|w| {
+                let zi = Complex::new(0.0, -w).exp();
+                let one = Complex::new(1.0, 0.0);
+                zi * 0.5 / ((one - zi * 0.8) * (one - zi * 0.5))
+                    + Complex::new(s * noise.gaussian(), s * noise.gaussian())
+            })
+            .collect();
+        let data = FrequencyData::new(omega.clone(), y, vec![Complex::new(1.0, 0.0); n], Some(1.0))
+            .unwrap()
+            .with_noise(NoiseVariances::output_only(vec![var; n]))
+            .unwrap();
+        let fit = model
+            .fit(&Pipeline::default(), &data)
+            .unwrap_or_else(|e| panic!("seed {seed}: {e}"));
+        let tau = fit.model().delay(fit.theta()).unwrap();
+        assert!(
+            (0.0..0.05).contains(&tau) || (tau - 1.0).abs() < 0.05,
+            "seed {seed}: τ̂ {tau}"
+        );
+        // at the noise level: the 99.95 % quantile of the cost
+        let bound = n as f64 + 3.3 * (n as f64).sqrt();
+        assert!(fit.cost() < bound, "seed {seed}: cost {}", fit.cost());
+    }
+}
+
 #[test]
 fn no_positive_frequency_and_zero_input_are_typed_errors() {
     let model = Delayed::new(Rational::<f64>::polynomial(0, 0, &[0.0, 1.0]).unwrap());
