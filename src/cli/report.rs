@@ -99,7 +99,8 @@ impl<'a> Parts<'a> {
 fn estimator(spec: &ModelSpec) -> (String, Option<String>) {
     let eiv = spec.criterion == Method::Eiv;
     let mut description = if spec.delay {
-        "delay from the phase slope and a search of candidates, each by Levy -> \
+        "delay from the phase slope, the minima of Levy's cost over delays and, unless one \
+         reaches the noise level, a search of candidates, each by Levy -> \
          Sanathanan-Koerner on the delay-compensated lines and maximum likelihood of the \
          delayed model, then maximum likelihood of the delayed model (eq. 23) from the best"
             .to_string()

@@ -66,6 +66,10 @@ pub(super) const PROFILE_MINIMA: usize = 3;
 /// with noise two delays a few standard deviations apart can have nearly the same Levy
 /// cost and different ML costs.
 pub(super) const PROFILE_WITHIN: f64 = 2.0;
+/// Rounds of a refinement of a minimum of the Levy profile: the full round alone. The
+/// profile places its minima within a fraction of δ of the ML's where it works; where
+/// it does not, the search goes on, and more rounds from its minima would be spent twice.
+pub(super) const PROFILE_ROUNDS: usize = 1;
 /// Rounds of (delay-free fit, ML on the delayed model) per refined candidate.
 pub(super) const CANDIDATE_ROUNDS: usize = 3;
 
@@ -93,13 +97,14 @@ pub(super) const CANDIDATE_ROUNDS: usize = 3;
 ///    samples for a low-order discrete model; below τ_r twice as far, as the group delay
 ///    of G_M biases τ_r upwards), for about one Gram matrix per delay from blocks formed
 ///    once ([`levy_profile`]). The fit and the profile use at most 256 evenly spaced lines
-///    of the data. The profile's local minima within twice its lowest cost (at most
-///    three, lowest first, each placed between the grid's delays by a parabola in
-///    log V_L; with a sample time, none within δ/2 of a whole number of samples from one
-///    before — the numerator of a discrete model absorbs such a shift in Levy's cost, not
-///    in the ML's) are refined (as in step 5): with noise two minima a few standard
-///    deviations apart can have nearly the same Levy cost and different ML costs. When
-///    the best of them reaches the stopping cost (below) the search ends there;
+///    of the data. The profile's lowest local minimum, placed between the grid's delays
+///    by a parabola in log V_L, is refined by the first round of step 5. When that reaches
+///    the stopping cost (below), the profile's other local minima within twice its lowest
+///    cost (at most two; with a sample time, none within δ/2 of a whole number of samples
+///    from one before — the numerator of a discrete model absorbs such a shift in Levy's
+///    cost, not in the ML's) are refined the same way — with noise two minima a few
+///    standard deviations apart can have nearly the same Levy cost and different ML
+///    costs — and the search ends at the best;
 /// 3. up to four times from τ_r: fit G_M to the data compensated by the current τ,
 ///    regress the unwrapped phase of H_k e^{iω_kτ}/G_M(ω_k) (the phase of Y/U minus those
 ///    of the delay and of the delay-free fit) the same way and move τ by the remaining
@@ -193,11 +198,15 @@ fn search_delay<T: Real, M: FurtherStarts<T>>(
     // 1. the slope of the raw phase
     let tau_r = search.raw_phase_slope(&h);
     // 2. the Levy profile's lowest minima, refined first
-    for t in search.profile_minima(tau_r) {
-        search.refine(t);
-    }
-    if search.done() {
-        return search.finish(tau_r);
+    if let Some((lowest, others)) = search.profile_minima(tau_r).split_first() {
+        search.refine_rounds(*lowest, PROFILE_ROUNDS);
+        if search.done() {
+            // the competing minima, whose ML may end lower still
+            for t in others {
+                search.refine_rounds(*t, PROFILE_ROUNDS);
+            }
+            return search.finish(tau_r);
+        }
     }
     // 3. phase-slope iterations on delay-compensated fits, their delay refined first
     let phase_slope = search.phase_iterations(&h, tau_r);
@@ -788,9 +797,14 @@ impl<'a, T: Real, M: FurtherStarts<T>> DelaySearch<'a, T, M> {
     /// ([`Self::refine_round`]), each from the ML delay of the one before, stopping at the
     /// threshold or at a failure, and records the (τ, cost) of lowest ML cost.
     fn refine(&mut self, t: T) {
+        self.refine_rounds(t, CANDIDATE_ROUNDS);
+    }
+
+    /// [`Self::refine`] with at most `rounds` rounds.
+    fn refine_rounds(&mut self, t: T, rounds: usize) {
         let mut t = t;
         let mut last: Option<(T, T)> = None;
-        for round in 0..CANDIDATE_ROUNDS {
+        for round in 0..rounds.min(CANDIDATE_ROUNDS) {
             let Some((tau, cost)) = self.round(t, round) else {
                 break;
             };
