@@ -535,7 +535,7 @@ impl ModelSpec {
     /// let y = vec![Complex::new(1.0, 0.0); 500];
     /// let data = FrequencyData::from_frf(omega, y, Some(1.0))?;
     /// let delayed = ModelSpec { delay: true, ..ModelSpec::discrete(2, 2, 1.0) };
-    /// // the phase iterations, one refinement and the final fits: a sixth of the bound
+    /// // the Levy profile, one refinement and the final fits: a small part of the bound
     /// assert!(delayed.least_search_work(&data)? < delayed.search_work(&data)? / 5.0);
     /// # Ok(())
     /// # }
