@@ -96,7 +96,7 @@ pub(super) const CANDIDATE_ROUNDS: usize = 3;
 ///    rational model of p_M parameters varies by about p_M·π/2 over the band: a few
 ///    samples for a low-order discrete model; below τ_r twice as far, as the group delay
 ///    of G_M biases τ_r upwards), for about one Gram matrix per delay from blocks formed
-///    once ([`levy_profile`]). The fit and the profile use at most 256 evenly spaced lines
+///    once (`levy_profile`). The fit and the profile use at most 256 evenly spaced lines
 ///    of the data. The profile's lowest local minimum, placed between the grid's delays
 ///    by a parabola in log V_L, is refined by the first round of step 5. When that reaches
 ///    the stopping cost (below), the profile's other local minima within twice its lowest
