@@ -2,6 +2,8 @@
 //! candidate, at the cost of about one Gram matrix per delay.
 
 use crate::data::FrequencyData;
+use crate::linalg::gram::gram_into;
+use crate::linalg::stack_rows;
 use crate::model::EquationError;
 use crate::model::delay::delay_factor;
 use crate::scalar::{Complex, Real};
@@ -80,7 +82,9 @@ pub(super) fn levy_profile<T: Real, M: EquationError<T> + ?Sized>(
             .collect()
     };
     let (cs, cy) = (filled(&s), filled(&ry));
-    let fixed = real_gram(&s) + real_gram(&ry);
+    let mut fixed = DMatrix::zeros(q, q);
+    gram_into(&stack_rows(&s, None), &mut fixed, false);
+    gram_into(&stack_rows(&ry, None), &mut fixed, true);
     let cross = cross_terms(&s, &ry, &cs, &cy, data.omega(), start, step, count);
     let normalising = model.normalising_index();
     (0..count)
@@ -145,24 +149,6 @@ fn vertex_offset<T: Real>(cost: &[T], m: usize) -> T {
     let half = T::lit(0.5);
     let offset = (a - c) / (curvature * T::lit(2.0));
     Float::max(Float::min(offset, half), -half)
-}
-
-/// Re(MᴴM) of a complex matrix (column major: each column a contiguous slice).
-fn real_gram<T: Real>(m: &DMatrix<Complex<T>>) -> DMatrix<T> {
-    let (n, q) = m.shape();
-    let column = |j: usize| &m.as_slice()[j * n..(j + 1) * n];
-    let mut g = DMatrix::zeros(q, q);
-    for i in 0..q {
-        for j in i..q {
-            let v = column(i)
-                .iter()
-                .zip(column(j))
-                .fold(T::zero(), |acc, (a, b)| acc + a.re * b.re + a.im * b.im);
-            g[(i, j)] = v;
-            g[(j, i)] = v;
-        }
-    }
-    g
 }
 
 /// Re X_ij(τ_m) = Re Σ_k conj(S_ki) R_Y,kj e^{iω_kτ_m} for i ∈ `cs`, j ∈ `cy` and

@@ -505,3 +505,28 @@ pub fn seeded_sized(size: usize, seed: u64) -> quickcheck::QuickCheck {
     eprintln!("quickcheck seed {seed} (replay with FDID_QC_SEED={seed})");
     quickcheck::QuickCheck::new().rng(quickcheck::Gen::from_size_and_seed(size, seed))
 }
+
+/// Frequency data of G(z) = 0.5 z⁻¹/((1 − 0.8 z⁻¹)(1 − `p2` z⁻¹)) on 128 lines with
+/// complex noise of variance `var` (known), seeded.
+pub fn second_order_lines(p2: f64, var: f64, seed: u64) -> fdid::FrequencyData<f64> {
+    let n = 128;
+    let omega: Vec<f64> = (1..=n)
+        .map(|k| k as f64 * std::f64::consts::PI / (n + 1) as f64)
+        .collect();
+    let mut rng = fdid::simulate::SplitMix64::new(seed);
+    let s = (var / 2.0).sqrt();
+    let y: Vec<Complex<f64>> = omega
+        .iter()
+        .map(|w| {
+            let zi = Complex::new(0.0, -w).exp();
+            let one = Complex::new(1.0, 0.0);
+            let g = zi * 0.5 / ((one - zi * 0.8) * (one - zi * p2));
+            g + Complex::new(s * rng.gaussian(), s * rng.gaussian())
+        })
+        .collect();
+    let u = vec![Complex::new(1.0, 0.0); n];
+    fdid::FrequencyData::new(omega, y, u, Some(1.0))
+        .unwrap()
+        .with_noise(fdid::data::NoiseVariances::output_only(vec![var; n]))
+        .unwrap()
+}

@@ -785,29 +785,12 @@ fn bounds_confine_the_search_and_reject_outside_estimates() {
 #[test]
 fn a_candidate_leaving_the_bounds_gives_way_to_one_within_them() {
     let n = 128;
-    let omega: Vec<f64> = (1..=n)
-        .map(|k| k as f64 * std::f64::consts::PI / (n + 1) as f64)
-        .collect();
-    let model = Delayed::new(Rational::discrete(2, 1, 1.0).unwrap())
+    let model = Delayed::new(Rational::<f64>::discrete(2, 1, 1.0).unwrap())
         .with_bounds(0.0, 2.0 * n as f64)
         .unwrap();
-    let var = 1e-4;
     for seed in 0..10 {
-        let mut noise = fdid::simulate::SplitMix64::new(seed);
-        let s = (var / 2.0_f64).sqrt();
-        let y: Vec<Complex<f64>> = omega
-            .iter()
-            .map(|w| {
-                let zi = Complex::new(0.0, -w).exp();
-                let one = Complex::new(1.0, 0.0);
-                zi * 0.5 / ((one - zi * 0.8) * (one - zi * 0.5))
-                    + Complex::new(s * noise.gaussian(), s * noise.gaussian())
-            })
-            .collect();
-        let data = FrequencyData::new(omega.clone(), y, vec![Complex::new(1.0, 0.0); n], Some(1.0))
-            .unwrap()
-            .with_noise(NoiseVariances::output_only(vec![var; n]))
-            .unwrap();
+        let data = common::second_order_lines(0.5, 1e-4, seed);
+        assert_eq!(data.len(), n);
         let fit = model
             .fit(&Pipeline::default(), &data)
             .unwrap_or_else(|e| panic!("seed {seed}: {e}"));

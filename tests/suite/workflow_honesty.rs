@@ -2,6 +2,7 @@
 //! detectors fire, every refit tried is reported with its outcome, backward elimination
 //! removes steps that are no longer significant, coloured noise is named from the noise
 //! reference, a resonance whose poles come out real is named a missing pole.
+use crate::common::second_order_lines as second_order;
 use fdid::data::Lpm;
 use fdid::io::{Measurement, read_csv};
 use fdid::prelude::*;
@@ -10,31 +11,6 @@ use fdid::workflow::detectors::{OrderIncrease, reference_colour};
 use fdid::workflow::{
     Context, Detail, Detector, Effect, Finding, ModelSpec, Outcome, Remedy, SpecFit, Workflow,
 };
-
-/// Frequency data of G(z) = 0.5 z⁻¹/((1 − 0.8 z⁻¹)(1 − `p2` z⁻¹)) on 128 lines with
-/// complex noise of variance `var` (known), seeded.
-fn second_order(p2: f64, var: f64, seed: u64) -> FrequencyData<f64> {
-    let n = 128;
-    let omega: Vec<f64> = (1..=n)
-        .map(|k| k as f64 * std::f64::consts::PI / (n + 1) as f64)
-        .collect();
-    let mut rng = SplitMix64::new(seed);
-    let s = (var / 2.0).sqrt();
-    let y: Vec<Complex<f64>> = omega
-        .iter()
-        .map(|w| {
-            let zi = Complex::new(0.0, -w).exp();
-            let one = Complex::new(1.0, 0.0);
-            let g = zi * 0.5 / ((one - zi * 0.8) * (one - zi * p2));
-            g + Complex::new(s * rng.gaussian(), s * rng.gaussian())
-        })
-        .collect();
-    let u = vec![Complex::new(1.0, 0.0); n];
-    FrequencyData::new(omega, y, u, Some(1.0))
-        .unwrap()
-        .with_noise(NoiseVariances::output_only(vec![var; n]))
-        .unwrap()
-}
 
 /// Proposes a delay (p = 0) until the spec has one.
 struct AlwaysDelay;
