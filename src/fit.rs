@@ -21,6 +21,25 @@ pub struct Stage<T: Real> {
     pub kind: StageKind,
     /// The solver's outcome.
     pub solution: Solution<T>,
+    /// The number of lines the stage was solved on when fewer than the data's (the linear
+    /// stages of a long record, which only start ML: see [`crate::Pipeline`]'s
+    /// `start_lines`); its cost is then the criterion's on those lines. `None`: all lines.
+    #[cfg_attr(
+        feature = "serde",
+        serde(default, skip_serializing_if = "Option::is_none")
+    )]
+    pub lines: Option<usize>,
+}
+
+impl<T: Real> Stage<T> {
+    /// A stage solved on all the data's lines.
+    pub fn new(kind: StageKind, solution: Solution<T>) -> Self {
+        Self {
+            kind,
+            solution,
+            lines: None,
+        }
+    }
 }
 
 /// The kinds of estimation stage, named in reports by [`StageKind::name`].

@@ -21,6 +21,8 @@ struct StageRow {
     iterations: usize,
     termination: &'static str,
     cost: f64,
+    /// Lines the stage ran on, when fewer than the data's.
+    lines: Option<usize>,
 }
 
 impl StageRow {
@@ -34,6 +36,7 @@ impl StageRow {
                 Termination::MaxIterations => "iteration cap reached",
             },
             cost: stage.solution.cost,
+            lines: stage.lines,
         }
     }
 }
@@ -735,6 +738,7 @@ impl Report {
                     "iterations": s.iterations,
                     "termination": s.termination,
                     "cost": num(s.cost),
+                    "lines": s.lines,
                 })
             })
             .collect();
@@ -972,9 +976,12 @@ impl Report {
         let _ = writeln!(w, "stages");
         let width = self.stages.iter().map(|s| s.name.len()).max().unwrap_or(0);
         for s in &self.stages {
+            let on = s
+                .lines
+                .map_or_else(String::new, |l| format!(" (on {l} lines)"));
             let _ = writeln!(
                 w,
-                "  {:<width$} {:>5} iterations  {:<22} cost {}",
+                "  {:<width$} {:>5} iterations  {:<22} cost {}{on}",
                 s.name,
                 s.iterations,
                 s.termination,

@@ -419,6 +419,18 @@ impl<T: Real> FrequencyData<T> {
         Ok(self.filter(keep))
     }
 
+    /// Every ⌈N/`most`⌉-th line, counted down from the last so that the highest line stays,
+    /// with the mask of the kept lines; `None` when the data have at most `most` lines.
+    pub(crate) fn every_nth_line(&self, most: usize) -> Option<(Self, Vec<bool>)> {
+        let n = self.len();
+        let stride = n.div_ceil(most.max(1));
+        if stride <= 1 {
+            return None;
+        }
+        let keep: Vec<bool> = (0..n).map(|k| (n - 1 - k).is_multiple_of(stride)).collect();
+        Some((self.filter(&keep), keep))
+    }
+
     /// Keeps the lines where `keep[k]` is true (lengths must match; not checked here).
     pub(crate) fn filter(&self, keep: &[bool]) -> Self {
         Self {

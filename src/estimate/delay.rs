@@ -940,13 +940,7 @@ fn every_nth_line<T: Real>(
     weights: Option<&[T]>,
     most: usize,
 ) -> Option<(FrequencyData<T>, Option<Vec<T>>)> {
-    let n = data.len();
-    let stride = n.div_ceil(most.max(1));
-    if stride <= 1 {
-        return None;
-    }
-    let keep: Vec<bool> = (0..n).map(|k| (n - 1 - k).is_multiple_of(stride)).collect();
-    let fewer = data.select_lines(&keep).ok()?;
+    let (fewer, keep) = data.every_nth_line(most)?;
     let weights = weights.map(|w| {
         w.iter()
             .zip(&keep)
@@ -1078,15 +1072,15 @@ impl<M: Clone> Delayed<M> {
     {
         let (start, best) = search_delay(pipeline, self, data)?;
         let tau0 = start.tau;
-        let mut stages = vec![Stage {
-            kind: StageKind::Delay,
-            solution: Solution {
+        let mut stages = vec![Stage::new(
+            StageKind::Delay,
+            Solution {
                 theta: vec![tau0],
                 cost: start.cost,
                 iterations: start.fits,
                 termination: Termination::Converged,
             },
-        }];
+        )];
         stages.extend(best.inner_stages);
         joint_ml(best.model, best.solution.theta, stages, pipeline, data)
     }
@@ -1150,10 +1144,7 @@ fn joint_ml<T: Real, M: FurtherStarts<T>>(
     let solution =
         super::chain::ml_solve_in(&fast, &lm, &model, &problem, &theta0, pipeline.stable)?;
     let theta = solution.theta.clone();
-    stages.push(Stage {
-        kind: StageKind::MlDelayed,
-        solution,
-    });
+    stages.push(Stage::new(StageKind::MlDelayed, solution));
     model.check_delay(theta[theta.len() - 1])?;
     Fit::new(model, data, theta, pipeline.weighting, stages)
 }

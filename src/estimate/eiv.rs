@@ -68,10 +68,7 @@ fn refine_eiv<T: Real, M: ModelStructure<T> + Clone>(
     let theta0 = super::chain::stable_start(&base, start.theta().to_vec(), pipeline.stable)?;
     let sol = super::chain::lm_solve_in(&lm, &base, &problem, &theta0, pipeline.stable)?;
     let theta = sol.theta.clone();
-    stages.push(Stage {
-        kind: StageKind::Eiv,
-        solution: sol,
-    });
+    stages.push(Stage::new(StageKind::Eiv, sol));
     Fit::from_problem(
         base.clone(),
         data,

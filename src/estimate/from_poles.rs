@@ -70,14 +70,8 @@ impl Pipeline {
         let fast = GramLevenbergMarquardt::from(lm);
         let ml = ml_solve_in(&fast, &lm, model, &problem, &start, self.stable)?;
         let stages = vec![
-            Stage {
-                kind: StageKind::PolesLs,
-                solution: linear,
-            },
-            Stage {
-                kind: StageKind::Ml,
-                solution: ml.clone(),
-            },
+            Stage::new(StageKind::PolesLs, linear),
+            Stage::new(StageKind::Ml, ml.clone()),
         ];
         Fit::from_ml_problem(model.clone(), data, ml.theta, &problem, stages)
     }

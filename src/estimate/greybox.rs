@@ -48,10 +48,7 @@ pub fn fit_ml_from<T: Real, M: ModelStructure<T> + PhysicalParameters + Clone>(
     let theta = sol.theta.clone();
     let t: Vec<f64> = theta.iter().map(|v| v.to_f64_lossless()).collect();
     model.check_theta(&t)?;
-    let stages = vec![Stage {
-        kind: StageKind::Ml,
-        solution: sol,
-    }];
+    let stages = vec![Stage::new(StageKind::Ml, sol)];
     Fit::new(model.clone(), data, theta, ml.weighting, stages)
 }
 
@@ -75,10 +72,7 @@ pub fn fit_eiv_from<T: Real, M: ModelStructure<T> + PhysicalParameters + Clone>(
     let theta = sol.theta.clone();
     let t: Vec<f64> = theta.iter().map(|v| v.to_f64_lossless()).collect();
     model.check_theta(&t)?;
-    let stages = vec![Stage {
-        kind: StageKind::Eiv,
-        solution: sol,
-    }];
+    let stages = vec![Stage::new(StageKind::Eiv, sol)];
     Fit::from_problem(
         model.clone(),
         data,

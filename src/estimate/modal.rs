@@ -143,19 +143,20 @@ pub fn fit_modal<T: Real>(
         .map(|s| Stage {
             kind: StageKind::RationalStart(Box::new(s.kind.clone())),
             solution: s.solution.clone(),
+            lines: s.lines,
         })
         .collect();
     let ml = MaximumLikelihood { weighting: w };
     let start_cost = crate::criterion::MlProblem::new(&model, data, w)?.cost(&start);
-    stages.push(Stage {
-        kind: StageKind::ModalLs,
-        solution: Solution {
+    stages.push(Stage::new(
+        StageKind::ModalLs,
+        Solution {
             theta: start.clone(),
             cost: start_cost,
             iterations: 1,
             termination: Termination::Direct,
         },
-    });
+    ));
     let mut theta = start;
     if let Some(lm) = &pipeline.ml {
         let mut sol = estimate(&model, data, &ml, lm, Some(&theta))?;
@@ -173,10 +174,7 @@ pub fn fit_modal<T: Real>(
             }
         }
         theta = sol.theta.clone();
-        stages.push(Stage {
-            kind: StageKind::Ml,
-            solution: sol,
-        });
+        stages.push(Stage::new(StageKind::Ml, sol));
     }
     Fit::new(model, data, theta, w, stages)
 }

@@ -215,10 +215,7 @@ impl<T: Real> Search<T> {
                 return;
             }
             let mut stages = b.stages().to_vec();
-            stages.push(Stage {
-                kind: StageKind::MlPolish,
-                solution: sol.clone(),
-            });
+            stages.push(Stage::new(StageKind::MlPolish, sol.clone()));
             match Fit::new(
                 b.model().clone(),
                 data,
@@ -318,10 +315,7 @@ impl<T: Real> Search<T> {
             return;
         };
         if self.best.as_ref().is_none_or(|b| sol.cost < b.cost()) {
-            let stages = vec![Stage {
-                kind,
-                solution: sol.clone(),
-            }];
+            let stages = vec![Stage::new(kind, sol.clone())];
             if let Ok(f) = Fit::new(model.clone(), ml.data, sol.theta, ml.weighting, stages) {
                 self.offer(f);
             }

@@ -203,10 +203,7 @@ pub(crate) fn refine_noise_model_in<T: Real, M: ModelStructure<T> + Clone>(
     };
     let sol = solve(&theta)?;
     theta = sol.theta.clone();
-    stages.push(Stage {
-        kind: StageKind::NoiseModelMl,
-        solution: sol,
-    });
+    stages.push(Stage::new(StageKind::NoiseModelMl, sol));
     let stabilise = |theta: &mut Vec<T>| -> Result<bool> {
         let eta = noise.stabilised(&theta[p..])?;
         let changed = eta != theta[p..];
@@ -217,10 +214,7 @@ pub(crate) fn refine_noise_model_in<T: Real, M: ModelStructure<T> + Clone>(
     if stabilise(&mut theta)? {
         let sol = solve(&theta)?;
         theta = sol.theta.clone();
-        stages.push(Stage {
-            kind: StageKind::NoiseModelStabilised,
-            solution: sol,
-        });
+        stages.push(Stage::new(StageKind::NoiseModelStabilised, sol));
         stabilise(&mut theta)?;
     }
     let problem =

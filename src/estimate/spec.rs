@@ -700,10 +700,7 @@ fn fit_tls(
     } else {
         solution.theta.clone()
     };
-    let stages = vec![Stage {
-        kind: StageKind::Tls,
-        solution,
-    }];
+    let stages = vec![Stage::new(StageKind::Tls, solution)];
     Fit::new(model.clone(), data, theta, tls.weighting, stages)
 }
 

@@ -21,7 +21,11 @@ use num_traits::Float;
 /// from them: the iteration stops where the directly computed residuals stop decreasing
 /// (the same relative step and cost-reduction tests as [`LevenbergMarquardt`], with its
 /// `tolerance` and `cost_tolerance`), so an inexact step changes the path, not the
-/// optimum. The equilibrated Gram matrix must factor and have κ₁(Gₛ) ≤ 10⁸ in f64 (10³ in
+/// optimum. The cost-reduction test (MINPACK's ftol: actual and predicted reductions both
+/// at most ftol·V, the actual at most twice the predicted) is applied to rejected steps
+/// too, as MINPACK does, and for an undamped step without the ratio condition: a
+/// Gauss–Newton step that predicts at most ftol·V places θ at the optimum to that
+/// tolerance, and near it the actual change of V is rounding of either sign and size. The equilibrated Gram matrix must factor and have κ₁(Gₛ) ≤ 10⁸ in f64 (10³ in
 /// f32) at every iterate; otherwise, or when no step lowers the cost, the solve fails with
 /// [`FdidError::Singular`] or [`FdidError::NotConverged`] and [`crate::Pipeline`] falls back
 /// to [`LevenbergMarquardt`].
@@ -218,10 +222,15 @@ impl GramLevenbergMarquardt {
                 let small_step = snorm <= tol * xnorm;
                 if new_cost < cost {
                     let actual = cost - new_cost;
+                    // MINPACK's ftol test; its ratio condition (actual ≤ 2·predicted) is left
+                    // out for an undamped step, whose predicted reduction at most ftol·V
+                    // already places θ at the optimum to that tolerance (there the actual
+                    // change is rounding, of either size)
                     let converged = small_step
                         || (actual <= ftol * cost
                             && Float::abs(predicted) <= ftol * cost
-                            && actual <= T::lit(2.0) * Float::abs(predicted));
+                            && (damping == T::zero()
+                                || actual <= T::lit(2.0) * Float::abs(predicted)));
                     std::mem::swap(&mut x, &mut x_try);
                     cost = new_cost;
                     mu = if mu <= mu_min {
@@ -240,8 +249,14 @@ impl GramLevenbergMarquardt {
                     }
                     break;
                 }
-                if small_step {
-                    // no step lowers the cost any more: at the optimum to working precision
+                // no step lowers the cost any more: at the optimum to working precision — a
+                // step too small to move θ, or an undamped (Gauss–Newton) step that predicts
+                // at most ftol·V and changes V by at most that (MINPACK's ftol test, which it
+                // applies to rejected steps too)
+                let flat = damping == T::zero()
+                    && Float::abs(predicted) <= ftol * cost
+                    && Float::abs(cost - new_cost) <= ftol * cost;
+                if small_step || flat {
                     return done(x, cost, evaluations, Termination::Converged);
                 }
                 if evaluations >= budget {
@@ -377,6 +392,60 @@ mod tests {
         assert!(!refused);
         let reference = fast.solve(&p, Some(&start)).expect("solve");
         assert_eq!(s2, reference);
+    }
+
+    /// r_k = x₀ + x₁t_k − y_k with residuals of order 10³ at the optimum.
+    struct Line {
+        t: Vec<f64>,
+        y: Vec<f64>,
+    }
+
+    impl NonlinearProblem<f64> for Line {
+        fn n_params(&self) -> usize {
+            2
+        }
+        fn n_residuals(&self) -> usize {
+            self.t.len()
+        }
+        fn residuals_into(&self, x: &[f64], r: &mut [f64]) -> bool {
+            for ((r, t), y) in r.iter_mut().zip(&self.t).zip(&self.y) {
+                *r = x[0] + x[1] * t - y;
+            }
+            true
+        }
+        fn jacobian_into(&self, x: &[f64], r: &mut [f64], jac: &mut DMatrix<f64>) -> bool {
+            self.residuals_into(x, r);
+            for (k, t) in self.t.iter().enumerate() {
+                jac[(k, 0)] = 1.0;
+                jac[(k, 1)] = *t;
+            }
+            true
+        }
+    }
+
+    /// Near the optimum, where a Gauss–Newton step predicts a reduction far below the
+    /// rounding of the cost (its actual change is rounding, of either sign), the solver
+    /// stops at that step instead of damping it down to the step tolerance.
+    #[test]
+    fn stops_where_the_cost_changes_only_by_rounding() {
+        let t: Vec<f64> = (0..100).map(|k| k as f64 * 0.01).collect();
+        let y = t
+            .iter()
+            .enumerate()
+            .map(|(k, t)| 2.0 - t + 1e3 * (k as f64 * 1.7).sin())
+            .collect();
+        let p = Line { t, y };
+        let fast = GramLevenbergMarquardt::default();
+        let opt = fast.solve(&p, Some(&[0.0, 0.0])).expect("optimum");
+        assert!(opt.converged());
+        // 10⁻⁷ away: predicted reduction about 10⁻¹², the cost (about 5·10⁷) rounds at 10⁻⁸
+        for offset in [1e-7, -1e-7] {
+            let start = [opt.theta[0] + offset, opt.theta[1] - offset];
+            let near = fast.solve(&p, Some(&start)).expect("near");
+            assert!(near.converged());
+            assert!(near.iterations <= 3, "{} evaluations", near.iterations);
+            assert!(near.cost <= opt.cost * (1.0 + 1e-12));
+        }
     }
 
     /// Residuals that no step changes, with a Jacobian that promises descent: the cost

@@ -543,10 +543,7 @@ fn fit_state<M: ModelStructure<f64> + Clone>(
         }));
     };
     let theta = solution.theta.clone();
-    let stages = vec![Stage {
-        kind: StageKind::Ml,
-        solution,
-    }];
+    let stages = vec![Stage::new(StageKind::Ml, solution)];
     let fit = Fit::new(model.clone(), data, theta, ml.weighting, stages)?;
     let spec = ModelSpec {
         delay: model.has_delay(),

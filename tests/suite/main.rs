@@ -65,6 +65,7 @@ mod mimo_stabilisation;
 mod model_delay;
 mod model_modal;
 mod model_rational;
+mod model_start_lines;
 mod model_transient;
 mod model_wideband;
 mod optimisation_robustness;

@@ -36,13 +36,24 @@ fn a_spent_budget_ends_the_fit_at_its_best_point() {
     let RationalFit::Plain(plain) = &fit else {
         panic!("a plain spec gives a plain fit")
     };
-    // the best point evaluated is kept: never worse than the linear stages' estimates
-    let linear = plain
+    // the best point evaluated is kept: never worse than ML's start, the last linear
+    // stage's estimate (its ML cost on all lines: the linear stages of a record this long
+    // run on fewer, and their own costs are on those)
+    let start = plain
         .stages()
         .iter()
-        .filter(|s| matches!(s.kind, StageKind::Levy | StageKind::Sk))
-        .map(|s| s.solution.cost)
-        .fold(f64::INFINITY, f64::min);
+        .rfind(|s| matches!(s.kind, StageKind::Levy | StageKind::Sk))
+        .unwrap();
+    assert!(start.lines.is_some_and(|l| l < data.len()));
+    let linear = Fit::new(
+        plain.model().clone(),
+        &data,
+        start.solution.theta.clone(),
+        fdid::criterion::NoiseWeighting::Auto,
+        vec![],
+    )
+    .unwrap()
+    .cost();
     assert!(linear.is_finite());
     assert!(
         fit.cost() <= linear * (1.0 + 1e-12),

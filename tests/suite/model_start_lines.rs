@@ -1,0 +1,129 @@
+//! The start on fewer lines (`Pipeline::start_lines`): on long records Levy and SK run on
+//! every m-th line and only start ML, which runs on all lines, so the fit reaches the
+//! optimum the linear stages on all lines reach; the stages record the lines they used;
+//! without ML, or with too few lines for the model, every stage uses all lines.
+
+use crate::common::{self, Noise, logspace, modal};
+use fdid::prelude::*;
+
+/// `sys`'s FRF on `n` log-spaced lines over 0.1–10 rad/s with output noise of variance
+/// `var` (known).
+fn record(sys: &common::Modal, n: usize, var: f64, seed: u64) -> FrequencyData<f64> {
+    let omega = logspace(-1.0, 1.0, n);
+    let mut noise = Noise::new(seed);
+    let y: Vec<Complex<f64>> = sys
+        .frf(&omega)
+        .iter()
+        .map(|g| g + noise.complex(var))
+        .collect();
+    FrequencyData::from_frf(omega, y, None)
+        .unwrap()
+        .with_noise(NoiseVariances::output_only(vec![var; n]))
+        .unwrap()
+}
+
+fn all_lines() -> Pipeline {
+    Pipeline {
+        start_lines: None,
+        ..Pipeline::default()
+    }
+}
+
+/// Both fits reach one optimum (cost within 10⁻⁹ relative, responses within 10⁻⁶ of the
+/// largest), the default's linear stages on ⌈N/m⌉ lines and its ML on all.
+fn same_optimum(model: &Rational<f64>, data: &FrequencyData<f64>, lines: usize) {
+    let fewer = Pipeline::default().fit(model, data).unwrap();
+    let all = all_lines().fit(model, data).unwrap();
+    assert!(
+        (fewer.cost() - all.cost()).abs() <= 1e-9 * all.cost(),
+        "{} vs {}",
+        fewer.cost(),
+        all.cost()
+    );
+    let peak = all.response().iter().fold(0.0f64, |m, g| m.max(g.norm()));
+    for (a, b) in fewer.response().iter().zip(all.response()) {
+        assert!((a - b).norm() <= 1e-6 * peak, "{a} vs {b}");
+    }
+    let stages = fewer.stages();
+    assert_eq!(stages[0].kind, StageKind::Levy);
+    for s in stages {
+        match s.kind {
+            StageKind::Levy | StageKind::Sk => assert_eq!(s.lines, Some(lines), "{s:?}"),
+            _ => assert_eq!(s.lines, None, "{s:?}"),
+        }
+    }
+    assert!(all.stages().iter().all(|s| s.lines.is_none()));
+}
+
+#[test]
+fn five_resonances_on_20_000_lines_reach_the_optimum_of_all_lines() {
+    let data = record(&common::b_ct10(), 20_000, 1e-4, 5);
+    let model = Rational::continuous(10, 9, data.omega()).unwrap();
+    // every 10th line
+    same_optimum(&model, &data, 2_000);
+}
+
+/// A resonance of ζ = 3·10⁻⁴ (about 1.3 of the kept lines across its half-power band)
+/// between two heavily damped modes.
+#[test]
+fn a_narrow_resonance_between_broad_modes_reaches_the_optimum_of_all_lines() {
+    let sys = modal(&[0.3, 1.0, 3.0], &[0.3, 3e-4, 0.2], &[1.0, 0.05, 1.0]);
+    let data = record(&sys, 20_000, 1e-6, 3);
+    let model = Rational::continuous(6, 5, data.omega()).unwrap();
+    same_optimum(&model, &data, 2_000);
+}
+
+#[test]
+fn a_discrete_time_record_of_8_192_lines_reaches_the_optimum_of_all_lines() {
+    // 0.1 z⁻¹ (1 + 0.5 z⁻¹) / ((1 − 1.6 z⁻¹ + 0.9 z⁻²)(1 − 0.5 z⁻¹))
+    let n = 8_192;
+    let omega: Vec<f64> = (1..=n)
+        .map(|k| k as f64 * std::f64::consts::PI / (n + 1) as f64)
+        .collect();
+    let mut noise = Noise::new(8);
+    let var = 1e-6;
+    let y: Vec<Complex<f64>> = omega
+        .iter()
+        .map(|w| {
+            let z = Complex::new(0.0, -w).exp();
+            let a = (Complex::new(1.0, 0.0) - z * 1.6 + z * z * 0.9) * (1.0 - z * 0.5);
+            z * 0.1 * (1.0 + z * 0.5) / a + noise.complex(var)
+        })
+        .collect();
+    let data = FrequencyData::from_frf(omega, y, Some(1.0))
+        .unwrap()
+        .with_noise(NoiseVariances::output_only(vec![var; n]))
+        .unwrap();
+    let model = Rational::discrete(3, 2, 1.0).unwrap();
+    // every 4th line
+    same_optimum(&model, &data, 2_048);
+}
+
+/// Without ML every stage is the estimator on all lines; a `start_lines` below twice the
+/// model's coefficients, or at least the record's length, leaves all lines too.
+#[test]
+fn without_ml_or_with_too_few_lines_every_stage_uses_all_lines() {
+    let data = record(&common::a_ct4(), 6_000, 1e-4, 2);
+    let model = Rational::continuous(4, 3, data.omega()).unwrap();
+    let sk = Pipeline::sk().fit(&model, &data).unwrap();
+    assert!(sk.stages().iter().all(|s| s.lines.is_none()));
+    for start_lines in [Some(10), Some(6_000), None] {
+        let fit = Pipeline {
+            start_lines,
+            ..Pipeline::default()
+        }
+        .fit(&model, &data)
+        .unwrap();
+        assert!(
+            fit.stages().iter().all(|s| s.lines.is_none()),
+            "{start_lines:?}"
+        );
+    }
+    let fit = Pipeline {
+        start_lines: Some(100),
+        ..Pipeline::default()
+    }
+    .fit(&model, &data)
+    .unwrap();
+    assert_eq!(fit.stages()[0].lines, Some(100));
+}
