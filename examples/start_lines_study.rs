@@ -12,39 +12,10 @@ mod common;
 #[path = "../tests/common/robustness.rs"]
 mod robustness;
 
-use common::{Noise, RandomSystem};
 use fdid::prelude::*;
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
-use robustness::{Kind, NOISE_VAR, ct_system, dt_system};
-
-/// `sys` on `n` lines spread over its own band (log-spaced in continuous time, evenly in
-/// discrete time), with noise of variance `NOISE_VAR` per line.
-fn long_record(sys: &RandomSystem, n: usize, seed: u64) -> FrequencyData<f64> {
-    let (lo, hi) = (sys.omega[0], *sys.omega.last().unwrap());
-    let omega: Vec<f64> = (0..n)
-        .map(|k| {
-            let x = k as f64 / (n - 1) as f64;
-            match sys.zpk.ts {
-                None => lo * (hi / lo).powf(x),
-                Some(_) => lo + (hi - lo) * x,
-            }
-        })
-        .collect();
-    let long = RandomSystem {
-        zpk: sys.zpk.clone(),
-        na: sys.na,
-        nb: sys.nb,
-        omega,
-    };
-    let g0 = long.frf();
-    let mut noise = Noise::new(seed ^ 0x51a7);
-    let y: Vec<Complex<f64>> = g0.iter().map(|g| g + noise.complex(NOISE_VAR)).collect();
-    FrequencyData::from_frf(long.omega, y, sys.zpk.ts)
-        .unwrap()
-        .with_noise(NoiseVariances::output_only(vec![NOISE_VAR; n]))
-        .unwrap()
-}
+use robustness::{Kind, ct_system, dt_system, long_record};
 
 fn main() {
     let args: Vec<u64> = std::env::args()

@@ -258,8 +258,10 @@ impl<T: Real> Default for LevyWork<T> {
 /// grows with N. Their [`Stage::lines`](crate::fit::Stage::lines) records the lines they
 /// used (their costs are on those). When the fit from that start shows evidence of a local
 /// minimum (the tests below), the chain runs again with the linear stages on all lines
-/// and the lower cost is kept. Without ML (`Pipeline::levy`, `Pipeline::sk`) every stage
-/// uses all lines.
+/// and the lower cost is kept. The further starts of a long record then run on the
+/// same fewer lines (their ML too), and ML on all lines from the best of them gives the
+/// fit that competes with this one (see [`FurtherStarts`] for [`crate::Rational`]).
+/// Without ML (`Pipeline::levy`, `Pipeline::sk`) every stage uses all lines.
 ///
 /// **Stability** (`stable`, [`crate::estimate::Stability::Enforced`]). The estimate of
 /// every linear stage (Levy, each relocation or SK iteration, the second starts' Levy
@@ -380,13 +382,18 @@ impl Pipeline {
     }
 
     /// The chain without the further starts of [`FurtherStarts`] (the starts of the
-    /// multistart fits themselves).
+    /// multistart fits themselves), and with the linear stages on the lines of
+    /// `start_lines` alone.
     pub(crate) fn chain<T: Real, M: EquationError<T> + Clone>(
         &self,
         model: &M,
         data: &FrequencyData<T>,
     ) -> Result<Fit<T, M>> {
-        self.run(model, data).map(|(fit, _)| fit)
+        // the search's starts are many and often end in local minima: each on the lines of
+        // `start_data` alone, without the second chain from all lines of `run`
+        let fewer = self.start_data(model, data);
+        self.run_from(model, data, fewer.as_ref())
+            .map(|(fit, _)| fit)
     }
 
     /// The chain, with (when ML ran) the evidence that its fit may be a local minimum: a
