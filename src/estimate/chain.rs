@@ -428,10 +428,11 @@ impl Pipeline {
         data: &FrequencyData<T>,
     ) -> Option<FrequencyData<T>> {
         let most = self.start_lines?;
-        if self.ml.is_none() || data.len() <= most || most < 2 * model.n_coefficients() {
+        if self.ml.is_none() || data.len() <= most {
             return None;
         }
-        data.every_nth_line(most).map(|(fewer, _)| fewer)
+        let (fewer, _) = data.every_nth_line(most)?;
+        (fewer.len() >= 2 * model.n_coefficients()).then_some(fewer)
     }
 
     /// The linear stages on `fewer` lines (on all when `None`), their stages marked with
@@ -582,7 +583,8 @@ impl Pipeline {
     }
 
     /// The pipeline's linear stages (Levy, then SK when it has them; its ML is not run) as
-    /// the start of another estimator: every solve by the guarded normal equations
+    /// the start of another estimator, on the lines of `start_lines` (see [`Pipeline`]):
+    /// every solve by the guarded normal equations
     /// (QR/SVD when they are refused) and no statistics of a [`Fit`]. Data far from order
     /// one are normalised first as by [`Pipeline::fit`], and the estimates mapped back.
     /// Returns the model (a partial-fraction basis relocated to the estimate's poles), θ
