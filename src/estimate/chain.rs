@@ -422,7 +422,7 @@ impl Pipeline {
     /// The lines the linear stages run on when ML follows and the data have more than
     /// `start_lines` lines: every ⌈N/`start_lines`⌉-th line, the highest kept; `None` (all
     /// lines) otherwise, or when those would be fewer than twice the model's coefficients.
-    fn start_data<T: Real, M: EquationError<T>>(
+    pub(crate) fn start_data<T: Real, M: EquationError<T>>(
         &self,
         model: &M,
         data: &FrequencyData<T>,

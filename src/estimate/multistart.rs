@@ -706,7 +706,8 @@ pub fn fit_multistart_discrete<T: Real>(
 /// lines from the best of them gives the returned fit (an `ml-polish` stage; the earlier
 /// stages marked with their lines): on 40 random systems of orders 1–10 on 2 500–20 000
 /// lines (`examples/start_lines_study.rs`) 48 s instead of 138 s in all, the same optimum
-/// on 37, a lower cost on 1 (by 4.6·10⁻⁴ relative) and a higher on 2 (by 3.7·10⁻⁵ and 1.2·10⁻⁴).
+/// on 37, a lower cost on 1 (by 4.6·10⁻⁴ relative) and a higher on 2 (by 3.7·10⁻⁵ and
+/// 1.2·10⁻⁴).
 fn restart<T: Real>(
     model: &Rational<T>,
     pipeline: &Pipeline,
@@ -725,11 +726,7 @@ fn restart<T: Real>(
     {
         return None;
     }
-    let thinned = pipeline
-        .start_lines
-        .filter(|most| data.len() > *most)
-        .and_then(|most| data.every_nth_line(most));
-    let Some((fewer, _)) = thinned else {
+    let Some(fewer) = pipeline.start_data(model, data) else {
         return search_starts(model, pipeline, data, Some(fit.clone()))
             .filter(|b| b.cost() < fit.cost());
     };

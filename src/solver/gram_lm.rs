@@ -25,8 +25,9 @@ use num_traits::Float;
 /// at most ftol·V, the actual at most twice the predicted) is applied to rejected steps
 /// too, as MINPACK does, and for an undamped step without the ratio condition: a
 /// Gauss–Newton step that predicts at most ftol·V places θ at the optimum to that
-/// tolerance, and near it the actual change of V is rounding of either sign and size. The equilibrated Gram matrix must factor and have κ₁(Gₛ) ≤ 10⁸ in f64 (10³ in
-/// f32) at every iterate; otherwise, or when no step lowers the cost, the solve fails with
+/// tolerance, and near it the actual change of V is rounding of either sign and size.
+/// The equilibrated Gram matrix must factor and have κ₁(Gₛ) ≤ 10⁸ in f64 (10³ in f32) at
+/// every iterate; otherwise, or when no step lowers the cost, the solve fails with
 /// [`FdidError::Singular`] or [`FdidError::NotConverged`] and [`crate::Pipeline`] falls back
 /// to [`LevenbergMarquardt`].
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -222,10 +223,7 @@ impl GramLevenbergMarquardt {
                 let small_step = snorm <= tol * xnorm;
                 if new_cost < cost {
                     let actual = cost - new_cost;
-                    // MINPACK's ftol test; its ratio condition (actual ≤ 2·predicted) is left
-                    // out for an undamped step, whose predicted reduction at most ftol·V
-                    // already places θ at the optimum to that tolerance (there the actual
-                    // change is rounding, of either size)
+                    // MINPACK's ftol test, without its ratio condition for an undamped step
                     let converged = small_step
                         || (actual <= ftol * cost
                             && Float::abs(predicted) <= ftol * cost
@@ -249,10 +247,8 @@ impl GramLevenbergMarquardt {
                     }
                     break;
                 }
-                // no step lowers the cost any more: at the optimum to working precision — a
-                // step too small to move θ, or an undamped (Gauss–Newton) step that predicts
-                // at most ftol·V and changes V by at most that (MINPACK's ftol test, which it
-                // applies to rejected steps too)
+                // no step lowers the cost any more: a step too small to move θ, or the ftol
+                // test on an undamped rejected step (both changes at most ftol·V)
                 let flat = damping == T::zero()
                     && Float::abs(predicted) <= ftol * cost
                     && Float::abs(cost - new_cost) <= ftol * cost;
