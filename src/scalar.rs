@@ -54,18 +54,41 @@ pub(crate) fn recip<T: Real>(z: Complex<T>) -> Complex<T> {
 }
 
 /// True when every value is finite: Σ 0·v is zero then and NaN otherwise (0·∞ and 0·NaN
-/// are NaN) — a test that vectorises and cannot overflow.
+/// are NaN) — a test without branches that cannot overflow, summed in eight independent
+/// lanes so that it vectorises (a single running sum is a chain of dependent additions).
 #[inline]
 pub(crate) fn all_finite<T: Real>(v: &[T]) -> bool {
-    v.iter().fold(T::zero(), |s, x| s + *x * T::zero()) == T::zero()
+    const LANES: usize = 8;
+    let zero = T::zero();
+    let chunks = v.chunks_exact(LANES);
+    let rest = chunks.remainder().iter().fold(zero, |s, x| s + *x * zero);
+    let mut acc = [zero; LANES];
+    for c in chunks {
+        for (a, x) in acc.iter_mut().zip(c) {
+            *a += *x * zero;
+        }
+    }
+    acc.iter().fold(rest, |s, a| s + *a) == zero
 }
 
 /// [`all_finite`] over the real and imaginary parts.
 #[inline]
 pub(crate) fn all_finite_complex<T: Real>(v: &[Complex<T>]) -> bool {
-    v.iter()
-        .fold(T::zero(), |s, z| s + z.re * T::zero() + z.im * T::zero())
-        == T::zero()
+    const LANES: usize = 4;
+    let zero = T::zero();
+    let chunks = v.chunks_exact(LANES);
+    let rest = chunks
+        .remainder()
+        .iter()
+        .fold(zero, |s, z| s + z.re * zero + z.im * zero);
+    let mut acc = [zero; 2 * LANES];
+    for c in chunks {
+        for (a, z) in acc.chunks_exact_mut(2).zip(c) {
+            a[0] += z.re * zero;
+            a[1] += z.im * zero;
+        }
+    }
+    acc.iter().fold(rest, |s, a| s + *a) == zero
 }
 
 #[cfg(test)]
@@ -86,6 +109,24 @@ mod tests {
             Complex::new(big, big),
             Complex::new(-big, big)
         ]));
+        // every position: the vector lanes and the remainder
+        for n in 1..40 {
+            for k in 0..n {
+                for bad in [f64::NAN, f64::INFINITY] {
+                    let mut v = vec![f64::MAX; n];
+                    v[k] = bad;
+                    assert!(!all_finite(&v), "n {n} at {k}");
+                    let mut z = vec![Complex::new(-big, big); n];
+                    z[k].im = bad;
+                    assert!(!all_finite_complex(&z), "n {n} at {k}");
+                    z[k] = Complex::new(bad, 0.0);
+                    assert!(!all_finite_complex(&z), "n {n} at {k}");
+                }
+            }
+            assert!(
+                all_finite(&vec![-big; n]) && all_finite_complex(&vec![Complex::new(big, big); n])
+            );
+        }
         let z = Complex::new(3.0f64, -4.0);
         assert!((recip(z) - Complex::new(1.0, 0.0) / z).norm() <= 1e-16);
         let z = Complex::new(0.5f32, 2.0);

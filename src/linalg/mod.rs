@@ -5,6 +5,7 @@
 
 pub(crate) mod eigenvalues;
 pub(crate) mod gram;
+mod gram_kernel;
 pub(crate) mod householder;
 mod lstsq;
 pub(crate) mod nonnegative_qp;
