@@ -164,8 +164,7 @@ impl Validation {
         let (whiteness_q, whiteness_p) = if lags > 0 && cost > 0.0 {
             let q: f64 = (1..=lags)
                 .map(|l| {
-                    let s = (l..n).fold(Complex::new(0.0, 0.0), |s, k| s + r[k] * r[k - l].conj());
-                    let rho = s / cost;
+                    let rho = lagged_product(&r, l) / cost;
                     2.0 * (n * n) as f64 * rho.norm_sqr() / (n - l) as f64
                 })
                 .sum();
@@ -173,7 +172,10 @@ impl Validation {
         } else {
             (None, None)
         };
-        let max_residual = r.iter().map(|v| v.norm()).fold(0.0, f64::max);
+        // √max|r|² unless that overflows
+        let max_residual = Some(r.iter().map(|v| v.norm_sqr()).fold(0.0, f64::max).sqrt())
+            .filter(|m| m.is_finite())
+            .unwrap_or_else(|| r.iter().map(|v| v.norm()).fold(0.0, f64::max));
         Self {
             cost,
             cost_expected,
@@ -184,6 +186,28 @@ impl Validation {
             max_residual,
         }
     }
+}
+
+/// Σ_{k ≥ l} r_k r̄_{k−l}, summed in four independent lanes (a single running sum is a chain
+/// of dependent additions).
+fn lagged_product(r: &[Complex<f64>], l: usize) -> Complex<f64> {
+    const LANES: usize = 4;
+    let (head, tail) = (&r[..r.len() - l], &r[l..]);
+    let mut re = [0.0; LANES];
+    let mut im = [0.0; LANES];
+    let chunks = tail.chunks_exact(LANES).zip(head.chunks_exact(LANES));
+    for (a, b) in chunks {
+        for i in 0..LANES {
+            re[i] += a[i].re * b[i].re + a[i].im * b[i].im;
+            im[i] += a[i].im * b[i].re - a[i].re * b[i].im;
+        }
+    }
+    let done = tail.len() - tail.len() % LANES;
+    let rest = tail[done..]
+        .iter()
+        .zip(&head[done..])
+        .fold(Complex::new(0.0, 0.0), |s, (a, b)| s + a * b.conj());
+    Complex::new(re.iter().sum::<f64>(), im.iter().sum::<f64>()) + rest
 }
 
 /// Expected cost and upper-tail probability for `n_eff` = N − p/2 complex residuals.
@@ -206,5 +230,30 @@ fn cost_test(cost: f64, n_eff: f64, dof: Option<usize>) -> (Option<f64>, Option<
             let f = 2.0 * mean * mean / var;
             (Some(mean), Some(chi2_sf(cost / c, f)))
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn lagged_products_match_the_definition() {
+        let r: Vec<Complex<f64>> = (0..23)
+            .map(|k| Complex::new((k as f64 * 0.7).sin(), (k as f64 * 1.3).cos() - 0.2))
+            .collect();
+        for l in 0..r.len() {
+            let want = (l..r.len()).fold(Complex::new(0.0, 0.0), |s, k| s + r[k] * r[k - l].conj());
+            assert!((lagged_product(&r, l) - want).norm() <= 1e-13, "lag {l}");
+        }
+    }
+
+    #[test]
+    fn the_largest_residual_survives_overflow_of_its_square() {
+        let r = [Complex::new(3e200, 4e200), Complex::new(1.0, 0.0)];
+        let v = Validation::new(&r, 1, false, None);
+        assert!((v.max_residual / 5e200 - 1.0).abs() <= 1e-15);
+        let v = Validation::new(&[Complex::new(3.0, -4.0)], 1, false, None);
+        assert_eq!(v.max_residual, 5.0);
     }
 }
