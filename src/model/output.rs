@@ -65,6 +65,44 @@ impl<T: Real> Output<T> {
         self.evaluate_lines(model, theta, data.omega(), data.u(), jacobian)
     }
 
+    /// G and Ŷ (no Jacobian) at θ on the lines `range` of `omega` and `u` (the buffers
+    /// hold all of them, resized when their lengths differ; the other lines are left as
+    /// they are), so that a caller can go through a long record block by block while the
+    /// block's values are in cache. Returns false when a value of Ŷ is not finite.
+    pub fn evaluate_range<M: ModelStructure<T> + ?Sized>(
+        &mut self,
+        model: &M,
+        theta: &[T],
+        omega: &[T],
+        u: &[Complex<T>],
+        range: std::ops::Range<usize>,
+    ) -> bool {
+        let n = omega.len().min(u.len());
+        let zero = Complex::new(T::zero(), T::zero());
+        let with_t = model.has_transient();
+        for v in [&mut self.g, &mut self.yhat] {
+            if v.len() != n {
+                v.resize(n, zero);
+            }
+        }
+        if with_t && self.t.len() != n {
+            self.t.resize(n, zero);
+        }
+        let (omega, u) = (&omega[range.clone()], &u[range.clone()]);
+        let (g, yhat) = (&mut self.g[range.clone()], &mut self.yhat[range.clone()]);
+        model.response_into(theta, omega, g);
+        let has_t = with_t && model.transient_into(theta, omega, &mut self.t[range.clone()], None);
+        for ((yhat, g), u) in yhat.iter_mut().zip(g.iter()).zip(u) {
+            *yhat = *g * *u;
+        }
+        if has_t {
+            for (yhat, t) in yhat.iter_mut().zip(&self.t[range]) {
+                *yhat += *t;
+            }
+        }
+        crate::scalar::all_finite_complex(yhat)
+    }
+
     /// [`Output::evaluate`] on the lines with frequencies `omega` and input spectrum `u`
     /// (of equal lengths; e.g. a block of a data set's lines). The buffers are resized to
     /// `omega.len()` lines when their sizes differ. Returns false when a value is not
