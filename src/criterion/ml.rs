@@ -274,7 +274,7 @@ impl<T: Real, M: ModelStructure<T> + ?Sized> NonlinearProblem<T> for MlProblem<'
     }
 
     /// The model evaluated and the residuals formed block by block (of
-    /// [`RESIDUAL_BLOCK`] lines), so that a long record's per-line values are used while in
+    /// 4 096 lines), so that a long record's per-line values are used while in
     /// cache; G and Ŷ of all the lines are kept for the statistics at the solution.
     fn residuals_into(&self, theta: &[T], r: &mut [T]) -> bool {
         let mut out = self.scratch.borrow_mut();
