@@ -21,6 +21,11 @@ use nalgebra::DMatrix;
 /// out.evaluate(&model, &[0.0, 1.0], &data, true);
 /// assert_eq!(out.yhat.len(), 3);
 /// assert_eq!(out.dyhat.shape(), (3, 2));
+/// // the last two lines only, e.g. one block of a long record
+/// let mut block = Output::new(data.len(), model.n_params());
+/// assert!(block.evaluate_range(&model, &[0.0, 1.0], data.omega(), data.u(), 1..3));
+/// assert_eq!(block.yhat[1..], out.yhat[1..]);
+/// assert!(!block.evaluate_range(&model, &[0.0, 1.0], data.omega(), data.u(), 2..4));
 /// ```
 #[derive(Debug, Clone)]
 pub struct Output<T: Real> {
@@ -68,7 +73,8 @@ impl<T: Real> Output<T> {
     /// G and Ŷ (no Jacobian) at θ on the lines `range` of `omega` and `u` (the buffers
     /// hold all of them, resized when their lengths differ; the other lines are left as
     /// they are), so that a caller can go through a long record block by block while the
-    /// block's values are in cache. Returns false when a value of Ŷ is not finite.
+    /// block's values are in cache. Returns false when a value of Ŷ is not finite, and
+    /// without evaluating anything when `range` does not lie within the lines.
     pub fn evaluate_range<M: ModelStructure<T> + ?Sized>(
         &mut self,
         model: &M,
@@ -78,6 +84,9 @@ impl<T: Real> Output<T> {
         range: std::ops::Range<usize>,
     ) -> bool {
         let n = omega.len().min(u.len());
+        if range.start > range.end || range.end > n {
+            return false;
+        }
         let zero = Complex::new(T::zero(), T::zero());
         let with_t = model.has_transient();
         for v in [&mut self.g, &mut self.yhat] {
