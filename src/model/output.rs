@@ -125,6 +125,9 @@ impl<T: Real> Output<T> {
         jacobian: bool,
     ) -> bool {
         let (n, p) = (omega.len().min(u.len()), model.n_params());
+        if !jacobian {
+            return self.evaluate_range(model, theta, omega, u, 0..n);
+        }
         let omega = &omega[..n];
         let u = &u[..n];
         let zero = Complex::new(T::zero(), T::zero());
@@ -138,24 +141,17 @@ impl<T: Real> Output<T> {
         if with_t && self.t.len() != n {
             self.t.resize(n, zero);
         }
-        let has_t = if jacobian {
-            for m in [&mut self.dg, &mut self.dyhat] {
-                if m.shape() != (n, p) {
-                    *m = DMatrix::zeros(n, p);
-                }
+        for m in [&mut self.dg, &mut self.dyhat] {
+            if m.shape() != (n, p) {
+                *m = DMatrix::zeros(n, p);
             }
-            model.jacobian_into(theta, omega, &mut self.g, &mut self.dg);
-            if !with_t {
-                false
-            } else {
-                if self.dt.shape() != (n, p) {
-                    self.dt = DMatrix::zeros(n, p);
-                }
-                model.transient_into(theta, omega, &mut self.t, Some(&mut self.dt))
+        }
+        model.jacobian_into(theta, omega, &mut self.g, &mut self.dg);
+        let has_t = with_t && {
+            if self.dt.shape() != (n, p) {
+                self.dt = DMatrix::zeros(n, p);
             }
-        } else {
-            model.response_into(theta, omega, &mut self.g);
-            with_t && model.transient_into(theta, omega, &mut self.t, None)
+            model.transient_into(theta, omega, &mut self.t, Some(&mut self.dt))
         };
         for ((yhat, g), u) in self.yhat.iter_mut().zip(&self.g).zip(u) {
             *yhat = *g * *u;
@@ -165,7 +161,7 @@ impl<T: Real> Output<T> {
                 *yhat += *t;
             }
         }
-        if jacobian && n > 0 {
+        if n > 0 {
             let cols = self
                 .dyhat
                 .as_mut_slice()
@@ -184,7 +180,7 @@ impl<T: Real> Output<T> {
         }
         use crate::scalar::all_finite_complex;
         all_finite_complex(&self.yhat)
-            && (!jacobian
-                || (all_finite_complex(self.dyhat.as_slice()) && all_finite_complex(&self.g)))
+            && all_finite_complex(self.dyhat.as_slice())
+            && all_finite_complex(&self.g)
     }
 }
