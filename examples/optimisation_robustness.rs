@@ -121,6 +121,24 @@ fn main() {
         plain_t.iter().sum::<f64>(),
         1e3 * median(plain_t.clone()),
     );
+    println!(
+        "by denominator order: cases, the chain alone reached, Pipeline::fit reached, its total time"
+    );
+    for kind in [Kind::Ct, Kind::Dt] {
+        for na in 1..=10 {
+            let of: Vec<_> = outcomes
+                .iter()
+                .filter(|o| o.kind == kind && o.na == na)
+                .collect();
+            println!(
+                "  {kind:?} na {na:>2}: {:>3} cases, chain {:>3}, fit {:>3}, {:.2} s",
+                of.len(),
+                of.iter().filter(|o| o.plain_reached()).count(),
+                of.iter().filter(|o| o.reached()).count(),
+                of.iter().map(|o| o.auto_time).sum::<f64>()
+            );
+        }
+    }
     let n = outcomes.len();
     println!(
         "all: {} of {n} reached the optimum ({:.2} %), {failed} failed; {:.1} s",

@@ -585,22 +585,24 @@ impl<T: Real> PolyBasis<T> {
     }
 }
 
-/// (sin x, cos x). For f64 and |x| ≤ 4 (the normalised frequencies ωTs of data below the
-/// Nyquist frequency) by a reduction to |r| ≤ π/4, x = kπ/2 + r, with π/2 split in two
-/// (the first part exact in k·π/2 for |k| ≤ 2), and the Taylor series of sin r to r¹⁷ and
-/// cos r to r¹⁶ (truncation below 10⁻¹⁷): within a few ulp of the correctly rounded
-/// values, about three times faster than the library call that it replaces in the
-/// per-line evaluation of z⁻¹ = e^{−iωTs}. Otherwise, and for f32, the library's
-/// `sin_cos`.
+/// (sin x, cos x). For f64 and |x| ≤ [`FAST_SIN_COS_LIMIT`] (the normalised frequencies
+/// ωTs of data below the Nyquist frequency, and the phases ωτ of delays) by a reduction to
+/// |r| ≤ π/4, x = kπ/2 + r, with π/2 split in two (the first part with 33 significant bits,
+/// so that k·π/2 is exact for |k| < 2²⁰ and x − k·π/2 exact by Sterbenz's lemma; the second
+/// part's product leaves an error of about |k|·10⁻²⁶), and the Taylor series of sin r to
+/// r¹⁷ and cos r to r¹⁶ (truncation below 10⁻¹⁷): within a few ulp of the correctly
+/// rounded values, about three times faster than the library call that it replaces in the
+/// per-line evaluation of z⁻¹ = e^{−iωTs} and of e^{−iωτ}. Otherwise, and for f32, the
+/// library's `sin_cos`.
 #[inline]
-fn sin_cos<T: Real>(x: T) -> (T, T) {
-    if T::default_epsilon() > T::lit(1e-10) || !(Float::abs(x) <= T::lit(4.0)) {
+pub(crate) fn sin_cos<T: Real>(x: T) -> (T, T) {
+    if T::default_epsilon() > T::lit(1e-10) || !(Float::abs(x) <= T::lit(FAST_SIN_COS_LIMIT)) {
         return Float::sin_cos(x);
     }
     // π/2 = PIO2_HI + PIO2_LO, PIO2_HI with 33 significant bits
     const PIO2_HI: f64 = 1.570_796_326_734_125_6;
     const PIO2_LO: f64 = 6.077_100_506_506_192e-11;
-    // the nearest integer to x·2/π (|x·2/π| ≤ 2.6) by adding and removing 1.5·2⁵²: no call
+    // the nearest integer to x·2/π (|x·2/π| < 2¹⁶) by adding and removing 1.5·2⁵²: no call
     // to the library's `round` (a tie may round either way: |r| ≤ π/4 + 1 ulp still)
     let magic = T::lit(6_755_399_441_055_744.0);
     let k = (x * T::lit(std::f64::consts::FRAC_2_PI) + magic) - magic;
@@ -627,6 +629,10 @@ fn sin_cos<T: Real>(x: T) -> (T, T) {
         _ => (-cos_r, sin_r),
     }
 }
+
+/// Largest |x| for which [`sin_cos`] reduces the argument itself: 2¹⁶, where |k| < 2¹⁶
+/// keeps k·π/2 exact with ten bits to spare.
+const FAST_SIN_COS_LIMIT: f64 = 65_536.0;
 
 /// (−1)ⁿ/(2n+1)!, n = 0 … 9 (the series uses n = 1 … 8).
 const SIN_TAYLOR: [f64; 10] = [
@@ -669,8 +675,28 @@ mod tests {
             worst = worst.max((s - s0).abs()).max((c - c0).abs());
         }
         assert!(worst <= 2.0 * f64::EPSILON, "worst error {worst:e}");
+        // up to the limit, where |k| is large: random points and the floats nearest the
+        // multiples of π/2 (|r| tiny, where a loose reduction would show)
+        let mut worst: f64 = 0.0;
+        let mut seed = 7u64;
+        for i in 0..200_000u64 {
+            seed = seed.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1);
+            let u = (seed >> 11) as f64 / (1u64 << 53) as f64;
+            let x = if i % 2 == 0 {
+                super::FAST_SIN_COS_LIMIT * (2.0 * u - 1.0)
+            } else {
+                (u * 41_000.0).round() * std::f64::consts::FRAC_PI_2
+            };
+            let (s, c) = super::sin_cos(x);
+            let (s0, c0) = x.sin_cos();
+            worst = worst.max((s - s0).abs()).max((c - c0).abs());
+        }
+        assert!(
+            worst <= 2.0 * f64::EPSILON,
+            "worst error up to 2^16 {worst:e}"
+        );
         // outside the reduced range and in f32: the library's values
-        assert_eq!(super::sin_cos(10.0f64), 10.0f64.sin_cos());
+        assert_eq!(super::sin_cos(1e5f64), 1e5f64.sin_cos());
         assert_eq!(super::sin_cos(1.0f32), 1.0f32.sin_cos());
         let (s, c) = super::sin_cos(f64::NAN);
         assert!(s.is_nan() && c.is_nan());

@@ -266,9 +266,8 @@ impl<T: Real, M: ModelStructure<T>> Fit<T, M> {
         if p == 0 || 2 * n < p || crate::linalg::gram::small_problem(n, p) {
             return None;
         }
-        let mut r = vec![T::zero(); 2 * n];
-        let (finite, response) = problem.residuals_response(theta, &mut r);
-        if !finite {
+        let mut r = vec![Complex::new(T::zero(), T::zero()); n];
+        if !problem.residuals_at(theta, crate::scalar::interleaved_mut(&mut r)) {
             return None;
         }
         let head = Head::new(n, p, r, level).ok()?;
@@ -305,6 +304,8 @@ impl<T: Real, M: ModelStructure<T>> Fit<T, M> {
         let factor = head.lambda.map(|l| &f0 * Float::sqrt(l / T::lit(2.0)));
         let c0 = &f0 * f0.transpose();
         let robust = &c0 * &q * &c0;
+        // G from the problem's evaluation at θ (the Jacobian blocks do not touch it)
+        let response = problem.take_response(theta)?;
         Some(Parts {
             head,
             factor,
@@ -364,7 +365,7 @@ impl<T: Real, M: ModelStructure<T>> Fit<T, M> {
         };
         let (r, jac) = residuals_and_jacobian(problem, theta)?;
         let response = problem
-            .response_at(theta)
+            .take_response(theta)
             .filter(|g| g.len() == problem.data().len());
         Ok((r, jac, level, response))
     }
@@ -416,7 +417,8 @@ impl<T: Real, M: ModelStructure<T>> Fit<T, M> {
         response: Option<Vec<Complex<T>>>,
     ) -> Result<Self> {
         let (n, p) = (data.len(), model.n_params());
-        let head = Head::new(n, p, r, level)?;
+        let residuals = r.chunks(2).map(|c| Complex::new(c[0], c[1])).collect();
+        let head = Head::new(n, p, residuals, level)?;
         // (JᵀJ)⁻¹ = F₀F₀ᵀ from the QR/SVD of J; Cov = (λ/2)(JᵀJ)⁻¹ = F Fᵀ, F = √(λ/2) F₀
         let (base, robust_covariance) = covariance_factors(jac, &head.residuals);
         let factor = head
@@ -683,7 +685,7 @@ impl<T: Real, M: ModelStructure<T> + PolesZeros<T>> Fit<T, M> {
     }
 }
 
-/// The cost and noise level of a fit from its real-stacked residuals.
+/// The cost and noise level of a fit from its residuals.
 struct Head<T: Real> {
     cost: T,
     noise_variance: T,
@@ -699,8 +701,10 @@ impl<T: Real> Head<T> {
     ///
     /// # Errors
     /// A cost that is not finite.
-    fn new(n: usize, p: usize, r: Vec<T>, level: NoiseLevel) -> Result<Self> {
-        let cost = r.iter().fold(T::zero(), |s, v| s + *v * *v);
+    fn new(n: usize, p: usize, residuals: Vec<Complex<T>>, level: NoiseLevel) -> Result<Self> {
+        let cost = residuals
+            .iter()
+            .fold(T::zero(), |s, v| s + v.re * v.re + v.im * v.im);
         if !Float::is_finite(cost) {
             return Err(crate::error::FdidError::Numerical {
                 what: format!(
@@ -724,7 +728,7 @@ impl<T: Real> Head<T> {
             noise_variance: cost / nf,
             noise_known,
             lambda,
-            residuals: r.chunks(2).map(|c| Complex::new(c[0], c[1])).collect(),
+            residuals,
         })
     }
 }
@@ -879,17 +883,22 @@ fn residuals_and_jacobian<T: Real, P: NonlinearProblem<T> + ?Sized>(
 /// The mean of |r_j|² over the nine lines nearest each line k, halved: the D_k² of the
 /// sandwich covariance (see [`sandwich`]).
 fn local_half_power<T: Real>(r: &[Complex<T>]) -> Vec<T> {
+    const HALF: usize = 4;
     let n = r.len();
-    let half = 4usize;
-    let power: Vec<T> = r.iter().map(|v| v.norm_sqr()).collect();
-    (0..n)
-        .map(|k| {
-            let (lo, hi) = (k.saturating_sub(half), (k + half + 1).min(n));
-            power[lo..hi].iter().fold(T::zero(), |a, b| a + *b)
-                / T::from_usize_lossy(hi - lo)
-                / T::lit(2.0)
-        })
-        .collect()
+    // |r_k|², overwritten in place by the means: the HALF powers before k, already
+    // overwritten, are kept in a ring (summed in index order all the same)
+    let mut out: Vec<T> = r.iter().map(|v| v.norm_sqr()).collect();
+    let mut before = [T::zero(); HALF];
+    for k in 0..n {
+        let (lo, hi) = (k.saturating_sub(HALF), (k + HALF + 1).min(n));
+        let sum = (lo..k)
+            .map(|j| before[j % HALF])
+            .chain(out[k..hi].iter().copied())
+            .fold(T::zero(), |a, b| a + b);
+        before[k % HALF] = out[k];
+        out[k] = sum / T::from_usize_lossy(hi - lo) / T::lit(2.0);
+    }
+    out
 }
 
 /// F₀ with (JᵀJ)⁻¹ = F₀F₀ᵀ and the sandwich R⁻¹QR⁻¹ (R = JᵀJ, Q = JᵀD²J, see [`sandwich`]).
@@ -1014,6 +1023,22 @@ mod tests {
     use crate::test_rng::lcg;
 
     /// The Cholesky path of the covariance and of the sandwich equals the QR/SVD path.
+    #[test]
+    fn local_half_power_is_the_windowed_mean() {
+        for n in [0usize, 1, 3, 8, 9, 10, 31] {
+            let r: Vec<Complex<f64>> = (0..n)
+                .map(|k| Complex::new((k as f64 * 0.7).sin(), 1.0 / (k as f64 + 1.5)))
+                .collect();
+            let d = local_half_power(&r);
+            assert_eq!(d.len(), n);
+            for (k, dk) in d.iter().enumerate() {
+                let (lo, hi) = (k.saturating_sub(4), (k + 5).min(n));
+                let sum = r[lo..hi].iter().fold(0.0, |a, v| a + v.norm_sqr());
+                assert_eq!(*dk, sum / (hi - lo) as f64 / 2.0, "n {n} line {k}");
+            }
+        }
+    }
+
     #[test]
     fn covariance_from_the_gram_matrix_equals_the_qr_one() {
         let (n, p) = (300, 7);

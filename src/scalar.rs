@@ -2,6 +2,7 @@
 
 use nalgebra::RealField;
 use num_traits::{Float, FromPrimitive};
+use std::borrow::Cow;
 use std::fmt::{Debug, Display};
 
 /// A real scalar usable throughout the crate: `f32` or `f64`.
@@ -22,6 +23,14 @@ pub trait Real:
     fn from_usize_lossy(n: usize) -> Self {
         Self::lit(n as f64)
     }
+    /// The complex values as `f64`: borrowed when `Self` is `f64`, else converted (exactly).
+    fn complex_as_f64(v: &[Complex<Self>]) -> Cow<'_, [Complex<f64>]> {
+        Cow::Owned(
+            v.iter()
+                .map(|z| Complex::new(z.re.to_f64_lossless(), z.im.to_f64_lossless()))
+                .collect(),
+        )
+    }
 }
 
 impl Real for f32 {
@@ -40,6 +49,9 @@ impl Real for f64 {
     fn to_f64_lossless(self) -> f64 {
         self
     }
+    fn complex_as_f64(v: &[Complex<Self>]) -> Cow<'_, [Complex<f64>]> {
+        Cow::Borrowed(v)
+    }
 }
 
 /// Complex numbers over [`Real`].
@@ -51,6 +63,16 @@ pub type Complex<T> = num_complex::Complex<T>;
 pub(crate) fn recip<T: Real>(z: Complex<T>) -> Complex<T> {
     let d = T::one() / z.norm_sqr();
     Complex::new(z.re * d, -z.im * d)
+}
+
+/// The real and imaginary parts of `v` as one real slice, interleaved (Re v₀, Im v₀, Re v₁,
+/// …): the real-stacked layout of the crate's residual vectors, written in place.
+#[inline]
+pub(crate) fn interleaved_mut<T: Real>(v: &mut [Complex<T>]) -> &mut [T] {
+    // SAFETY: `num_complex::Complex<T>` is `#[repr(C)]` with the two fields `re`, `im` of
+    // type T, so n complex values are 2n values of T in that order, with T's alignment;
+    // the returned slice borrows `v` mutably for its lifetime
+    unsafe { std::slice::from_raw_parts_mut(v.as_mut_ptr().cast::<T>(), 2 * v.len()) }
 }
 
 /// True when every value is finite: Σ 0·v is zero then and NaN otherwise (0·∞ and 0·NaN
@@ -131,5 +153,21 @@ mod tests {
         assert!((recip(z) - Complex::new(1.0, 0.0) / z).norm() <= 1e-16);
         let z = Complex::new(0.5f32, 2.0);
         assert!((recip(z) * z - Complex::new(1.0, 0.0)).norm() <= 1e-6);
+    }
+
+    #[test]
+    fn interleaved_view_and_f64_view() {
+        let mut v = vec![Complex::new(1.0f32, 2.0), Complex::new(3.0, 4.0)];
+        let r = interleaved_mut(&mut v);
+        assert_eq!(r, &[1.0, 2.0, 3.0, 4.0]);
+        r[3] = -4.0;
+        assert_eq!(v[1], Complex::new(3.0, -4.0));
+        assert!(interleaved_mut::<f64>(&mut []).is_empty());
+        // f64 borrows, f32 converts exactly
+        let z = [Complex::new(0.1f64, -0.2)];
+        assert!(matches!(f64::complex_as_f64(&z), Cow::Borrowed(b) if b == z));
+        let w = f32::complex_as_f64(&v);
+        assert!(matches!(w, Cow::Owned(_)));
+        assert_eq!(&*w, &[Complex::new(1.0, 2.0), Complex::new(3.0, -4.0)]);
     }
 }

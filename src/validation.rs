@@ -148,10 +148,9 @@ impl Validation {
         noise_known: bool,
         dof: Option<usize>,
     ) -> Self {
-        let r: Vec<Complex<f64>> = r
-            .iter()
-            .map(|v| Complex::new(v.re.to_f64_lossless(), v.im.to_f64_lossless()))
-            .collect();
+        // in f64 (borrowed when T is f64)
+        let r = T::complex_as_f64(r);
+        let r: &[Complex<f64>] = &r;
         let n = r.len();
         let cost: f64 = r.iter().map(|v| v.norm_sqr()).sum();
         let n_eff = n as f64 - params as f64 / 2.0;
@@ -164,7 +163,7 @@ impl Validation {
         let (whiteness_q, whiteness_p) = if lags > 0 && cost > 0.0 {
             let q: f64 = (1..=lags)
                 .map(|l| {
-                    let rho = lagged_product(&r, l) / cost;
+                    let rho = lagged_product(r, l) / cost;
                     2.0 * (n * n) as f64 * rho.norm_sqr() / (n - l) as f64
                 })
                 .sum();

@@ -119,29 +119,27 @@ impl<'a, T: Real, M: ModelStructure<T> + ?Sized> MlProblem<'a, T, M> {
         r.iter().fold(T::zero(), |s, v| s + *v * *v)
     }
 
-    /// G on the data lines from the last full evaluation ([`NonlinearProblem::residuals_into`]
-    /// or [`NonlinearProblem::jacobian_into`]), when it was at θ.
-    pub(crate) fn response_at(&self, theta: &[T]) -> Option<Vec<crate::scalar::Complex<T>>> {
-        let out = self.scratch.borrow();
-        (self.scratch_at.borrow().as_deref() == Some(theta)).then(|| out.g.clone())
-    }
-
-    /// The residuals r(θ) into `r` and G(θ) on the data lines, reusing the last full
-    /// evaluation when it was at θ (e.g. the last step of a solver). False when a value is
-    /// not finite.
-    pub(crate) fn residuals_response(
-        &self,
-        theta: &[T],
-        r: &mut [T],
-    ) -> (bool, Vec<crate::scalar::Complex<T>>) {
+    /// The residuals r(θ) into `r`, reusing the last full evaluation when it was at θ (e.g.
+    /// the last step of a solver). False when a value is not finite.
+    pub(crate) fn residuals_at(&self, theta: &[T], r: &mut [T]) -> bool {
         if self.scratch_at.borrow().as_deref() == Some(theta) {
             let out = self.scratch.borrow();
             self.residuals_of(0, &out.yhat, r);
-            let finite = crate::scalar::all_finite_complex(&out.yhat) && all_finite(r);
-            return (finite, out.g.clone());
+            return crate::scalar::all_finite_complex(&out.yhat) && all_finite(r);
         }
-        let finite = self.residuals_into(theta, r);
-        (finite, self.scratch.borrow().g.clone())
+        self.residuals_into(theta, r)
+    }
+
+    /// G on the data lines from the last full evaluation ([`NonlinearProblem::residuals_into`]
+    /// or [`NonlinearProblem::jacobian_into`]) when it was at θ, moved out of the work
+    /// space (which then holds no evaluation); `None` otherwise.
+    pub(crate) fn take_response(&self, theta: &[T]) -> Option<Vec<crate::scalar::Complex<T>>> {
+        let mut at = self.scratch_at.borrow_mut();
+        if at.as_deref() != Some(theta) {
+            return None;
+        }
+        *at = None;
+        Some(std::mem::take(&mut self.scratch.borrow_mut().g))
     }
 
     /// Evaluates the model output at θ block by block ([`crate::linalg::gram`]'s block size, so that

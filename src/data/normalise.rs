@@ -45,6 +45,32 @@ impl<T: Real> Normalisation<T> {
         }
     }
 
+    /// The factors of [`Normalisation::of`] when the data lie far from order one (a largest
+    /// |Y_k| or |U_k| beyond 2^±[`NEAR_ONE_EXPONENT`]), else the identity: data nearer
+    /// one are fitted as they are (their squares and sums stay far inside the range of
+    /// `f32` and `f64`; the solvers equilibrate their columns and stop on relative changes,
+    /// so the scale leaves the fit but for rounding), which spares a copy of the data.
+    ///
+    /// ```
+    /// use fdid::data::{FrequencyData, Normalisation};
+    /// use fdid::Complex;
+    /// let frf = |g: f64| FrequencyData::from_frf(vec![1.0], vec![Complex::new(g, 0.0)], None);
+    /// assert!(Normalisation::of_far(&frf(3e4)?).is_identity());
+    /// assert_eq!(Normalisation::of_far(&frf(3e-170)?), Normalisation::of(&frf(3e-170)?));
+    /// # Ok::<(), fdid::FdidError>(())
+    /// ```
+    pub fn of_far(data: &FrequencyData<T>) -> Self {
+        let n = Self::of(data);
+        if n.exponent() <= NEAR_ONE_EXPONENT {
+            Self {
+                output: T::one(),
+                input: T::one(),
+            }
+        } else {
+            n
+        }
+    }
+
     /// The factors for a time record's output samples `y` and input samples `u` (the DFT is
     /// linear, so they normalise its spectra as well).
     pub fn of_samples(y: &[T], u: &[T]) -> Self {
@@ -98,6 +124,11 @@ impl<T: Real> Normalisation<T> {
         data.scaled(self.output, self.input)
     }
 }
+
+/// Largest binary exponent of the data (|log₂| of a factor of [`Normalisation::of`]) that
+/// [`Normalisation::of_far`] leaves as it is: 2^16 ≈ 6.6·10⁴, so that even fourth powers of
+/// the data stay within 2^±64, far inside `f32`.
+pub const NEAR_ONE_EXPONENT: i32 = 16;
 
 /// 2^−e with e the binary exponent of the largest of the magnitudes `x` (so that it
 /// becomes \[0.5, 1)), the exponent capped at ±0.9 of the type's largest; 1 when all are

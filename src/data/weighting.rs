@@ -24,25 +24,29 @@ impl NoiseWeighting {
     pub fn weights<T: Real>(&self, data: &FrequencyData<T>) -> Result<Option<Vec<T>>> {
         match (self, data.noise()) {
             (NoiseWeighting::Flat, _) | (NoiseWeighting::Auto, None) => Ok(None),
-            (NoiseWeighting::Auto, Some(noise)) => noise
-                .var_y
-                .iter()
-                .enumerate()
-                .map(|(k, v)| {
-                    if *v > T::zero() {
-                        Ok(T::one() / num_traits::Float::sqrt(*v))
-                    } else {
-                        Err(FdidError::InvalidArgument {
-                            name: "var_y",
-                            value: format!("{v} at line {k}"),
-                            reason: "a zero noise variance gives an infinite weight; use flat \
-                                     weighting or drop the line"
-                                .into(),
-                        })
-                    }
-                })
-                .collect::<Result<Vec<T>>>()
-                .map(Some),
+            (NoiseWeighting::Auto, Some(noise)) => {
+                // checked first, so that the weights are collected at their exact size
+                if let Some(k) = noise
+                    .var_y
+                    .iter()
+                    .position(|v| num_traits::Float::is_nan(*v) || *v <= T::zero())
+                {
+                    return Err(FdidError::InvalidArgument {
+                        name: "var_y",
+                        value: format!("{} at line {k}", noise.var_y[k]),
+                        reason: "a zero noise variance gives an infinite weight; use flat \
+                                 weighting or drop the line"
+                            .into(),
+                    });
+                }
+                Ok(Some(
+                    noise
+                        .var_y
+                        .iter()
+                        .map(|v| T::one() / num_traits::Float::sqrt(*v))
+                        .collect(),
+                ))
+            }
         }
     }
 }

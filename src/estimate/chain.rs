@@ -240,7 +240,10 @@ impl<T: Real> Default for LevyWork<T> {
 ///   whiteness test of [`Fit::validation`] below the 1 % level;
 /// - the model's own checks in [`FurtherStarts::further_starts`] — for [`crate::Rational`]:
 ///   unstable poles, poles the data cannot resolve ([`Fit::unresolved_poles`]), a zero
-///   within 10 % of a pole and inside its half-power band (|s_p − s_z| < |Re s_p|).
+///   within 10 % of a pole and inside its half-power band (|s_p − s_z| < |Re s_p|); and a
+///   discrete-time model of denominator order
+///   [`crate::estimate::multistart::DISCRETE_SEARCH_ORDER`] (9) or more, whatever the
+///   evidence.
 ///
 /// Only then does the model run its further starts (for [`crate::Rational`] of
 /// denominator order up to [`crate::estimate::multistart::MAX_RESTART_ORDER`], those of
@@ -334,8 +337,9 @@ impl Pipeline {
 
     /// Runs the chain on `model` and `data`, then (with `restarts` and ML) the model's
     /// further starts when the fit shows evidence of a local minimum (see [`Pipeline`]).
-    /// Data far from order one are normalised by powers of two first and the fit mapped
-    /// back ([`Normalisation`], [`Fit::denormalised`]) when the model has a
+    /// Data far from order one (beyond 2^±16, [`Normalisation::of_far`]) are normalised by
+    /// powers of two first and the fit mapped back ([`Fit::denormalised`]) when the model
+    /// has a
     /// [`ModelStructure::normalisation_map`](crate::model::ModelStructure::normalisation_map),
     /// so the poles do not depend on the data's units.
     ///
@@ -350,7 +354,7 @@ impl Pipeline {
         data.check_output()?;
         // the model's own checks first (its size against the lines) bound the map's length
         model.check_data(data)?;
-        let n = Normalisation::of(data);
+        let n = Normalisation::of_far(data);
         if !n.is_identity() && model.normalisation_map(n.output(), n.input()).is_some() {
             return self.fit_as_given(model, &n.apply(data))?.denormalised(&n);
         }
@@ -599,7 +603,7 @@ impl Pipeline {
     ) -> Result<(M, Vec<T>, Vec<Stage<T>>)> {
         data.check_output()?;
         model.check_data(data)?;
-        let n = Normalisation::of(data);
+        let n = Normalisation::of_far(data);
         let map = (!n.is_identity())
             .then(|| model.normalisation_map(n.output(), n.input()))
             .flatten();

@@ -241,8 +241,9 @@ impl ModelSpec {
         }
     }
 
-    /// Fits the spec to `data`, normalised by powers of two ([`Normalisation`]; the fit is
-    /// mapped back, so any finite data of the type's range give the same poles), choosing
+    /// Fits the spec to `data`, normalised by powers of two when far from order one
+    /// ([`Normalisation::of_far`]; the fit is mapped back, so any finite data of the type's
+    /// range give the same poles), choosing
     /// the strategy from its settings:
     ///
     /// | delay | noise model | criterion | strategy |
@@ -375,7 +376,7 @@ impl ModelSpec {
             stable: self.stability == Stability::Enforced,
             ..Pipeline::default()
         };
-        let normalisation = Normalisation::of(data);
+        let normalisation = Normalisation::of_far(data);
         let from_roots = if normalisation.is_identity() {
             pipeline.fit_from_roots(&model, data, poles)
         } else {
@@ -416,7 +417,7 @@ impl ModelSpec {
     }
 
     /// The fit of `model` by the spec's strategy with `pipeline`'s stages, on data
-    /// normalised by powers of two (mapped back), stable when the spec enforces it; a
+    /// normalised by powers of two when far from order one (mapped back), stable when the spec enforces it; a
     /// delayed ML fit from the delay `delay_from` when given ([`ModelSpec::fit_near_delay`]).
     fn fit_model(
         &self,
@@ -427,7 +428,7 @@ impl ModelSpec {
     ) -> Result<RationalFit> {
         let stable = self.stability == Stability::Enforced;
         let pipeline = Pipeline { stable, ..pipeline };
-        let normalisation = Normalisation::of(data);
+        let normalisation = Normalisation::of_far(data);
         let fit = if normalisation.is_identity() {
             self.fit_with(&pipeline, model, data, delay_from)?
         } else {

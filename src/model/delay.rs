@@ -218,7 +218,7 @@ impl<M> Delayed<M> {
 /// e^{−iωτ}.
 #[inline]
 pub(crate) fn delay_factor<T: Real>(omega: T, tau: T) -> Complex<T> {
-    let (s, c) = Float::sin_cos(omega * tau);
+    let (s, c) = crate::basis::sin_cos(omega * tau);
     Complex::new(c, -s)
 }
 
