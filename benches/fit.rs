@@ -20,36 +20,16 @@
 #[path = "../tests/common/mod.rs"]
 mod common;
 
-use common::{Modal, Noise, a_ct4, b_ct10, logspace, rel_rms};
+use common::{Noise, a_ct4, b_ct10, noisy_frf, rel_rms};
 use criterion::{
     BenchmarkId, Criterion, SamplingMode, Throughput, criterion_group, criterion_main,
 };
 use fdid::criterion::NoiseWeighting;
 use fdid::estimate::estimate;
 use fdid::solver::{LevenbergMarquardt, LinearLeastSquares};
-use fdid::{
-    Complex, Fit, FrequencyData, Levy, MaximumLikelihood, NoiseVariances, Pipeline, Rational,
-    TimeData,
-};
+use fdid::{Complex, Fit, FrequencyData, Levy, MaximumLikelihood, Pipeline, Rational, TimeData};
 use std::hint::black_box;
 use std::time::{Duration, Instant};
-
-/// Noisy FRF data of `sys` on `n` log-spaced lines over 0.1–10 rad/s at 40 dB SNR (noise
-/// standard deviation 1 % of the RMS of |G|, circular complex Gaussian), with the noise
-/// variances attached; and the noise-free truth on the same lines.
-fn simulate(sys: &Modal, n: usize, seed: u64) -> (FrequencyData<f64>, Vec<Complex<f64>>) {
-    let omega = logspace(-1.0, 1.0, n);
-    let g0 = sys.frf(&omega);
-    let rms = (g0.iter().map(|g| g.norm_sqr()).sum::<f64>() / g0.len() as f64).sqrt();
-    let var = (0.01 * rms).powi(2);
-    let mut noise = Noise::new(seed);
-    let y: Vec<Complex<f64>> = g0.iter().map(|g| g + noise.complex(var)).collect();
-    let data = FrequencyData::from_frf(omega, y, None)
-        .expect("valid FRF data")
-        .with_noise(NoiseVariances::output_only(vec![var; n]))
-        .expect("valid noise variances");
-    (data, g0)
-}
 
 /// Fits once with `pipeline` outside the timing and prints accuracy, stages and wall time.
 fn report(
@@ -79,7 +59,7 @@ fn report(
 
 fn full_pipeline(c: &mut Criterion) {
     // case 1: order 10, 20 000 lines
-    let (data10, g10) = simulate(&b_ct10(), 20_000, 7);
+    let (data10, g10) = noisy_frf(&b_ct10(), 20_000, 7);
     let model10 = Rational::continuous(10, 9, data10.omega()).expect("model");
     report(
         "ml_ct10_20000",
@@ -90,7 +70,7 @@ fn full_pipeline(c: &mut Criterion) {
     );
 
     // case 2: order 4, 2 000 lines
-    let (data4, g4) = simulate(&a_ct4(), 2_000, 11);
+    let (data4, g4) = noisy_frf(&a_ct4(), 2_000, 11);
     let model4 = Rational::continuous(4, 3, data4.omega()).expect("model");
     report("ml_ct4_2000", &Pipeline::default(), &model4, &data4, &g4);
 
@@ -135,7 +115,7 @@ fn full_pipeline(c: &mut Criterion) {
 }
 
 fn stages(c: &mut Criterion) {
-    let (data, g0) = simulate(&b_ct10(), 20_000, 7);
+    let (data, g0) = noisy_frf(&b_ct10(), 20_000, 7);
     let start = Rational::continuous(10, 9, data.omega()).expect("model");
     report("stages levy", &Pipeline::levy(), &start, &data, &g0);
     report("stages levy+sk", &Pipeline::sk(), &start, &data, &g0);
@@ -219,7 +199,7 @@ fn lines(c: &mut Criterion) {
     for n in [2_000usize, 20_000, 200_000] {
         // about 1 s per fit at 200 000 lines: room for the 10 samples
         group.measurement_time(Duration::from_secs(if n > 100_000 { 14 } else { 5 }));
-        let (data, g0) = simulate(&a_ct4(), n, 11);
+        let (data, g0) = noisy_frf(&a_ct4(), n, 11);
         let model = Rational::continuous(4, 3, data.omega()).expect("model");
         report(
             &format!("lines_ct4/{n}"),

@@ -7,33 +7,22 @@
 
 #[path = "../tests/common/mod.rs"]
 mod common;
-use common::{Noise, a_ct4, logspace};
-use fdid::{Complex, FrequencyData, NoiseVariances, Pipeline, Rational};
+use common::{a_ct4, noisy_frf};
+use fdid::{FrequencyData, Pipeline, Rational};
 use std::time::Instant;
 
 /// Lines of the three record lengths, and fits of each per round.
 const ROUNDS: [(usize, usize); 3] = [(2_000, 20), (20_000, 4), (200_000, 1)];
-
-/// `a_ct4` on `n` log-spaced lines over 0.1–10 rad/s, noise 1 % of the RMS of |G|.
-fn data(n: usize) -> FrequencyData<f64> {
-    let omega = logspace(-1.0, 1.0, n);
-    let g0 = a_ct4().frf(&omega);
-    let rms = (g0.iter().map(|g| g.norm_sqr()).sum::<f64>() / n as f64).sqrt();
-    let var = (0.01 * rms).powi(2);
-    let mut noise = Noise::new(11);
-    let y: Vec<Complex<f64>> = g0.iter().map(|g| g + noise.complex(var)).collect();
-    FrequencyData::from_frf(omega, y, None)
-        .expect("valid FRF data")
-        .with_noise(NoiseVariances::output_only(vec![var; n]))
-        .expect("valid noise variances")
-}
 
 fn main() {
     let reps: usize = std::env::var("REPS")
         .ok()
         .and_then(|v| v.parse().ok())
         .unwrap_or(30);
-    let sets: Vec<FrequencyData<f64>> = ROUNDS.iter().map(|&(n, _)| data(n)).collect();
+    let sets: Vec<FrequencyData<f64>> = ROUNDS
+        .iter()
+        .map(|&(n, _)| noisy_frf(&a_ct4(), n, 11).0)
+        .collect();
     let mut times: Vec<Vec<f64>> = vec![vec![]; ROUNDS.len()];
     for _ in 0..reps {
         for ((d, &(_, fits)), t) in sets.iter().zip(&ROUNDS).zip(&mut times) {

@@ -4,26 +4,12 @@
 //! DFT of 10⁷ samples).
 #[path = "../tests/common/mod.rs"]
 mod common;
-use common::{Noise, a_ct4, b_ct10, logspace, rel_rms};
+use common::{Noise, a_ct4, b_ct10, noisy_frf, rel_rms};
 use fdid::criterion::NoiseWeighting;
 use fdid::estimate::estimate;
 use fdid::solver::{GramLevenbergMarquardt, LevenbergMarquardt};
-use fdid::{Complex, Fit, FrequencyData, MaximumLikelihood, NoiseVariances, Pipeline, Rational};
+use fdid::{Fit, MaximumLikelihood, Pipeline, Rational};
 use std::time::Instant;
-
-fn simulate(sys: &common::Modal, n: usize, seed: u64) -> (FrequencyData<f64>, Vec<Complex<f64>>) {
-    let omega = logspace(-1.0, 1.0, n);
-    let g0 = sys.frf(&omega);
-    let rms = (g0.iter().map(|g| g.norm_sqr()).sum::<f64>() / g0.len() as f64).sqrt();
-    let var = (0.01 * rms).powi(2);
-    let mut noise = Noise::new(seed);
-    let y: Vec<Complex<f64>> = g0.iter().map(|g| g + noise.complex(var)).collect();
-    let data = FrequencyData::from_frf(omega, y, None)
-        .unwrap()
-        .with_noise(NoiseVariances::output_only(vec![var; n]))
-        .unwrap();
-    (data, g0)
-}
 
 fn best<R>(n: usize, mut f: impl FnMut() -> R) -> (f64, R) {
     let mut out = f();
@@ -61,14 +47,14 @@ fn main() {
             .ok()
             .and_then(|v| v.parse().ok())
             .unwrap_or(2_000);
-        let (data, _) = simulate(&a_ct4(), lines, 11);
+        let (data, _) = noisy_frf(&a_ct4(), lines, 11);
         let model = Rational::continuous(4, 3, data.omega()).unwrap();
         for _ in 0..reps(2000) {
             Pipeline::default().fit(&model, &data).unwrap();
         }
         return;
     }
-    let (data, g0) = simulate(&b_ct10(), 20_000, 7);
+    let (data, g0) = noisy_frf(&b_ct10(), 20_000, 7);
     let start = Rational::continuous(10, 9, data.omega()).unwrap();
     let fit = Pipeline::default().fit(&start, &data).unwrap();
     let mth = fit.theta().to_vec();
@@ -135,7 +121,7 @@ fn main() {
     });
     println!("Fit::new: {t:.2} ms");
     for n in [2_000usize, 20_000, 200_000] {
-        let (data, g0) = simulate(&a_ct4(), n, 11);
+        let (data, g0) = noisy_frf(&a_ct4(), n, 11);
         let model = Rational::continuous(4, 3, data.omega()).unwrap();
         let (t, fit) = best(3, || Pipeline::default().fit(&model, &data).unwrap());
         let st: Vec<String> = fit
