@@ -72,6 +72,8 @@ pub enum StageKind {
     MlReduced,
     /// ML from log-spread starting poles (`ml-spread`).
     MlSpread,
+    /// ML after moving one pole (pair) of the best fit elsewhere (`ml-relocated`).
+    MlRelocated,
     /// The least-squares residues of a modal start (`modal ls`).
     ModalLs,
     /// The least-squares numerator over given starting poles (`poles ls`).
@@ -99,6 +101,7 @@ impl StageKind {
             StageKind::MlReplaced => "ml-replaced",
             StageKind::MlReduced => "ml-reduced",
             StageKind::MlSpread => "ml-spread",
+            StageKind::MlRelocated => "ml-relocated",
             StageKind::ModalLs => "modal ls",
             StageKind::PolesLs => "poles ls",
             StageKind::NoiseModelMl => "noise-model ml",
@@ -125,6 +128,7 @@ impl StageKind {
             "ml-replaced" => StageKind::MlReplaced,
             "ml-reduced" => StageKind::MlReduced,
             "ml-spread" => StageKind::MlSpread,
+            "ml-relocated" => StageKind::MlRelocated,
             "modal ls" => StageKind::ModalLs,
             "poles ls" => StageKind::PolesLs,
             "noise-model ml" => StageKind::NoiseModelMl,

@@ -248,8 +248,10 @@ impl<T: Real> Default for LevyWork<T> {
 /// Only then does the model run its further starts (for [`crate::Rational`] of
 /// denominator order up to [`crate::estimate::multistart::MAX_RESTART_ORDER`], those of
 /// [`crate::estimate::multistart::fit_multistart`] or
-/// [`crate::estimate::multistart::fit_multistart_discrete`], about ten fits' work; above
-/// that order the start at the resonances of the data alone, two fits' work), and the fit of
+/// [`crate::estimate::multistart::fit_multistart_discrete`], about ten fits' work, twice
+/// that from order [`crate::estimate::multistart::RELOCATION_ORDER`] (5), where every pole
+/// of the best fit is also moved in turn over the band; above
+/// `MAX_RESTART_ORDER` the start at the resonances of the data alone, two fits' work), and the fit of
 /// lowest cost is returned; a fit without such evidence costs what the chain costs, plus
 /// the roots of its numerator and denominator.
 ///

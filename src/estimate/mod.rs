@@ -37,7 +37,8 @@ pub use delay::{DelayStart, delay_start, fit_delayed};
 pub use eiv::{fit_eiv, fit_eiv_delayed};
 pub use modal::{ModalOptions, fit_modal};
 pub use multistart::{
-    DISCRETE_SEARCH_ORDER, MAX_RESTART_ORDER, fit_multistart, fit_multistart_discrete,
+    DISCRETE_SEARCH_ORDER, MAX_RESTART_ORDER, RELOCATION_ORDER, fit_multistart,
+    fit_multistart_discrete, without_relocation,
 };
 pub use noise_model::{NOISE_MODEL_COST_TOLERANCE, fit_noise_model, refine_noise_model};
 pub use spec::{DelayRange, Method, ModelSpec, RationalFit, Stability, causal_delay_limit};

@@ -375,10 +375,24 @@ impl Workflow {
     /// are refitted and judged by the likelihood-ratio test (see the module
     /// documentation).
     ///
+    /// The fits run without the relocation starts of the multistart search
+    /// ([`crate::estimate::without_relocation`]), which would double the cost of every
+    /// search from order 5 on.
+    ///
     /// # Errors
     /// [`FdidError::InvalidArgument`] for α outside (0, 1); the start fit's errors (a
     /// proposal whose fit fails is skipped).
     pub fn run(&self, data: &FrequencyData<f64>, start: ModelSpec, ctx: Context) -> Result<Report> {
+        crate::estimate::without_relocation(|| self.run_fits(data, start, ctx))
+    }
+
+    /// [`Workflow::run`] (on the thread's relocation setting).
+    fn run_fits(
+        &self,
+        data: &FrequencyData<f64>,
+        start: ModelSpec,
+        ctx: Context,
+    ) -> Result<Report> {
         let alpha = ctx.alpha;
         if !(alpha > 0.0 && alpha < 1.0) {
             return Err(FdidError::InvalidArgument {

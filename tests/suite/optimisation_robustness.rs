@@ -8,11 +8,12 @@
 //!
 //! Measured on the 500 systems of seeds 1000–1499 (docs/testing.md): `Pipeline::fit`, which
 //! runs further starts when its fit shows evidence of a local minimum, reaches the optimum
-//! on 97.8 % (continuous time 98.8 %, discrete time 96.8 %), below the 99 % target; the
-//! chain alone (`restarts: false`) on 84.0 %; the multistart fits (`fit_multistart`,
-//! `fit_multistart_discrete`) on 98.8 %. These tests guard those levels.
+//! on 98.6 % (continuous time 98.8 %, discrete time 98.4 %), below the 99 % target; the
+//! chain alone (`restarts: false`) on 81.6 %; the multistart fits (`fit_multistart`,
+//! `fit_multistart_discrete`) on 99.0 %. These tests guard those levels.
 
 use crate::robustness;
+use fdid::prelude::*;
 
 use robustness::Outcome;
 
@@ -68,12 +69,53 @@ fn forty_systems() {
     );
 }
 
+/// A system on which the search used to end above the cost of ML started at the true
+/// parameters — a pole (pair) of its best fit in the wrong place — and which the
+/// relocation starts (`fit_multistart`: every pole moved in turn over the band) now take
+/// to that cost or below: seed 7188 (continuous time, order 8: 479.74 against 478.18 from
+/// the truth). The discrete-time system 1083 (order 10 on 128 lines) also reached its
+/// truth-start cost with them, but only through a pole that a single line determines,
+/// which the search does not keep.
 #[test]
-#[ignore = "500-system study (about 4 min in release); the 99 % target is not met: 97.8 % from the automatic start with its further starts, 84.0 % for the chain alone, 98.8 % with multiple starts"]
+fn relocation_reaches_the_truth_start_cost() {
+    for case in [robustness::ct_case(7188)] {
+        let o = robustness::run(&case, 0);
+        let truth = o.truth.expect("ML from the true parameters");
+        let at_most = truth + f64::max(1e-6 * truth, 1e-3);
+        // the case needs the relocation: without it the search stays above that cost
+        let (na, nb) = (case.sys.na, case.sys.nb);
+        let without = fdid::estimate::without_relocation(|| match case.sys.zpk.ts {
+            None => fit_multistart(&Pipeline::default(), na, nb, &case.data),
+            Some(ts) => fit_multistart_discrete(&Pipeline::default(), na, nb, ts, &case.data),
+        })
+        .expect("the search without relocation");
+        assert!(
+            without.cost() > at_most,
+            "seed {}: the search reaches {} without the relocation (truth start {truth}): \
+             the case no longer tests it",
+            o.seed,
+            without.cost()
+        );
+        for (what, cost) in [
+            ("fit_multistart", o.multi.clone().unwrap()),
+            ("Pipeline::fit", o.auto.clone()),
+        ] {
+            let cost = cost.unwrap_or_else(|e| panic!("seed {}: {what} failed: {e}", o.seed));
+            assert!(
+                cost <= at_most,
+                "seed {}: {what} ends at {cost}, above ML from the truth {truth}",
+                o.seed
+            );
+        }
+    }
+}
+
+#[test]
+#[ignore = "500-system study (about 9 min in release); the 99 % target is not met: 98.6 % from the automatic start with its further starts, 81.6 % for the chain alone, 99.0 % with multiple starts"]
 fn five_hundred_systems() {
     let outcomes = robustness::study(1000, 500, 2, |_| {});
     let (auto, multi, plain) = rates(&outcomes);
     eprintln!("Pipeline::fit {auto}, multistart {multi}, the chain alone {plain}");
     assert!(multi >= 0.985, "multistart rate {multi}");
-    assert!(auto >= 0.975, "Pipeline::fit rate {auto}");
+    assert!(auto >= 0.98, "Pipeline::fit rate {auto}");
 }
