@@ -296,8 +296,9 @@ impl<T: Real> Search<T> {
         }
     }
 
-    /// Relocation starts (denominator order [`RELOCATION_ORDER`] or more): every pole of the best fit in turn — a pair, or a real pole —
-    /// moved to each of [`RELOCATION_POINTS`] frequencies ωₖ log-spread over the band (as
+    /// Relocation starts (denominator order [`RELOCATION_ORDER`] or more): every pole of
+    /// the best fit in turn — a pair, or a real pole — moved to each of
+    /// [`RELOCATION_POINTS`] frequencies ωₖ log-spread over the band (as
     /// the pair s = −ζωₖ ± iωₖ√(1 − ζ²) for each ζ of [`RELOCATION_DAMPING`], or as the real
     /// pole s = −ωₖ; z = exp(s Ts) in discrete time, below the Nyquist frequency), the
     /// others kept. Continuous time: a Levy solve in the partial-fraction basis of those
@@ -656,10 +657,10 @@ impl Drop for RelocationSetting {
 /// thread (the setting before is restored afterwards): the further starts of
 /// [`Pipeline::fit`] and the multistart fits then cost about half as much from order
 /// [`RELOCATION_ORDER`] on, and the multistart fits reach the optimum of the 500-system
-/// study less often (98.8 % instead of 99.0 %). [`crate::workflow::Workflow::run`] runs its fits so: it refits
-/// many candidate models within a work budget, and with the relocation the F-16 workflow
-/// of the README would exceed it, while the dryer's, the robot arm's and the F-16's
-/// verdicts and final models are the same with it.
+/// study less often (98.8 % instead of 99.0 %). [`crate::workflow::Workflow::run`] runs
+/// its fits so: it refits many candidate models within a work budget, and with the
+/// relocation the F-16 workflow of the README would exceed it, while the dryer's, the
+/// robot arm's and the F-16's verdicts and final models are the same with it.
 ///
 /// ```
 /// use fdid::estimate::without_relocation;
@@ -673,11 +674,10 @@ pub fn without_relocation<R>(f: impl FnOnce() -> R) -> R {
 /// Lowest denominator order for which the relocation starts of [`fit_multistart`] and
 /// [`fit_multistart_discrete`] (and so of [`Pipeline::fit`]'s further starts) run. Below it
 /// the other starts already reach nearly every optimum it finds: with the relocation at
-/// every order,
-/// `fit_multistart` and `fit_multistart_discrete` lowered the cost on 1 of the 335 systems
-/// of order ≤ 4 among seeds 1000–1499 and 7000–7299 of the robustness study (by 8·10⁻⁵
-/// relative), while at every order it made the dryer's `diagnose` (candidate models of
-/// orders 2–4) take 40 % longer.
+/// every order, `fit_multistart` and `fit_multistart_discrete` lowered the cost on 1 of the
+/// 335 systems of order ≤ 4 among seeds 1000–1499 and 7000–7299 of the robustness study
+/// (by 8·10⁻⁵ relative), while it made the dryer's `diagnose` (candidate models of orders
+/// 2–4) take 40 % longer.
 pub const RELOCATION_ORDER: usize = 5;
 
 /// Frequencies, log-spread over the band, to which [`Search::relocate_each`] moves each
