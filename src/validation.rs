@@ -35,27 +35,36 @@ pub fn unresolved_poles<T: Real>(
     domain: Domain<T>,
     omega: &[T],
 ) -> Vec<Complex<T>> {
-    let (Some(lo), Some(hi)) = (omega.first().copied(), omega.last().copied()) else {
-        return vec![];
-    };
     poles
         .iter()
         .filter(|p| p.im >= T::zero())
-        .filter(|p| {
-            let s = match domain {
-                Domain::Continuous => **p,
-                Domain::Discrete { ts } => p.ln() / ts,
-            };
-            let (sigma, w) = (Float::abs(s.re), Float::abs(s.im));
-            if !(w >= lo && w <= hi) {
-                return false;
-            }
-            // the first line at or above w − σ
-            let k = omega.partition_point(|x| *x < w - sigma);
-            !omega.get(k).is_some_and(|x| *x <= w + sigma)
-        })
+        .filter(|p| lines_in_band(s_plane(domain, **p), omega) == Some(0))
         .copied()
         .collect()
+}
+
+/// The s-plane pole s = p (continuous time) or s = ln(p)/Ts (discrete time) of a pole p
+/// of a model in `domain`.
+pub(crate) fn s_plane<T: Real>(domain: Domain<T>, p: Complex<T>) -> Complex<T> {
+    match domain {
+        Domain::Continuous => p,
+        Domain::Discrete { ts } => p.ln() / ts,
+    }
+}
+
+/// How many of the lines `omega` (rad/s, ascending) lie in the half-power band of the
+/// s-plane pole s = σ + iω_p, |ω_k − |ω_p|| ≤ |σ|, counted up to 2 (2 means two or more);
+/// `None` when |ω_p| lies outside the band of the data [ω_1, ω_N].
+pub(crate) fn lines_in_band<T: Real>(s: Complex<T>, omega: &[T]) -> Option<usize> {
+    let (lo, hi) = (*omega.first()?, *omega.last()?);
+    let (sigma, w) = (Float::abs(s.re), Float::abs(s.im));
+    if !(w >= lo && w <= hi) {
+        return None;
+    }
+    // the first line at or above w − σ
+    let first = omega.partition_point(|x| *x < w - sigma);
+    let inside = |k: usize| omega.get(k).is_some_and(|x| *x <= w + sigma);
+    Some((first..first + 2).take_while(|k| inside(*k)).count())
 }
 
 /// Damping ratio under which a pole counts as on the stability boundary
@@ -104,10 +113,7 @@ pub fn marginal_poles<T: Real>(
     poles
         .iter()
         .filter(|p| {
-            let s = match domain {
-                Domain::Continuous => **p,
-                Domain::Discrete { ts } => p.ln() / ts,
-            };
+            let s = s_plane(domain, **p);
             let distance = -s.re;
             distance < T::lit(MARGINAL_DAMPING) * s.norm() || distance < T::lit(BELOW_BAND) * lowest
         })
@@ -254,5 +260,20 @@ mod tests {
         assert!((v.max_residual / 5e200 - 1.0).abs() <= 1e-15);
         let v = Validation::new(&[Complex::new(3.0, -4.0)], 1, false, None);
         assert_eq!(v.max_residual, 5.0);
+    }
+
+    #[test]
+    fn lines_in_a_half_power_band_are_counted_up_to_two() {
+        let omega: Vec<f64> = (1..=10).map(f64::from).collect();
+        let band = |sigma: f64, w: f64| lines_in_band(Complex::new(-sigma, w), &omega);
+        assert_eq!(band(0.1, 4.5), Some(0));
+        assert_eq!(band(0.1, 4.95), Some(1));
+        // both edges count: |ω_k − ω_p| ≤ |σ|
+        assert_eq!(band(0.5, 4.5), Some(2));
+        assert_eq!(band(3.0, 5.0), Some(2));
+        assert_eq!(band(0.1, -4.95), Some(1));
+        assert_eq!(band(0.1, 0.5), None);
+        assert_eq!(band(0.1, 10.5), None);
+        assert_eq!(lines_in_band(Complex::new(-0.1, 1.0), &[] as &[f64]), None);
     }
 }

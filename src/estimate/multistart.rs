@@ -22,6 +22,7 @@ use crate::model::{
 };
 use crate::scalar::{Complex, Real};
 use crate::solver::LevenbergMarquardt;
+use crate::validation::{lines_in_band, s_plane};
 use nalgebra::{DMatrix, DVector};
 use num_traits::Float;
 use std::cell::Cell;
@@ -702,35 +703,19 @@ const RELOCATION_KEEP: usize = 3;
 /// not name it: [`Search::relocate_each`] does not keep a fit that gains one, so that a
 /// fit with a pole the data cannot determine stays flagged.
 fn new_thin_pole<T: Real>(fit: &Fit<T, Rational<T>>, before: &[Complex<T>], omega: &[T]) -> bool {
-    let (Ok(poles), Some(lo), Some(hi)) = (fit.poles(), omega.first(), omega.last()) else {
+    let Ok(poles) = fit.poles() else {
         return true;
     };
     let domain = fit.model().domain();
     poles.iter().filter(|p| p.im >= T::zero()).any(|p| {
         let s = s_plane(domain, *p);
-        let (sigma, w) = (Float::abs(s.re), Float::abs(s.im));
-        if !(w >= *lo && w <= *hi) {
-            return false;
-        }
-        let first = omega.partition_point(|x| *x < w - sigma);
-        let inside = |k: usize| omega.get(k).is_some_and(|x| *x <= w + sigma);
-        let thin = inside(first) && !inside(first + 1);
-        let near = Float::max(sigma, T::lit(1e-3) * s.norm());
-        thin && !before.iter().any(|q| (*q - s).norm() <= near)
+        let near = Float::max(Float::abs(s.re), T::lit(1e-3) * s.norm());
+        lines_in_band(s, omega) == Some(1) && !before.iter().any(|q| (*q - s).norm() <= near)
     })
 }
 
 /// Variants of the replacement of spurious poles ([`SpuriousPoles::variant`]).
 const REPLACEMENT_VARIANTS: usize = 6;
-
-/// The s-plane pole s = p (continuous time) or s = ln(p)/Ts (discrete time) of a pole p
-/// of a model in `domain`.
-fn s_plane<T: Real>(domain: Domain<T>, p: Complex<T>) -> Complex<T> {
-    match domain {
-        Domain::Continuous => p,
-        Domain::Discrete { ts } => p.ln() / ts,
-    }
-}
 
 /// The poles of a fit with the spurious ones marked, and the gaps where they may move.
 struct SpuriousPoles<T: Real> {
