@@ -311,8 +311,9 @@ impl<T: Real> Search<T> {
     /// The minima this escapes differ from the optimum in where one pole (pair) sits: a
     /// heavily damped pair traded for a lightly damped one, or a pole–zero pair that
     /// absorbs a noise feature at another frequency. A fit that gains a pole a single line
-    /// determines ([`new_thin_pole`]) is not kept: a sharp resonance on one noisy line
-    /// lowers the cost without describing the system, and no check would name it.
+    /// determines is not kept unless it stays flagged ([`hides_thin_pole`]): a sharp
+    /// resonance on one noisy line may lower the cost without describing the system, and
+    /// no check would name it.
     fn relocate_each(&mut self, pipeline: &Pipeline, data: &FrequencyData<T>) {
         if NO_RELOCATION.get() {
             return;
@@ -340,6 +341,13 @@ impl<T: Real> Search<T> {
             max_iterations: RELOCATION_SCREEN,
         };
         let fast = crate::solver::GramLevenbergMarquardt::from(lm);
+        // the s-plane poles of the fit before any relocation: a pole near none of them is
+        // new to every round
+        let Some((Ok(first), domain)) = self.best.as_ref().map(|b| (b.poles(), b.model().domain()))
+        else {
+            return;
+        };
+        let before: Vec<Complex<T>> = first.iter().map(|p| s_plane(domain, *p)).collect();
         for _ in 0..2 {
             let Some(b) = self.best.as_ref() else {
                 return;
@@ -356,7 +364,6 @@ impl<T: Real> Search<T> {
                 return;
             };
             let reps: Vec<Complex<T>> = poles.into_iter().filter(|p| p.im >= T::zero()).collect();
-            let before: Vec<Complex<T>> = reps.iter().map(|p| s_plane(domain, *p)).collect();
             // the start with the j-th pole replaced by `q` (s-plane; a pair by its upper
             // member): the model and θ
             let start = |j: usize, q: Complex<T>| -> Option<(Rational<T>, Vec<T>)> {
@@ -444,7 +451,7 @@ impl<T: Real> Search<T> {
                 if self.best.as_ref().is_none_or(|b| sol.cost < b.cost()) {
                     let stages = vec![Stage::new(StageKind::MlRelocated, sol.clone())];
                     match Fit::from_ml_problem(m.clone(), data, sol.theta, &problem, stages) {
-                        Ok(f) if !new_thin_pole(&f, &before, data.omega()) => self.offer(f),
+                        Ok(f) if !hides_thin_pole(&f, &before, data.omega()) => self.offer(f),
                         _ => {}
                     }
                 }
@@ -695,17 +702,21 @@ const RELOCATION_SCREEN: usize = 8;
 /// from.
 const RELOCATION_KEEP: usize = 3;
 
-/// Whether `fit` has a pole that none of `before` (s-plane poles) explains and that a
-/// single line of `omega` determines: with s = σ + iω_p (s = ln(p)/Ts in discrete time),
-/// ω_p inside the band, exactly one line with |ω_k − ω_p| ≤ |σ|, and no pole of `before`
-/// within max(|σ|, 10⁻³|s|) of s. One line fixes a peak's height but not its width, so
-/// such a pole fits a noise feature, and [`Fit::unresolved_poles`] (no line at all) does
-/// not name it: [`Search::relocate_each`] does not keep a fit that gains one, so that a
-/// fit with a pole the data cannot determine stays flagged.
-fn new_thin_pole<T: Real>(fit: &Fit<T, Rational<T>>, before: &[Complex<T>], omega: &[T]) -> bool {
-    let Ok(poles) = fit.poles() else {
+/// Whether `fit` hides a pole the data cannot determine: it has a pole that none of
+/// `before` (s-plane poles) explains and that a single line of `omega` determines — with
+/// s = σ + iω_p (s = ln(p)/Ts in discrete time), ω_p inside the band, exactly one line with
+/// |ω_k − ω_p| ≤ |σ|, and no pole of `before` within max(|σ|, 10⁻³|s|) of s — and no pole
+/// that [`Fit::unresolved_poles`] flags. One line fixes a peak's height but not its width,
+/// so such a pole may fit a noise feature, and [`Fit::unresolved_poles`] (no line at all)
+/// does not name it: [`Search::relocate_each`] does not keep a fit that gains one unless
+/// the fit stays flagged.
+fn hides_thin_pole<T: Real>(fit: &Fit<T, Rational<T>>, before: &[Complex<T>], omega: &[T]) -> bool {
+    let (Ok(poles), Ok(unresolved)) = (fit.poles(), fit.unresolved_poles()) else {
         return true;
     };
+    if !unresolved.is_empty() {
+        return false;
+    }
     let domain = fit.model().domain();
     poles.iter().filter(|p| p.im >= T::zero()).any(|p| {
         let s = s_plane(domain, *p);

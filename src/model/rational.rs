@@ -221,10 +221,23 @@ impl<T: Real> Rational<T> {
         self.transient
     }
 
-    /// The transient basis values χⱼ at ω (see [`Rational::with_transient`] and
+    /// z⁻¹ = e^{−iωTs} of the transient term (sample time `ts`) at ω, where `phi` holds
+    /// the basis values at ω ([`PolyBasis::eval_at`]): for powers of z⁻¹ with the same
+    /// sample time, φ₁ itself.
+    fn transient_variable(&self, ts: T, omega: T, phi: &[Complex<T>]) -> Complex<T> {
+        match (&self.basis, phi.get(1)) {
+            (PolyBasis::DelayPowers { ts: t }, Some(zinv)) if *t == ts => *zinv,
+            _ => {
+                let (sin, cos) = crate::basis::sin_cos(omega * ts);
+                Complex::new(cos, -sin)
+            }
+        }
+    }
+
+    /// The transient basis values χⱼ at the variable z⁻¹ = `zinv` of
+    /// [`Rational::transient_variable`] (see [`Rational::with_transient`] and
     /// [`Rational::with_sampled_transient`]).
-    fn transient_basis(&self, ts: T, omega: T, chi: &mut [Complex<T>]) {
-        let zinv = Complex::new(Float::cos(omega * ts), -Float::sin(omega * ts));
+    fn transient_basis(&self, ts: T, zinv: Complex<T>, chi: &mut [Complex<T>]) {
         let one = Complex::new(T::one(), T::zero());
         match &self.basis {
             PolyBasis::PartialFractions { poles } => {
@@ -732,7 +745,7 @@ impl<T: Real> ModelStructure<T> for Rational<T> {
         let c = self.numerator_coefficients(theta);
         for (k, w) in omega.iter().enumerate() {
             let (a, _) = self.eval_ab(theta, &c, *w, &mut phi);
-            self.transient_basis(ts, *w, &mut chi);
+            self.transient_basis(ts, self.transient_variable(ts, *w, &phi), &mut chi);
             let inv_a = a.inv();
             let num = chi
                 .iter()
@@ -825,6 +838,9 @@ impl<T: Real> EquationError<T> for Rational<T> {
         let mut cols: Vec<&mut [Complex<T>]> = out.as_mut_slice().chunks_exact_mut(len).collect();
         for (k, ((w, y), u)) in omega.iter().zip(y).zip(u).enumerate() {
             self.basis.eval_at(*w, &mut phi);
+            let zinv = self
+                .transient
+                .map(|ts| self.transient_variable(ts, *w, &phi));
             for (col, p) in cols[..=na].iter_mut().zip(&phi) {
                 col[k] = *p * *y;
             }
@@ -832,8 +848,8 @@ impl<T: Real> EquationError<T> for Rational<T> {
             for (col, p) in cols[na + 1..].iter_mut().zip(psi) {
                 col[k] = -(*p * *u);
             }
-            if let Some(ts) = self.transient {
-                self.transient_basis(ts, *w, &mut chi);
+            if let (Some(ts), Some(zinv)) = (self.transient, zinv) {
+                self.transient_basis(ts, zinv, &mut chi);
                 for (col, c) in cols[na + self.nb + 2..].iter_mut().zip(&chi) {
                     col[k] = -*c;
                 }

@@ -383,7 +383,7 @@ impl Workflow {
     /// [`FdidError::InvalidArgument`] for α outside (0, 1); the start fit's errors (a
     /// proposal whose fit fails is skipped).
     pub fn run(&self, data: &FrequencyData<f64>, start: ModelSpec, ctx: Context) -> Result<Report> {
-        crate::estimate::without_relocation(|| self.run_fits(data, start, ctx))
+        crate::estimate::without_relocation(|| spec::memoised(|| self.run_fits(data, start, ctx)))
     }
 
     /// [`Workflow::run`] (on the thread's relocation setting).

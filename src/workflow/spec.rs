@@ -167,7 +167,51 @@ pub use crate::validation::{BELOW_BAND, MARGINAL_DAMPING};
 /// # Errors
 /// As [`ModelSpec::fit`].
 pub fn fit_spec(spec: &ModelSpec, data: &FrequencyData<f64>) -> Result<SpecFit> {
-    fit_spec_by(spec, data, |s| s.fit(data))
+    let known = MEMO.with_borrow(|memo| {
+        memo.as_ref()?
+            .iter()
+            .find(|(s, d, _)| s == spec && d == data)
+            .map(|(_, _, fit)| fit.clone())
+    });
+    if let Some(fit) = known {
+        return fit;
+    }
+    let fit = fit_spec_by(spec, data, |s| s.fit(data));
+    MEMO.with_borrow_mut(|memo| {
+        if let Some(memo) = memo {
+            memo.push((spec.clone(), data.clone(), fit.clone()));
+        }
+    });
+    fit
+}
+
+/// The fits of [`fit_spec`] made on this thread inside [`memoised`]: spec, data and
+/// outcome.
+type Memo = Vec<(ModelSpec, FrequencyData<f64>, Result<SpecFit>)>;
+
+thread_local! {
+    /// [`Memo`], kept while a call of [`memoised`] runs on this thread.
+    static MEMO: std::cell::RefCell<Option<Memo>> = const { std::cell::RefCell::new(None) };
+}
+
+/// Runs `f` with [`fit_spec`] remembering its outcomes on this thread: a spec fitted again
+/// on equal data returns the first outcome instead of being refitted (the fit is a
+/// deterministic function of the two). The workflow refits the same spec several times —
+/// the backward elimination and the revision refit models the forward loop already fitted.
+/// Nested calls share the outermost memo, which is dropped when it returns.
+pub(crate) fn memoised<R>(f: impl FnOnce() -> R) -> R {
+    /// Drops the memo when the call that made it returns (or unwinds).
+    struct Forget;
+    impl Drop for Forget {
+        fn drop(&mut self) {
+            MEMO.set(None);
+        }
+    }
+    let outermost =
+        MEMO.with_borrow_mut(|memo| memo.is_none() && memo.insert(Vec::new()).is_empty());
+    // built only by the outermost call: dropping one forgets the memo
+    let _forget = if outermost { Some(Forget) } else { None };
+    f()
 }
 
 /// [`fit_spec`] started from the poles `poles` (na values, closed under conjugation;
@@ -353,5 +397,38 @@ mod tests {
         let at = BELOW_BAND * lowest;
         assert_eq!(fit_with_poles(&[c(-0.5 * at, 0.0)]).marginal_poles(), 1);
         assert_eq!(fit_with_poles(&[c(-2.0 * at, 0.0)]).marginal_poles(), 0);
+    }
+
+    #[test]
+    fn memoised_fits_are_kept_by_spec_and_data_inside_the_scope_only() {
+        let omega: Vec<f64> = (1..=20).map(|k| 0.5 * k as f64).collect();
+        let data = |gain: f64| {
+            let frf = omega
+                .iter()
+                .map(|w| Complex::new(gain, 0.0) / Complex::new(2.0, *w))
+                .collect();
+            FrequencyData::from_frf(omega.clone(), frf, None).unwrap()
+        };
+        let (one, two) = (data(1.0), data(2.0));
+        let spec = ModelSpec::continuous(1, 0);
+        let kept = || MEMO.with_borrow(|m| m.as_ref().map(Vec::len));
+        assert_eq!(kept(), None);
+        let first = memoised(|| {
+            let first = fit_spec(&spec, &one).unwrap();
+            let again = fit_spec(&spec, &one).unwrap();
+            assert_eq!((first.cost, &first.theta), (again.cost, &again.theta));
+            assert_eq!(kept(), Some(1));
+            // other data, another spec: fitted, not looked up
+            let other = fit_spec(&spec, &two).unwrap();
+            assert!((other.theta[1] / first.theta[1] - 2.0).abs() < 1e-9);
+            fit_spec(&ModelSpec::continuous(1, 1), &one).unwrap();
+            // a nested scope shares the memo and leaves it in place
+            memoised(|| assert_eq!(fit_spec(&spec, &one).unwrap().theta, first.theta));
+            assert_eq!(kept(), Some(3));
+            first
+        });
+        assert_eq!(kept(), None);
+        assert_eq!(fit_spec(&spec, &one).unwrap().theta, first.theta);
+        assert_eq!(kept(), None);
     }
 }
