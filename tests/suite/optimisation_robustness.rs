@@ -8,9 +8,9 @@
 //!
 //! Measured on the 500 systems of seeds 1000–1499 (docs/testing.md): `Pipeline::fit`, which
 //! runs further starts when its fit shows evidence of a local minimum, reaches the optimum
-//! on 98.6 % (continuous time 98.8 %, discrete time 98.4 %), below the 99 % target; the
+//! on 98.8 % (continuous time 99.2 %, discrete time 98.4 %), below the 99 % target; the
 //! chain alone (`restarts: false`) on 81.6 %; the multistart fits (`fit_multistart`,
-//! `fit_multistart_discrete`) on 99.0 %. These tests guard those levels.
+//! `fit_multistart_discrete`) on 99.2 %. These tests guard those levels.
 
 use crate::robustness;
 use fdid::prelude::*;
@@ -74,8 +74,9 @@ fn forty_systems() {
 /// relocation starts (`fit_multistart`: every pole moved in turn over the band) now take
 /// to that cost or below: seed 7188 (continuous time, order 8: 479.74 against 478.18 from
 /// the truth). The discrete-time system 1083 (order 10 on 128 lines) also reached its
-/// truth-start cost with them, but only through a pole that a single line determines,
-/// which the search does not keep.
+/// truth-start cost with them, but only through a pole that a single line determines
+/// in a fit without an unresolved pole, which the search does not keep (it keeps such a
+/// fit only when it stays flagged).
 #[test]
 fn relocation_reaches_the_truth_start_cost() {
     for case in [robustness::ct_case(7188)] {
@@ -110,8 +111,34 @@ fn relocation_reaches_the_truth_start_cost() {
     }
 }
 
+/// A relocated fit that gains a pole a single line determines is kept when it stays
+/// flagged: on seed 1170 (continuous time, order 10) `Pipeline::fit` reaches the study's
+/// best cost (320.54, from a perturbed true start; 326.84 from the true parameters) only
+/// through such a fit — without that exception it and the multistart fit end at 321.11 —
+/// and the fit it returns names an unresolved pole, so the user is warned that the data
+/// do not determine it.
 #[test]
-#[ignore = "500-system study (about 9 min in release); the 99 % target is not met: 98.6 % from the automatic start with its further starts, 81.6 % for the chain alone, 99.0 % with multiple starts"]
+fn a_single_line_pole_is_kept_in_a_flagged_fit() {
+    let case = robustness::ct_case(1170);
+    let o = robustness::run(&case, 2);
+    assert!(
+        o.reached(),
+        "Pipeline::fit ends at {:?}, above the best cost {}",
+        o.auto,
+        o.best
+    );
+    let model = Rational::continuous(case.sys.na, case.sys.nb, case.data.omega()).unwrap();
+    let fit = Pipeline::default()
+        .fit(&model, &case.data)
+        .expect("Pipeline::fit");
+    assert!(
+        !fit.unresolved_poles().unwrap().is_empty(),
+        "the fit is not flagged"
+    );
+}
+
+#[test]
+#[ignore = "500-system study (about 4 min in release); the 99 % target is not met: 98.8 % from the automatic start with its further starts, 81.6 % for the chain alone, 99.2 % with multiple starts"]
 fn five_hundred_systems() {
     let outcomes = robustness::study(1000, 500, 2, |_| {});
     let (auto, multi, plain) = rates(&outcomes);
