@@ -271,26 +271,46 @@ impl<T: Real> PolyBasis<T> {
                     out[k] = out[k - 1] * zinv;
                 }
             }
-            Self::PartialFractions { poles } => {
-                let mut k = 1;
-                let i = Complex::new(T::zero(), T::one());
-                for q in poles {
-                    if k >= out.len() {
-                        break;
-                    }
-                    let t1 = crate::scalar::recip(v - *q);
-                    if q.im == T::zero() {
-                        out[k] = t1;
-                        k += 1;
+            Self::PartialFractions { poles } => partial_fraction_terms(poles, v, out, |t| t),
+        }
+    }
+
+    /// Writes φ₀(v) … φ_d(v) into `phi` (as [`PolyBasis::eval_into`]) and their
+    /// derivatives dφⱼ/dv into `dphi` (the same length): for z⁻¹ powers d(z⁻ᵏ)/dz =
+    /// −k·z⁻ᵏ⁻¹; for partial fractions d(1/(v − q))/dv = −1/(v − q)²; for the orthonormal
+    /// basis the recurrence differentiated, dφₖ = (φₖ₋₁/ω_s + x·dφₖ₋₁ + γₖ₋₂·dφₖ₋₂)/γₖ₋₁.
+    pub fn eval_with_derivative_into(
+        &self,
+        v: Complex<T>,
+        phi: &mut [Complex<T>],
+        dphi: &mut [Complex<T>],
+    ) {
+        self.eval_into(v, phi);
+        let zero = Complex::new(T::zero(), T::zero());
+        let Some(first) = dphi.first_mut() else {
+            return;
+        };
+        *first = zero;
+        match self {
+            Self::Orthonormal { scale, gamma } => {
+                let x = v / *scale;
+                for k in 1..dphi.len().min(phi.len()) {
+                    let back = if k >= 2 {
+                        dphi[k - 2] * gamma[k - 2]
                     } else {
-                        let t2 = crate::scalar::recip(v - q.conj());
-                        out[k] = t1 + t2;
-                        if k + 1 < out.len() {
-                            out[k + 1] = (t1 - t2) * i;
-                        }
-                        k += 2;
-                    }
+                        zero
+                    };
+                    dphi[k] = (phi[k - 1] / *scale + x * dphi[k - 1] + back) / gamma[k - 1];
                 }
+            }
+            Self::DelayPowers { .. } => {
+                let zinv = v.inv();
+                for k in 1..dphi.len().min(phi.len()) {
+                    dphi[k] = -phi[k] * zinv * T::from_usize_lossy(k);
+                }
+            }
+            Self::PartialFractions { poles } => {
+                partial_fraction_terms(poles, v, dphi, |t| -(t * t));
             }
         }
     }
@@ -661,6 +681,37 @@ const COS_TAYLOR: [f64; 10] = [
     1.0 / 20_922_789_888_000.0,
     -1.0 / 6_402_373_705_728_000.0,
 ];
+
+/// Writes the partial-fraction basis terms of `poles` at `v` into `out[1..]`, each
+/// t = 1/(v − q) mapped by `f`: f(t) for a real pole, f(t₁) + f(t₂) and i·(f(t₁) − f(t₂))
+/// for a pair (t₂ = 1/(v − q̄)); f(t) = t gives the basis values, f(t) = −t² their
+/// derivatives.
+fn partial_fraction_terms<T: Real>(
+    poles: &[Complex<T>],
+    v: Complex<T>,
+    out: &mut [Complex<T>],
+    f: impl Fn(Complex<T>) -> Complex<T>,
+) {
+    let mut k = 1;
+    let i = Complex::new(T::zero(), T::one());
+    for q in poles {
+        if k >= out.len() {
+            break;
+        }
+        let t1 = f(crate::scalar::recip(v - *q));
+        if q.im == T::zero() {
+            out[k] = t1;
+            k += 1;
+        } else {
+            let t2 = f(crate::scalar::recip(v - q.conj()));
+            out[k] = t1 + t2;
+            if k + 1 < out.len() {
+                out[k + 1] = (t1 - t2) * i;
+            }
+            k += 2;
+        }
+    }
+}
 
 #[cfg(test)]
 mod tests {

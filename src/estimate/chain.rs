@@ -240,8 +240,9 @@ impl<T: Real> Default for LevyWork<T> {
 ///   whiteness test of [`Fit::validation`] below the 1 % level;
 /// - the model's own checks in [`FurtherStarts::further_starts`] — for [`crate::Rational`]:
 ///   unstable poles, poles the data cannot resolve ([`Fit::unresolved_poles`]), a zero
-///   within 10 % of a pole and inside its half-power band (|s_p − s_z| < |Re s_p|); and a
-///   discrete-time model of denominator order
+///   within 10 % of a pole and inside its half-power band (|s_p − s_z| < |Re s_p|), a
+///   pole the data barely determine (its standard deviation above half its distance from
+///   the stability boundary, |Re s_p|); and a discrete-time model of denominator order
 ///   [`crate::estimate::multistart::DISCRETE_SEARCH_ORDER`] (9) or more, whatever the
 ///   evidence.
 ///

@@ -72,6 +72,10 @@ pub struct Rational<T: Real> {
     transient: Option<T>,
 }
 
+/// A pole p with its sensitivities ∂p/∂θᵢ to the denominator parameters
+/// ([`Rational::pole_sensitivities`]).
+pub(crate) type PoleSensitivity<T> = (Complex<T>, Vec<Complex<T>>);
+
 impl<T: Real> Rational<T> {
     /// A continuous-time model with denominator degree `na` and numerator degree `nb` for
     /// data on the frequency grid `omega` (rad/s), in the best-conditioned form the orders
@@ -522,6 +526,33 @@ impl<T: Real> Rational<T> {
             PolyBasis::DelayPowers { .. } => poles.iter().all(|p| p.norm() < T::one()),
             _ => poles.iter().all(|p| p.re < T::zero()),
         })
+    }
+
+    /// Each pole p of θ (in the model's variable, s or z) with its sensitivities ∂p/∂θᵢ to
+    /// the na denominator parameters (the numerator and the transient do not move the
+    /// poles). From A(p; θ) = Σⱼ aⱼφⱼ(p) = 0, ∂p/∂θᵢ = −φ_{i+o}(p)/A′(p), with φ_{i+o} the
+    /// basis function θᵢ multiplies in A (o = 1 for the constant-normalised bases) and
+    /// A′ = Σⱼ aⱼφⱼ′ from the basis derivatives ([`PolyBasis::eval_with_derivative_into`]:
+    /// exact also where a partial-fraction basis has a pole next to p, as after a
+    /// relocation). `None` when the poles cannot be computed or a sensitivity is not
+    /// finite (a double pole, whose position θ does not determine to first order).
+    pub(crate) fn pole_sensitivities(&self, theta: &[T]) -> Option<Vec<PoleSensitivity<T>>> {
+        let poles = self.poles(theta).ok()?;
+        let (a, _) = self.coefficients(theta);
+        let zero = Complex::new(T::zero(), T::zero());
+        let (mut phi, mut dphi) = (vec![zero; a.len()], vec![zero; a.len()]);
+        let off = self.a_offset();
+        poles
+            .into_iter()
+            .map(|p| {
+                self.basis.eval_with_derivative_into(p, &mut phi, &mut dphi);
+                let slope = dphi.iter().zip(&a).fold(zero, |s, (d, c)| s + *d * *c);
+                let d: Vec<Complex<T>> = (0..self.na).map(|i| -phi[i + off] / slope).collect();
+                d.iter()
+                    .all(|v| Float::is_finite(v.re) && Float::is_finite(v.im))
+                    .then_some((p, d))
+            })
+            .collect()
     }
 
     /// Reflects unstable poles into the stable region, keeping |G(iω)| (or |G(e^{iωTs})|)
@@ -1133,5 +1164,68 @@ impl<T: Real> TryFrom<Stored<T>> for Rational<T> {
             ));
         }
         Ok(rebuilt)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The pole of `poles` nearest to `p`.
+    fn nearest(poles: &[Complex<f64>], p: Complex<f64>) -> Complex<f64> {
+        *poles
+            .iter()
+            .min_by(|a, b| (**a - p).norm().total_cmp(&(**b - p).norm()))
+            .unwrap()
+    }
+
+    #[test]
+    fn pole_sensitivities_match_differences_of_the_poles_in_every_basis() {
+        let omega: Vec<f64> = (1..=50).map(|k| 0.2 * k as f64).collect();
+        let cases = [
+            (
+                Rational::partial_fractions_on(4, 3, &omega).unwrap(),
+                vec![0.3, -0.2, 0.1, 0.05],
+            ),
+            (
+                Rational::polynomial(3, 2, &omega).unwrap(),
+                vec![0.8, 1.3, 0.6],
+            ),
+            (
+                Rational::discrete(3, 2, 0.1).unwrap(),
+                vec![-1.2, 0.61, -0.09],
+            ),
+            // a relocated basis: its poles within 10⁻⁷ of the roots of A
+            (
+                Rational::partial_fractions(
+                    vec![Complex::new(-0.3, 2.0), Complex::new(-0.05, 7.0)],
+                    3,
+                )
+                .unwrap(),
+                vec![1e-7, -2e-7, 1e-7, 3e-7],
+            ),
+        ];
+        for (model, a) in cases {
+            let mut theta = a.clone();
+            theta.extend(std::iter::repeat_n(1.0, model.nb() + 1));
+            let sens = model.pole_sensitivities(&theta).expect("sensitivities");
+            assert_eq!(sens.len(), model.na());
+            for (i, _) in a.iter().enumerate() {
+                let h = 1e-6;
+                let (mut up, mut down) = (theta.clone(), theta.clone());
+                up[i] += h;
+                down[i] -= h;
+                let (pu, pd) = (model.poles(&up).unwrap(), model.poles(&down).unwrap());
+                for (p, d) in &sens {
+                    let fd = (nearest(&pu, *p) - nearest(&pd, *p)) / (2.0 * h);
+                    assert!(
+                        (fd - d[i]).norm() <= 1e-5 * (1.0 + fd.norm()),
+                        "{:?} pole {p}: ∂p/∂θ{i} {} against the difference {fd}",
+                        model.basis(),
+                        d[i]
+                    );
+                }
+            }
+        }
     }
 }

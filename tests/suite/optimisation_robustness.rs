@@ -138,11 +138,47 @@ fn a_single_line_pole_is_kept_in_a_flagged_fit() {
 }
 
 #[test]
-#[ignore = "500-system study (about 4 min in release); the 99 % target is not met: 98.8 % from the automatic start with its further starts, 81.6 % for the chain alone, 99.2 % with multiple starts"]
+#[ignore = "500-system study (about 4 min in release): 99.2 % from the automatic start with its further starts (the 99 % aimed at), 81.6 % for the chain alone, 99.2 % with multiple starts"]
 fn five_hundred_systems() {
     let outcomes = robustness::study(1000, 500, 2, |_| {});
     let (auto, multi, plain) = rates(&outcomes);
     eprintln!("Pipeline::fit {auto}, multistart {multi}, the chain alone {plain}");
     assert!(multi >= 0.985, "multistart rate {multi}");
-    assert!(auto >= 0.98, "Pipeline::fit rate {auto}");
+    assert!(auto >= 0.99, "Pipeline::fit rate {auto}");
+}
+
+/// A pole the data barely determine is evidence of a local minimum: on seed 7224
+/// (continuous time, order 9/7, outside the 500-system study) the chain's fit shows no
+/// other evidence, but the standard deviation of its real pole near −11.6 exceeds half
+/// its distance from the imaginary axis. The search that this starts reaches the
+/// multistart fit's cost (366.62, a stable fit whose weak real poles sit elsewhere),
+/// against 367.44 for the chain's fit.
+#[test]
+fn a_weak_pole_is_evidence_of_a_local_minimum() {
+    let case = robustness::ct_case(7224);
+    let (na, nb) = (case.sys.na, case.sys.nb);
+    let model = Rational::continuous(na, nb, case.data.omega()).unwrap();
+    let chain = Pipeline {
+        restarts: false,
+        ..Pipeline::default()
+    }
+    .fit(&model, &case.data)
+    .expect("the chain");
+    let fit = Pipeline::default()
+        .fit(&model, &case.data)
+        .expect("Pipeline::fit");
+    let multi = fit_multistart(&Pipeline::default(), na, nb, &case.data).expect("multistart");
+    assert!(
+        fit.cost() <= multi.cost() + 1e-3,
+        "Pipeline::fit ends at {}, the multistart fit at {}",
+        fit.cost(),
+        multi.cost()
+    );
+    assert!(
+        fit.cost() < chain.cost() - 0.5,
+        "no search: Pipeline::fit {} against the chain's {}",
+        fit.cost(),
+        chain.cost()
+    );
+    assert!(fit.model().is_stable(fit.theta()).unwrap());
 }
