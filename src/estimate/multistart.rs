@@ -941,8 +941,8 @@ pub fn fit_multistart_discrete<T: Real>(
 
 /// [`FurtherStarts::further_starts`] for [`Rational`]: when `suspicious`, when `fit` has
 /// unstable poles, poles the data cannot resolve ([`Fit::unresolved_poles`]), a zero that
-/// nearly cancels a pole or a pole the data barely determine ([`weak_pole`]), or for a discrete-time model
-/// of order [`DISCRETE_SEARCH_ORDER`] or more, the starts of
+/// nearly cancels a pole or a pole the data barely determine ([`weak_pole`]), or for a
+/// discrete-time model of order [`DISCRETE_SEARCH_ORDER`] or more, the starts of
 /// [`fit_multistart`] (a partial-fraction model) or of [`fit_multistart_discrete`] (a
 /// discrete-time polynomial model) but the automatic one, which gave `fit`; above
 /// [`MAX_RESTART_ORDER`] only the start at the resonances of the data
@@ -1145,17 +1145,15 @@ fn weak_pole<T: Real>(fit: &Fit<T, Rational<T>>) -> bool {
     };
     let domain = fit.model().domain();
     poles.iter().any(|(p, d)| {
-        // ∂s/∂p: 1, or 1/(p·Ts)
-        let ds = match domain {
-            Domain::Continuous => Complex::new(T::one(), T::zero()),
-            Domain::Discrete { ts } => (*p * ts).inv(),
-        };
-        let g: Vec<Complex<T>> = d.iter().map(|v| *v * ds).collect();
+        // σ_p², then σ_s² = |∂s/∂p|²·σ_p² with ∂s/∂p = 1, or 1/(p·Ts)
         let mut var = T::zero();
-        for (i, gi) in g.iter().enumerate() {
-            for (j, gj) in g.iter().enumerate() {
-                var += (gi.re * gj.re + gi.im * gj.im) * cov[(i, j)];
+        for (i, di) in d.iter().enumerate() {
+            for (j, dj) in d.iter().enumerate() {
+                var += (di.re * dj.re + di.im * dj.im) * cov[(i, j)];
             }
+        }
+        if let Domain::Discrete { ts } = domain {
+            var /= (*p * ts).norm_sqr();
         }
         let s = s_plane(domain, *p);
         var > T::zero() && Float::sqrt(var) > T::lit(WEAK_POLE) * Float::abs(s.re)

@@ -184,12 +184,11 @@ impl<T: Real, P: NonlinearProblem<T> + ?Sized> LeastSquaresProblem<T, Dyn, Dyn>
         }
         self.evaluations.set(self.evaluations.get() + 1);
         if self.compresses() {
-            let at = self.compressed_at();
-            let rt = at.as_ref().map_or_else(
-                || Self::blown_up(self.problem.n_params() + 1),
-                |a| a.0.clone(),
-            );
-            *self.compressed.borrow_mut() = at.map(|(_, jt)| (self.x.clone(), jt));
+            let (rt, kept) = match self.compressed_at() {
+                Some((rt, jt)) => (rt, Some((self.x.clone(), jt))),
+                None => (Self::blown_up(self.problem.n_params() + 1), None),
+            };
+            *self.compressed.borrow_mut() = kept;
             return Some(rt);
         }
         let mut r = DVector::zeros(self.problem.n_residuals());
