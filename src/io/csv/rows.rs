@@ -181,19 +181,25 @@ fn parse_part<T: Real>(
         let mut fine = true;
         for raw in text_lines(text) {
             number += 1;
-            let trimmed = raw.trim();
             if raw.len() > MAX_LINE_BYTES {
                 fine = false;
                 break;
             }
-            if trimmed.is_empty() || trimmed.starts_with('#') {
-                continue;
+            match plain_row::<T>(raw, ncols, &mut values) {
+                Some(Plain::Row) => rows.push(number),
+                Some(Plain::Skipped) => {}
+                None => {
+                    let trimmed = raw.trim();
+                    if trimmed.is_empty() || trimmed.starts_with('#') {
+                        continue;
+                    }
+                    if parse_row::<T>(trimmed, names, &mut values).is_err() {
+                        fine = false;
+                        break;
+                    }
+                    rows.push(number);
+                }
             }
-            if parse_row::<T>(trimmed, names, &mut values).is_err() {
-                fine = false;
-                break;
-            }
-            rows.push(number);
         }
         if fine {
             return Ok((values, rows));
@@ -230,6 +236,81 @@ fn text_lines(text: &str) -> impl Iterator<Item = &str> {
         start = next;
         Some(line)
     })
+}
+
+/// What [`plain_row`] made of a line.
+#[derive(Debug, PartialEq)]
+enum Plain {
+    /// A row: its values were appended.
+    Row,
+    /// A blank or comment line.
+    Skipped,
+}
+
+/// The common case of a line, read at the byte level: ASCII blanks around unquoted
+/// fields that are finite numbers, as many as the columns. Appends the row's values to
+/// `out` and returns [`Plain::Row`], or returns [`Plain::Skipped`] for a blank or comment
+/// line; `None` (with `out` unchanged) for anything else (quotes, other than ASCII
+/// blanks, a wrong count, a bad value), which [`parse_row`] then reads with the same
+/// result or names the fault.
+///
+/// The blanks are those of [`str::trim`] among ASCII bytes, so that a row read here
+/// gives the values [`parse_row`] would.
+fn plain_row<T: Real>(line: &str, ncols: usize, out: &mut Vec<f64>) -> Option<Plain> {
+    let bytes = line.as_bytes();
+    match bytes.iter().position(|&b| !is_blank(b)) {
+        None => return Some(Plain::Skipped),
+        Some(i) if bytes[i] == b'#' => return Some(Plain::Skipped),
+        Some(_) => {}
+    }
+    let before = out.len();
+    let row = plain_fields::<T>(line, ncols, out);
+    if row.is_none() {
+        out.truncate(before);
+    }
+    row.map(|()| Plain::Row)
+}
+
+/// The values of `line`'s `ncols` plain fields appended to `out`, or `None` (with some
+/// perhaps appended) when a field is not plain or the count is wrong.
+///
+/// One pass over the bytes: each number is parsed where it starts and ends where its
+/// parse stops, after which only blanks and a comma (the end of the line after the last
+/// field) may follow. The grammar and the correctly rounded value are those of
+/// `str::parse::<f64>` (a difference test holds the two to it).
+fn plain_fields<T: Real>(line: &str, ncols: usize, out: &mut Vec<f64>) -> Option<()> {
+    let bytes = line.as_bytes();
+    let mut at = 0;
+    for j in 0..ncols {
+        at += leading_blanks(&bytes[at..]);
+        let (v, used): (f64, usize) = fast_float2::parse_partial(&bytes[at..]).ok()?;
+        at += used;
+        at += leading_blanks(&bytes[at..]);
+        if j + 1 == ncols {
+            if at != bytes.len() {
+                return None;
+            }
+        } else if bytes.get(at) == Some(&b',') {
+            at += 1;
+        } else {
+            return None;
+        }
+        if !(v.is_finite() && num_traits::Float::is_finite(T::lit(v))) {
+            return None;
+        }
+        out.push(v);
+    }
+    Some(())
+}
+
+/// The number of blank bytes ([`is_blank`]) that `bytes` starts with.
+fn leading_blanks(bytes: &[u8]) -> usize {
+    bytes.iter().take_while(|&&b| is_blank(b)).count()
+}
+
+/// The ASCII bytes [`char::is_whitespace`] holds blank.
+fn is_blank(b: u8) -> bool {
+    matches!(b, b' ' | b'\t' | b'\n' | 0x0b | 0x0c | b'\r')
 }
 
 /// Appends the values of one row's fields to `out`: one pass for the values of the first
@@ -344,6 +425,136 @@ mod tests {
             }
             let want = line_by_line(&cut).unwrap();
             assert_eq!(in_pieces(&cut, 64, 16), Ok(want));
+        }
+    }
+
+    /// A line of fields drawn from numbers in every notation and from near misses (signs
+    /// alone, exponents without digits, quotes, non-ASCII blanks, values beyond `f32`
+    /// and `f64`, comments), with commas, blanks and ends of each kind.
+    fn drawn_line(picks: &[(u8, u8, f64)]) -> String {
+        const ODD: [&str; 26] = [
+            "",
+            "+",
+            "-",
+            ".",
+            "e5",
+            "1e",
+            "1e+",
+            "1.5.2",
+            "--1",
+            "0x1f",
+            "1_0",
+            "inf",
+            "-Infinity",
+            "NaN",
+            "1e39",
+            "-3.5e38",
+            "1e400",
+            "1e-400",
+            "\"2.5\"",
+            "\" 7 \"",
+            "\u{a0}4\u{a0}",
+            "#",
+            "# 1,2,3",
+            "٣",
+            "\"3",
+            "4\"",
+        ];
+        const SEP: [&str; 7] = [",", ", ", " ,", "\t,\t", ",,", " ", ",\u{2003}"];
+        let mut line = String::new();
+        for (k, &(token, sep, x)) in picks.iter().enumerate() {
+            if k > 0 {
+                line.push_str(SEP[usize::from(sep) % SEP.len()]);
+            }
+            let x = if x.is_finite() { x } else { 0.25 };
+            let field = match token % 8 {
+                0 => format!("{x}"),
+                1 => format!("{x:e}"),
+                2 => format!("{x:.17e}"),
+                3 => format!("{:+}", x / 3.0),
+                4 => format!("{}", x.trunc()),
+                5 => format!(" {x:E} "),
+                6 => format!("{}", x * 1e-300),
+                _ => ODD[usize::from(token / 8) % ODD.len()].to_string(),
+            };
+            line.push_str(&field);
+        }
+        line
+    }
+
+    /// The plain reading of a line against [`parse_row`]'s: a row it reads holds the
+    /// same values, bit for bit; a line it skips is blank or a comment; a line it leaves
+    /// adds nothing.
+    fn plain_agrees<T: Real>(line: &str, names: &[String]) -> bool {
+        let mut plain = vec![-1.0];
+        let mut general = vec![-1.0];
+        let trimmed = line.trim();
+        match plain_row::<T>(line, names.len(), &mut plain) {
+            Some(Plain::Row) => {
+                parse_row::<T>(trimmed, names, &mut general).is_ok()
+                    && plain.len() == general.len()
+                    && plain
+                        .iter()
+                        .zip(&general)
+                        .all(|(a, b)| a.to_bits() == b.to_bits())
+            }
+            Some(Plain::Skipped) => {
+                plain.len() == 1 && (trimmed.is_empty() || trimmed.starts_with('#'))
+            }
+            None => plain.len() == 1,
+        }
+    }
+
+    #[test]
+    fn the_plain_reading_of_a_row_is_the_general_one() {
+        fn prop(picks: Vec<(u8, u8, f64)>, lead: u8) -> bool {
+            let line = format!(
+                "{}{}",
+                [" ", "", "\t", "# "][usize::from(lead % 4)],
+                drawn_line(&picks)
+            );
+            (1..=4).all(|n| {
+                let names: Vec<String> = (0..n).map(|j| format!("c{j}")).collect();
+                plain_agrees::<f64>(&line, &names) && plain_agrees::<f32>(&line, &names)
+            })
+        }
+        quickcheck::QuickCheck::new()
+            .tests(3000)
+            .rng(quickcheck::Gen::from_size_and_seed(6, 0x5eed))
+            .quickcheck(prop as fn(Vec<(u8, u8, f64)>, u8) -> bool);
+    }
+
+    #[test]
+    fn ordinary_rows_take_the_plain_reading() {
+        let names: Vec<String> = ["f", "re", "im"].map(String::from).to_vec();
+        for line in [
+            "0.015915494309189534,6.0640006786585401,-0.081865599487377524",
+            " 1.37e-2 , 9.99812e-1\t,-1.369e-2 ",
+            "1,2,3",
+            "+.5,5.,-0E+0",
+        ] {
+            let mut out = vec![];
+            assert_eq!(
+                plain_row::<f64>(line, 3, &mut out),
+                Some(Plain::Row),
+                "{line}"
+            );
+            let mut general = vec![];
+            parse_row::<f64>(line.trim(), &names, &mut general).unwrap();
+            assert_eq!(out, general, "{line}");
+        }
+        for line in ["", "  \t", "# f,re,im", "  #"] {
+            assert_eq!(plain_row::<f64>(line, 3, &mut vec![]), Some(Plain::Skipped));
+        }
+        // left to the general reading, which names the fault or reads the quotes
+        for line in ["1,2", "1,2,3,4", "1,x,3", "1,\"2\",3", "1,2,1e39"] {
+            let mut out = vec![];
+            let plain = if line.ends_with("1e39") {
+                plain_row::<f32>(line, 3, &mut out)
+            } else {
+                plain_row::<f64>(line, 3, &mut out)
+            };
+            assert_eq!((plain, out.len()), (None, 0), "{line}");
         }
     }
 
