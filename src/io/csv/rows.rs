@@ -177,29 +177,37 @@ fn parse_part<T: Real>(
     let mut values = Vec::with_capacity(bytes.len() / 16);
     let mut rows = Vec::with_capacity(bytes.len() / (16 * ncols.max(1)));
     if let Ok(text) = std::str::from_utf8(bytes) {
-        let mut number = line;
-        let mut fine = true;
-        for raw in text_lines(text) {
+        let bytes = text.as_bytes();
+        let (mut number, mut start, mut fine) = (line, 0, true);
+        while start < bytes.len() {
             number += 1;
-            if raw.len() > MAX_LINE_BYTES {
+            // the plain reading ends the line where its last number does; the general
+            // one takes the line up to its break
+            let (end, next) = match plain_row::<T>(bytes, start, ncols, &mut values) {
+                Some((plain, end, next)) => {
+                    if plain == Plain::Row {
+                        rows.push(number);
+                    }
+                    (end, next)
+                }
+                None => {
+                    let (end, next) = line_end(bytes, start);
+                    let trimmed = text[start..end].trim();
+                    if !(trimmed.is_empty() || trimmed.starts_with('#')) {
+                        if parse_row::<T>(trimmed, names, &mut values).is_err() {
+                            fine = false;
+                            break;
+                        }
+                        rows.push(number);
+                    }
+                    (end, next)
+                }
+            };
+            if end - start > MAX_LINE_BYTES {
                 fine = false;
                 break;
             }
-            match plain_row::<T>(raw, ncols, &mut values) {
-                Some(Plain::Row) => rows.push(number),
-                Some(Plain::Skipped) => {}
-                None => {
-                    let trimmed = raw.trim();
-                    if trimmed.is_empty() || trimmed.starts_with('#') {
-                        continue;
-                    }
-                    if parse_row::<T>(trimmed, names, &mut values).is_err() {
-                        fine = false;
-                        break;
-                    }
-                    rows.push(number);
-                }
-            }
+            start = next;
         }
         if fine {
             return Ok((values, rows));
@@ -215,27 +223,22 @@ fn parse_part<T: Real>(
     Ok((values, rows))
 }
 
-/// The lines of `text` without their breaks (`\n`, `\r\n` or a lone `\r`), as the line
-/// reader splits them: no empty line after a final break.
-fn text_lines(text: &str) -> impl Iterator<Item = &str> {
-    let bytes = text.as_bytes();
-    let mut start = 0;
-    std::iter::from_fn(move || {
-        if start >= bytes.len() {
-            return None;
-        }
-        let (end, next) = match memchr::memchr2(b'\n', b'\r', &bytes[start..]) {
-            Some(i) => {
-                let at = start + i;
-                let crlf = bytes[at] == b'\r' && bytes.get(at + 1) == Some(&b'\n');
-                (at, at + 1 + usize::from(crlf))
-            }
-            None => (bytes.len(), bytes.len()),
-        };
-        let line = &text[start..end];
-        start = next;
-        Some(line)
-    })
+/// The end of the line that starts at `start` (its break, or the end of `bytes`) and the
+/// start of the next: after `\n`, `\r\n` or a lone `\r`, as the line reader splits.
+fn line_end(bytes: &[u8], start: usize) -> (usize, usize) {
+    match memchr::memchr2(b'\n', b'\r', &bytes[start..]) {
+        Some(i) => (start + i, after_break(bytes, start + i)),
+        None => (bytes.len(), bytes.len()),
+    }
+}
+
+/// The start of the next line after the break at `at` (a `\r\n` is one break).
+fn after_break(bytes: &[u8], at: usize) -> usize {
+    if bytes[at] == b'\r' && bytes.get(at + 1) == Some(&b'\n') {
+        at + 2
+    } else {
+        at + 1
+    }
 }
 
 /// What [`plain_row`] made of a line.
@@ -247,50 +250,66 @@ enum Plain {
     Skipped,
 }
 
-/// The common case of a line, read at the byte level: ASCII blanks around unquoted
-/// fields that are finite numbers, as many as the columns. Appends the row's values to
-/// `out` and returns [`Plain::Row`], or returns [`Plain::Skipped`] for a blank or comment
-/// line; `None` (with `out` unchanged) for anything else (quotes, other than ASCII
-/// blanks, a wrong count, a bad value), which [`parse_row`] then reads with the same
-/// result or names the fault.
-///
-/// The blanks are those of [`str::trim`] among ASCII bytes, so that a row read here
-/// gives the values [`parse_row`] would.
-fn plain_row<T: Real>(line: &str, ncols: usize, out: &mut Vec<f64>) -> Option<Plain> {
-    let bytes = line.as_bytes();
-    match bytes.iter().position(|&b| !is_blank(b)) {
-        None => return Some(Plain::Skipped),
-        Some(i) if bytes[i] == b'#' => return Some(Plain::Skipped),
-        Some(_) => {}
-    }
-    let before = out.len();
-    let row = plain_fields::<T>(line, ncols, out);
-    if row.is_none() {
-        out.truncate(before);
-    }
-    row.map(|()| Plain::Row)
-}
-
-/// The values of `line`'s `ncols` plain fields appended to `out`, or `None` (with some
-/// perhaps appended) when a field is not plain or the count is wrong.
+/// The common case of a line, read at the byte level: the line that starts at `start` of
+/// `bytes` holds ASCII blanks around unquoted fields that are finite numbers, as many as
+/// the columns. Appends the row's values to `out` and returns [`Plain::Row`], or returns
+/// [`Plain::Skipped`] for a blank or comment line, with the end of the line (its break)
+/// and the start of the next; `None` (with `out` unchanged) for anything else (quotes,
+/// other than ASCII blanks, a wrong count, a bad value), which [`parse_row`] then reads
+/// with the same result or names the fault.
 ///
 /// One pass over the bytes: each number is parsed where it starts and ends where its
-/// parse stops, after which only blanks and a comma (the end of the line after the last
-/// field) may follow. The grammar and the correctly rounded value are those of
-/// `str::parse::<f64>` (a difference test holds the two to it).
-fn plain_fields<T: Real>(line: &str, ncols: usize, out: &mut Vec<f64>) -> Option<()> {
-    let bytes = line.as_bytes();
-    let mut at = 0;
+/// parse stops, after which only blanks and a comma (a line break or the end after the
+/// last field) may follow. The blanks are those of [`str::trim`] among ASCII bytes, and
+/// the grammar and correctly rounded value of a number those of `str::parse::<f64>`, so
+/// that a row read here gives the values [`parse_row`] would (a difference test holds
+/// the two to it).
+fn plain_row<T: Real>(
+    bytes: &[u8],
+    start: usize,
+    ncols: usize,
+    out: &mut Vec<f64>,
+) -> Option<(Plain, usize, usize)> {
+    let first = start + leading_blanks(&bytes[start..]);
+    if matches!(bytes.get(first), None | Some(b'\n' | b'\r' | b'#')) {
+        let (end, next) = line_end(bytes, first);
+        return Some((Plain::Skipped, end, next));
+    }
+    let before = out.len();
+    let end = plain_fields::<T>(bytes, first, ncols, out);
+    if end.is_none() {
+        out.truncate(before);
+    }
+    end.map(|end| {
+        let next = if end == bytes.len() {
+            end
+        } else {
+            after_break(bytes, end)
+        };
+        (Plain::Row, end, next)
+    })
+}
+
+/// The values of the `ncols` plain fields from `at` appended to `out`, and the end of
+/// their line (its break or the end of `bytes`); `None` (with some perhaps appended) when
+/// a field is not plain or the count is wrong.
+fn plain_fields<T: Real>(
+    bytes: &[u8],
+    mut at: usize,
+    ncols: usize,
+    out: &mut Vec<f64>,
+) -> Option<usize> {
     for j in 0..ncols {
         at += leading_blanks(&bytes[at..]);
         let (v, used): (f64, usize) = fast_float2::parse_partial(&bytes[at..]).ok()?;
         at += used;
         at += leading_blanks(&bytes[at..]);
+        let next = bytes.get(at).copied();
         if j + 1 == ncols {
-            if at != bytes.len() {
+            if !matches!(next, None | Some(b'\n' | b'\r')) {
                 return None;
             }
-        } else if bytes.get(at) == Some(&b',') {
+        } else if next == Some(b',') {
             at += 1;
         } else {
             return None;
@@ -300,7 +319,7 @@ fn plain_fields<T: Real>(line: &str, ncols: usize, out: &mut Vec<f64>) -> Option
         }
         out.push(v);
     }
-    Some(())
+    Some(at)
 }
 
 /// The number of blank bytes ([`is_blank`]) that `bytes` starts with.
@@ -308,9 +327,9 @@ fn leading_blanks(bytes: &[u8]) -> usize {
     bytes.iter().take_while(|&&b| is_blank(b)).count()
 }
 
-/// The ASCII bytes [`char::is_whitespace`] holds blank.
+/// The ASCII bytes [`char::is_whitespace`] holds blank, but for the line breaks.
 fn is_blank(b: u8) -> bool {
-    matches!(b, b' ' | b'\t' | b'\n' | 0x0b | 0x0c | b'\r')
+    matches!(b, b' ' | b'\t' | 0x0b | 0x0c)
 }
 
 /// Appends the values of one row's fields to `out`: one pass for the values of the first
@@ -482,24 +501,29 @@ mod tests {
         line
     }
 
-    /// The plain reading of a line against [`parse_row`]'s: a row it reads holds the
-    /// same values, bit for bit; a line it skips is blank or a comment; a line it leaves
-    /// adds nothing.
-    fn plain_agrees<T: Real>(line: &str, names: &[String]) -> bool {
-        let mut plain = vec![-1.0];
-        let mut general = vec![-1.0];
+    /// The plain reading of `line` (followed by the break `brk` and a further line)
+    /// against [`parse_row`]'s: a row it reads holds the same values, bit for bit; a line
+    /// it skips is blank or a comment; a line it leaves adds nothing; the line it reads
+    /// ends before the break and the next starts after it.
+    fn plain_agrees<T: Real>(line: &str, brk: &str, names: &[String]) -> bool {
+        let text = format!("{line}{brk}1,2");
+        let (mut plain, mut general) = (vec![-1.0], vec![-1.0]);
         let trimmed = line.trim();
-        match plain_row::<T>(line, names.len(), &mut plain) {
-            Some(Plain::Row) => {
-                parse_row::<T>(trimmed, names, &mut general).is_ok()
+        let ends = |end: usize, next: usize| end == line.len() && next == line.len() + brk.len();
+        match plain_row::<T>(text.as_bytes(), 0, names.len(), &mut plain) {
+            Some((Plain::Row, end, next)) => {
+                ends(end, next)
+                    && parse_row::<T>(trimmed, names, &mut general).is_ok()
                     && plain.len() == general.len()
                     && plain
                         .iter()
                         .zip(&general)
                         .all(|(a, b)| a.to_bits() == b.to_bits())
             }
-            Some(Plain::Skipped) => {
-                plain.len() == 1 && (trimmed.is_empty() || trimmed.starts_with('#'))
+            Some((Plain::Skipped, end, next)) => {
+                ends(end, next)
+                    && plain.len() == 1
+                    && (trimmed.is_empty() || trimmed.starts_with('#'))
             }
             None => plain.len() == 1,
         }
@@ -513,9 +537,10 @@ mod tests {
                 [" ", "", "\t", "# "][usize::from(lead % 4)],
                 drawn_line(&picks)
             );
+            let brk = ["\n", "\r\n", "\r"][usize::from(lead / 4) % 3];
             (1..=4).all(|n| {
                 let names: Vec<String> = (0..n).map(|j| format!("c{j}")).collect();
-                plain_agrees::<f64>(&line, &names) && plain_agrees::<f32>(&line, &names)
+                plain_agrees::<f64>(&line, brk, &names) && plain_agrees::<f32>(&line, brk, &names)
             })
         }
         quickcheck::QuickCheck::new()
@@ -527,6 +552,9 @@ mod tests {
     #[test]
     fn ordinary_rows_take_the_plain_reading() {
         let names: Vec<String> = ["f", "re", "im"].map(String::from).to_vec();
+        let plain = |line: &str, out: &mut Vec<f64>| {
+            plain_row::<f64>(line.as_bytes(), 0, 3, out).map(|(p, end, _)| (p, end))
+        };
         for line in [
             "0.015915494309189534,6.0640006786585401,-0.081865599487377524",
             " 1.37e-2 , 9.99812e-1\t,-1.369e-2 ",
@@ -535,8 +563,8 @@ mod tests {
         ] {
             let mut out = vec![];
             assert_eq!(
-                plain_row::<f64>(line, 3, &mut out),
-                Some(Plain::Row),
+                plain(line, &mut out),
+                Some((Plain::Row, line.len())),
                 "{line}"
             );
             let mut general = vec![];
@@ -544,18 +572,16 @@ mod tests {
             assert_eq!(out, general, "{line}");
         }
         for line in ["", "  \t", "# f,re,im", "  #"] {
-            assert_eq!(plain_row::<f64>(line, 3, &mut vec![]), Some(Plain::Skipped));
+            assert_eq!(plain(line, &mut vec![]), Some((Plain::Skipped, line.len())));
         }
         // left to the general reading, which names the fault or reads the quotes
-        for line in ["1,2", "1,2,3,4", "1,x,3", "1,\"2\",3", "1,2,1e39"] {
+        for line in ["1,2", "1,2,3,4", "1,x,3", "1,\"2\",3"] {
             let mut out = vec![];
-            let plain = if line.ends_with("1e39") {
-                plain_row::<f32>(line, 3, &mut out)
-            } else {
-                plain_row::<f64>(line, 3, &mut out)
-            };
-            assert_eq!((plain, out.len()), (None, 0), "{line}");
+            assert_eq!((plain(line, &mut out), out.len()), (None, 0), "{line}");
         }
+        let mut out = vec![];
+        assert_eq!(plain_row::<f32>(b"1,2,1e39", 0, 3, &mut out), None);
+        assert!(out.is_empty());
     }
 
     #[test]
