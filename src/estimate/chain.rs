@@ -201,6 +201,7 @@ struct LevyWork<T: Real> {
     regressor: nalgebra::DMatrix<crate::scalar::Complex<T>>,
     a: nalgebra::DMatrix<T>,
     b: nalgebra::DVector<T>,
+    blocks: crate::linalg::gram::GramBlocks<T>,
 }
 
 impl<T: Real> Default for LevyWork<T> {
@@ -210,6 +211,7 @@ impl<T: Real> Default for LevyWork<T> {
             regressor: nalgebra::DMatrix::zeros(0, 0),
             a: nalgebra::DMatrix::zeros(0, 0),
             b: nalgebra::DVector::zeros(0),
+            blocks: Default::default(),
         }
     }
 }
@@ -695,9 +697,10 @@ impl Pipeline {
             let fill = |k0: usize, rows: &mut nalgebra::DMatrix<crate::scalar::Complex<T>>| {
                 model.regressor_lines_into(data, k0, rows);
             };
-            gram::lines_least_squares_gram(n, q, fill, weights, norm, max_cond).map(|t| {
+            let blocks = &mut work.blocks;
+            gram::lines_least_squares_gram(n, q, fill, weights, norm, max_cond, blocks).map(|t| {
                 let cost = want_cost
-                    .then(|| gram::lines_least_squares_cost(n, q, fill, weights, norm, &t));
+                    .then(|| gram::lines_least_squares_cost(n, q, fill, weights, norm, &t, blocks));
                 (t, cost)
             })
         };
