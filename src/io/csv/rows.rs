@@ -177,7 +177,6 @@ fn parse_part<T: Real>(
     let mut values = Vec::with_capacity(bytes.len() / 16);
     let mut rows = Vec::with_capacity(bytes.len() / (16 * ncols.max(1)));
     if let Ok(text) = std::str::from_utf8(bytes) {
-        let bytes = text.as_bytes();
         let (mut number, mut start, mut fine) = (line, 0, true);
         while start < bytes.len() {
             number += 1;
