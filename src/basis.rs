@@ -230,17 +230,20 @@ impl<T: Real> PolyBasis<T> {
     /// forming z and dividing by it.
     #[inline]
     pub fn eval_at(&self, omega: T, out: &mut [Complex<T>]) {
+        self.eval_at_known(omega, None, out);
+    }
+
+    /// [`PolyBasis::eval_at`] with z⁻¹ = e^{−iωTs} of [`PolyBasis::DelayPowers`] given when
+    /// it is known (`zinv`, the value of [`delay_variable`]); the other bases ignore it.
+    #[inline]
+    pub(crate) fn eval_at_known(&self, omega: T, zinv: Option<Complex<T>>, out: &mut [Complex<T>]) {
         match self {
             Self::DelayPowers { ts } => {
                 let Some(first) = out.first_mut() else {
                     return;
                 };
                 *first = Complex::new(T::one(), T::zero());
-                let (s, c) = sin_cos(omega * *ts);
-                let zinv = Complex::new(c, -s);
-                for k in 1..out.len() {
-                    out[k] = out[k - 1] * zinv;
-                }
+                delay_powers(zinv.unwrap_or_else(|| delay_variable(omega, *ts)), out);
             }
             _ => self.eval_into(self.variable(omega), out),
         }
@@ -602,6 +605,21 @@ impl<T: Real> PolyBasis<T> {
                 out
             }
         }
+    }
+}
+
+/// z⁻¹ = e^{−iωTs} at ω for sample time `ts`, from one [`sin_cos`].
+#[inline]
+pub(crate) fn delay_variable<T: Real>(omega: T, ts: T) -> Complex<T> {
+    let (s, c) = sin_cos(omega * ts);
+    Complex::new(c, -s)
+}
+
+/// The powers z⁻ᵏ = `zinv`ᵏ into `out[k]`, k ≥ 1, each from the one before (`out[0]` holds 1).
+#[inline]
+pub(crate) fn delay_powers<T: Real>(zinv: Complex<T>, out: &mut [Complex<T>]) {
+    for k in 1..out.len() {
+        out[k] = out[k - 1] * zinv;
     }
 }
 

@@ -6,6 +6,7 @@
 //! [`PolesZeros`].
 
 pub(crate) mod delay;
+mod kept_grid;
 mod modal;
 mod noise;
 mod output;
@@ -80,6 +81,10 @@ pub trait ModelStructure<T: Real> {
     }
 
     /// Checks that the model can be fitted to `data` (domain, sample time, enough lines).
+    /// The criteria call it before they evaluate the model on the data, so a model may also
+    /// keep values of the data's grid there for its evaluations (a discrete-time
+    /// [`crate::Rational`] keeps z⁻¹ = e^{−iωTs}, read by evaluations on runs of the same
+    /// lines, with the same values bit for bit).
     ///
     /// # Errors
     /// Model-specific; [`crate::FdidError::TooFewFrequencies`] at least when

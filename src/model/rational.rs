@@ -1,5 +1,6 @@
 //! Rational transfer-function models G = B/A in s (continuous time) or z⁻¹ (discrete time).
 
+use super::kept_grid::KeptGrid;
 use super::{EquationError, ModelStructure, PolesZeros};
 use crate::basis::PolyBasis;
 use crate::data::FrequencyData;
@@ -70,6 +71,9 @@ pub struct Rational<T: Real> {
     numerator_reflectors: Option<crate::linalg::householder::Complement<T>>,
     /// Sample time of the transient term, when the model has one.
     transient: Option<T>,
+    /// z⁻¹ kept on the grid of the first data checked ([`ModelStructure::check_data`]).
+    #[cfg_attr(feature = "serde", serde(skip))]
+    grid: KeptGrid<T>,
 }
 
 /// A pole p with its sensitivities ∂p/∂θᵢ to the denominator parameters
@@ -115,6 +119,7 @@ impl<T: Real> Rational<T> {
             numerator_map: None,
             numerator_reflectors: None,
             transient: None,
+            grid: KeptGrid::default(),
         })
     }
 
@@ -133,6 +138,7 @@ impl<T: Real> Rational<T> {
             numerator_map: None,
             numerator_reflectors: None,
             transient: None,
+            grid: KeptGrid::default(),
         })
     }
 
@@ -228,14 +234,34 @@ impl<T: Real> Rational<T> {
     /// z⁻¹ = e^{−iωTs} of the transient term (sample time `ts`) at ω, where `phi` holds
     /// the basis values at ω ([`PolyBasis::eval_at`]): for powers of z⁻¹ with the same
     /// sample time, φ₁ itself.
-    fn transient_variable(&self, ts: T, omega: T, phi: &[Complex<T>]) -> Complex<T> {
+    /// `kept` is z⁻¹ at ω when it is known ([`Rational::kept_zinv`]).
+    fn transient_variable(
+        &self,
+        ts: T,
+        omega: T,
+        phi: &[Complex<T>],
+        kept: Option<Complex<T>>,
+    ) -> Complex<T> {
         match (&self.basis, phi.get(1)) {
             (PolyBasis::DelayPowers { ts: t }, Some(zinv)) if *t == ts => *zinv,
-            _ => {
-                let (sin, cos) = crate::basis::sin_cos(omega * ts);
-                Complex::new(cos, -sin)
-            }
+            _ => kept.unwrap_or_else(|| crate::basis::delay_variable(omega, ts)),
         }
+    }
+
+    /// The sample time of the z⁻¹ of the model's evaluations: the basis' (powers of z⁻¹) or
+    /// else the sampled transient's; `None` for a continuous-time model without transient.
+    fn delay_ts(&self) -> Option<T> {
+        match &self.basis {
+            PolyBasis::DelayPowers { ts } => Some(*ts),
+            _ => self.transient,
+        }
+    }
+
+    /// z⁻¹ = e^{−iωTs} (Ts of [`Rational::delay_ts`]) on the lines `omega` from the grid
+    /// kept by [`ModelStructure::check_data`], when the lines are a run of it; `None` when
+    /// each line computes its own.
+    fn kept_zinv(&self, omega: &[T]) -> Option<&[Complex<T>]> {
+        self.grid.run(self.delay_ts()?, omega)
     }
 
     /// The transient basis values χⱼ at the variable z⁻¹ = `zinv` of
@@ -312,6 +338,7 @@ impl<T: Real> Rational<T> {
             numerator_map: numerator_reflectors.as_ref().map(|c| c.basis()),
             numerator_reflectors,
             transient: None,
+            grid: KeptGrid::default(),
         })
     }
 
@@ -382,6 +409,8 @@ impl<T: Real> Rational<T> {
             }
             let mut m = Self::partial_fractions(basis_poles, self.nb)?;
             m.transient = self.transient;
+            // z⁻¹ of the transient depends on Ts and ω only
+            m.grid = self.grid.clone();
             Ok(m)
         }))
     }
@@ -647,15 +676,17 @@ impl<T: Real> Rational<T> {
 
     /// Evaluates A and B at the variable of ω, with the basis values in `phi` and the
     /// numerator coefficients `c` of [`Rational::numerator_coefficients`]: B = Σ cₙφₙ.
+    /// `kept` is z⁻¹ at ω when it is known ([`Rational::kept_zinv`]).
     #[inline]
     fn eval_ab(
         &self,
         theta: &[T],
         c: &[T],
         omega: T,
+        kept: Option<Complex<T>>,
         phi: &mut [Complex<T>],
     ) -> (Complex<T>, Complex<T>) {
-        self.basis.eval_at(omega, phi);
+        self.basis.eval_at_known(omega, kept, phi);
         let zero = Complex::new(T::zero(), T::zero());
         let na = self.na;
         let dot = |phi: &[Complex<T>], c: &[T]| {
@@ -713,8 +744,9 @@ impl<T: Real> ModelStructure<T> for Rational<T> {
     fn response_into(&self, theta: &[T], omega: &[T], out: &mut [Complex<T>]) {
         let mut phi = self.zero_phi();
         let c = self.numerator_coefficients(theta);
-        for (w, o) in omega.iter().zip(out.iter_mut()) {
-            let (a, b) = self.eval_ab(theta, &c, *w, &mut phi);
+        let kept = self.kept_zinv(omega);
+        for (k, (w, o)) in omega.iter().zip(out.iter_mut()).enumerate() {
+            let (a, b) = self.eval_ab(theta, &c, *w, kept.map(|z| z[k]), &mut phi);
             *o = b * crate::scalar::recip(a);
         }
     }
@@ -740,8 +772,9 @@ impl<T: Real> ModelStructure<T> for Rational<T> {
             col.fill(Complex::new(T::zero(), T::zero()));
         }
         let c = self.numerator_coefficients(theta);
+        let kept = self.kept_zinv(omega);
         for (k, (w, g)) in omega.iter().zip(g.iter_mut()).enumerate() {
-            let (a, b) = self.eval_ab(theta, &c, *w, &mut phi);
+            let (a, b) = self.eval_ab(theta, &c, *w, kept.map(|z| z[k]), &mut phi);
             let inv_a = crate::scalar::recip(a);
             let gk = b * inv_a;
             *g = gk;
@@ -774,9 +807,12 @@ impl<T: Real> ModelStructure<T> for Rational<T> {
         let mut chi = vec![Complex::new(T::zero(), T::zero()); nt];
         let off = self.a_offset();
         let c = self.numerator_coefficients(theta);
+        let kept = self.kept_zinv(omega);
         for (k, w) in omega.iter().enumerate() {
-            let (a, _) = self.eval_ab(theta, &c, *w, &mut phi);
-            self.transient_basis(ts, self.transient_variable(ts, *w, &phi), &mut chi);
+            let zinv = kept.map(|z| z[k]);
+            let (a, _) = self.eval_ab(theta, &c, *w, zinv, &mut phi);
+            let zinv = self.transient_variable(ts, *w, &phi, zinv);
+            self.transient_basis(ts, zinv, &mut chi);
             let inv_a = a.inv();
             let num = chi
                 .iter()
@@ -818,6 +854,9 @@ impl<T: Real> ModelStructure<T> for Rational<T> {
         }
         if let PolyBasis::DelayPowers { ts } = &self.basis {
             data.check_sampled_grid(*ts, "model")?;
+        }
+        if let Some(ts) = self.delay_ts() {
+            self.grid.keep(ts, data.omega());
         }
         Ok(())
     }
@@ -867,11 +906,13 @@ impl<T: Real> EquationError<T> for Rational<T> {
         }
         // the columns of the block, written line by line
         let mut cols: Vec<&mut [Complex<T>]> = out.as_mut_slice().chunks_exact_mut(len).collect();
+        let kept = self.kept_zinv(omega);
         for (k, ((w, y), u)) in omega.iter().zip(y).zip(u).enumerate() {
-            self.basis.eval_at(*w, &mut phi);
+            let zinv = kept.map(|z| z[k]);
+            self.basis.eval_at_known(*w, zinv, &mut phi);
             let zinv = self
                 .transient
-                .map(|ts| self.transient_variable(ts, *w, &phi));
+                .map(|ts| self.transient_variable(ts, *w, &phi, zinv));
             for (col, p) in cols[..=na].iter_mut().zip(&phi) {
                 col[k] = *p * *y;
             }
@@ -891,8 +932,9 @@ impl<T: Real> EquationError<T> for Rational<T> {
     fn denominator_into(&self, theta: &[T], omega: &[T], out: &mut [Complex<T>]) {
         let mut phi = self.zero_phi();
         let c = self.numerator_coefficients(theta);
-        for (w, o) in omega.iter().zip(out.iter_mut()) {
-            *o = self.eval_ab(theta, &c, *w, &mut phi).0;
+        let kept = self.kept_zinv(omega);
+        for (k, (w, o)) in omega.iter().zip(out.iter_mut()).enumerate() {
+            *o = self.eval_ab(theta, &c, *w, kept.map(|z| z[k]), &mut phi).0;
         }
     }
 
@@ -905,8 +947,9 @@ impl<T: Real> EquationError<T> for Rational<T> {
     ) {
         let mut phi = self.zero_phi();
         let c = self.numerator_coefficients(theta);
-        for ((w, g), a) in omega.iter().zip(g.iter_mut()).zip(a.iter_mut()) {
-            let (den, num) = self.eval_ab(theta, &c, *w, &mut phi);
+        let kept = self.kept_zinv(omega);
+        for (k, ((w, g), a)) in omega.iter().zip(g.iter_mut()).zip(a.iter_mut()).enumerate() {
+            let (den, num) = self.eval_ab(theta, &c, *w, kept.map(|z| z[k]), &mut phi);
             *g = num * crate::scalar::recip(den);
             *a = den;
         }
@@ -1115,6 +1158,7 @@ impl<T: Real> TryFrom<Stored<T>> for Rational<T> {
                     numerator_map: None,
                     numerator_reflectors: None,
                     transient: None,
+                    grid: KeptGrid::default(),
                 }
             }
             PolyBasis::PartialFractions { poles } => {

@@ -1,0 +1,136 @@
+//! z⁻¹ = e^{−iωTs} kept on a model's frequency grid, so that repeated evaluations on the
+//! grid read it instead of taking a sine and a cosine per line.
+
+use crate::scalar::{Complex, Real};
+use std::sync::{Arc, OnceLock};
+
+/// z⁻¹ = e^{−iωTs} on the lines of one frequency grid, with the grid itself as the key:
+/// lines of an evaluation read it only when their frequencies are, bit for bit, a run of
+/// consecutive lines of the grid.
+#[derive(Debug)]
+struct DelayGrid<T: Real> {
+    ts: T,
+    omega: Vec<T>,
+    zinv: Vec<Complex<T>>,
+    /// The grid rises strictly, so a run's first line is found by bisection.
+    rising: bool,
+}
+
+impl<T: Real> DelayGrid<T> {
+    fn new(ts: T, omega: &[T]) -> Self {
+        Self {
+            ts,
+            omega: omega.to_vec(),
+            zinv: omega
+                .iter()
+                .map(|w| crate::basis::delay_variable(*w, ts))
+                .collect(),
+            rising: omega.windows(2).all(|w| w[0] < w[1]),
+        }
+    }
+
+    /// z⁻¹ on the lines `omega` with sample time `ts`, when they are a run of this grid.
+    fn run(&self, ts: T, omega: &[T]) -> Option<&[Complex<T>]> {
+        let first = omega.first()?;
+        if !same(ts, self.ts) {
+            return None;
+        }
+        let start = if self.rising {
+            self.omega.partition_point(|w| w < first)
+        } else {
+            0
+        };
+        let lines = start..start.checked_add(omega.len())?;
+        let kept = self.omega.get(lines.clone())?;
+        kept.iter()
+            .zip(omega)
+            .all(|(a, b)| same(*a, *b))
+            .then(|| &self.zinv[lines])
+    }
+}
+
+/// The same value bit for bit (the sign of a zero included; NaN is never the same).
+fn same<T: Real>(a: T, b: T) -> bool {
+    a == b && a.is_sign_negative() == b.is_sign_negative()
+}
+
+/// The [`DelayGrid`] a model keeps, set once by its first data check (see
+/// [`crate::ModelStructure::check_data`]) and shared by its clones. A model is equal to, and
+/// stores as, the same model without it.
+#[derive(Clone, Default)]
+pub(crate) struct KeptGrid<T: Real>(OnceLock<Arc<DelayGrid<T>>>);
+
+impl<T: Real> std::fmt::Debug for KeptGrid<T> {
+    /// The number of lines kept, not their values.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let lines = self.0.get().map_or(0, |g| g.omega.len());
+        write!(f, "KeptGrid({lines} lines)")
+    }
+}
+
+impl<T: Real> KeptGrid<T> {
+    /// Keeps z⁻¹ with sample time `ts` on `omega`, unless a grid is kept already.
+    pub(crate) fn keep(&self, ts: T, omega: &[T]) {
+        self.0.get_or_init(|| Arc::new(DelayGrid::new(ts, omega)));
+    }
+
+    /// z⁻¹ with sample time `ts` on the lines `omega` from the kept grid, when they are a
+    /// run of it; `None` otherwise (the caller computes them).
+    pub(crate) fn run(&self, ts: T, omega: &[T]) -> Option<&[Complex<T>]> {
+        self.0.get()?.run(ts, omega)
+    }
+}
+
+impl<T: Real> PartialEq for KeptGrid<T> {
+    /// Always: the kept values are those any evaluation computes.
+    fn eq(&self, _: &Self) -> bool {
+        true
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_run_of_the_grid_reads_the_kept_values() {
+        let omega: Vec<f64> = (0..50).map(|k| 0.01 + 0.06 * k as f64).collect();
+        let kept = KeptGrid::default();
+        assert!(kept.run(0.1, &omega).is_none());
+        kept.keep(0.1, &omega);
+        let direct: Vec<_> = omega
+            .iter()
+            .map(|w| crate::basis::delay_variable(*w, 0.1))
+            .collect();
+        assert_eq!(kept.run(0.1, &omega), Some(&direct[..]));
+        assert_eq!(kept.run(0.1, &omega[7..19]), Some(&direct[7..19]));
+        assert_eq!(kept.run(0.1, &omega[49..]), Some(&direct[49..]));
+        // another sample time, lines off the grid, a gap, a line past its end, a changed
+        // zero sign, NaN
+        assert!(kept.run(0.2, &omega[3..9]).is_none());
+        assert!(kept.run(0.1, &[0.5, 0.6]).is_none());
+        assert!(kept.run(0.1, &[omega[2], omega[4]]).is_none());
+        assert!(kept.run(0.1, &[omega[49], 3.5]).is_none());
+        assert!(kept.run(0.1, &[f64::NAN]).is_none());
+        let zero = KeptGrid::default();
+        zero.keep(0.1, &[0.0, 1.0]);
+        assert!(zero.run(0.1, &[-0.0, 1.0]).is_none());
+        assert!(zero.run(0.1, &[0.0, 1.0]).is_some());
+        // a second grid does not replace the first
+        kept.keep(0.1, &[1.0, 2.0]);
+        assert!(kept.run(0.1, &[1.0, 2.0]).is_none());
+        assert!(kept.run(0.1, &omega).is_some());
+        // an empty run reads nothing
+        assert!(kept.run(0.1, &[]).is_none());
+    }
+
+    #[test]
+    fn a_grid_that_does_not_rise_is_matched_from_its_start() {
+        let omega = [3.0, 1.0, 2.0, 1.0];
+        let kept = KeptGrid::default();
+        kept.keep(0.5f64, &omega);
+        assert!(kept.run(0.5, &omega).is_some());
+        assert!(kept.run(0.5, &omega[..2]).is_some());
+        assert!(kept.run(0.5, &omega[1..]).is_none());
+    }
+}
