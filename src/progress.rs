@@ -31,6 +31,21 @@ pub fn observe<R>(sink: impl Fn(&str) + 'static, f: impl FnOnce() -> R) -> R {
     value
 }
 
+/// Runs `f` with no sink on this thread (the sink before is restored afterwards): work
+/// forked to other threads, which have none, reports the same on every thread.
+pub(crate) fn silenced<R>(f: impl FnOnce() -> R) -> R {
+    /// Puts the sink back when dropped (also on a panic).
+    struct Restore(Option<Sink>);
+    impl Drop for Restore {
+        fn drop(&mut self) {
+            let sink = self.0.take();
+            SINK.with(|s| *s.borrow_mut() = sink);
+        }
+    }
+    let _restore = Restore(SINK.with(|s| s.borrow_mut().take()));
+    f()
+}
+
 /// Sends the line `what()` to this thread's sink; formats nothing without one.
 pub(crate) fn report(what: impl FnOnce() -> String) {
     let sink = SINK.with(|s| s.borrow().clone());
@@ -55,9 +70,14 @@ mod tests {
                 report(|| "outer".into());
                 observe(|_| {}, || report(|| "inner".into()));
                 report(|| "outer again".into());
+                silenced(|| report(|| unreachable!("formatted while silenced")));
+                report(|| "after the silence".into());
             },
         );
         report(|| unreachable!("the sink outlived its scope"));
-        assert_eq!(*seen.borrow(), ["outer", "outer again"]);
+        assert_eq!(
+            *seen.borrow(),
+            ["outer", "outer again", "after the silence"]
+        );
     }
 }

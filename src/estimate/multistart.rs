@@ -675,7 +675,19 @@ impl Drop for RelocationSetting {
 /// assert_eq!(without_relocation(|| 2 + 2), 4);
 /// ```
 pub fn without_relocation<R>(f: impl FnOnce() -> R) -> R {
-    let _restore = RelocationSetting(NO_RELOCATION.replace(true));
+    with_relocation_off(true, f)
+}
+
+/// Whether the relocation starts are switched off on this thread ([`without_relocation`]).
+pub(crate) fn relocation_off() -> bool {
+    NO_RELOCATION.get()
+}
+
+/// Runs `f` with the relocation starts switched off on this thread when `off`, on when not
+/// (the setting before is restored afterwards): the setting of [`relocation_off`] carried
+/// to another thread.
+pub(crate) fn with_relocation_off<R>(off: bool, f: impl FnOnce() -> R) -> R {
+    let _restore = RelocationSetting(NO_RELOCATION.replace(off));
     f()
 }
 

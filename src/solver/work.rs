@@ -39,6 +39,30 @@ pub fn within<R>(work: f64, f: impl FnOnce() -> R) -> (R, bool) {
     (value, stopped)
 }
 
+/// The work left on this thread's budget (`None`: no budget).
+pub(crate) fn left() -> Option<f64> {
+    LEFT.get()
+}
+
+/// Runs `f` on this thread with `budget` as its whole budget (`None`: none), whatever
+/// budget the thread had before, which is restored afterwards unchanged; returns the
+/// value and the work `f` charged. The budget left at a fork ([`left`]) carried to another
+/// thread, whose work the forking thread then [`charge`]s.
+pub(crate) fn detached<R>(budget: Option<f64>, f: impl FnOnce() -> R) -> (R, f64) {
+    /// Restores the thread's budget when dropped (also on a panic).
+    struct Restore(Option<f64>, bool);
+    impl Drop for Restore {
+        fn drop(&mut self) {
+            LEFT.set(self.0);
+            STOPPED.set(self.1);
+        }
+    }
+    let _restore = Restore(LEFT.replace(budget), STOPPED.replace(false));
+    let value = f();
+    let used = budget.map_or(0.0, |b| b - LEFT.get().unwrap_or(b));
+    (value, used)
+}
+
 /// Charges `work` to this thread's budget; false (and the budget marked as spent) when
 /// there is a budget and nothing is left after the charge.
 pub(crate) fn charge(work: f64) -> bool {
@@ -70,6 +94,35 @@ pub(crate) fn solve_cost(rows: usize, p: usize) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn detached_work_runs_on_its_own_budget_and_reports_its_charge() {
+        let ((), stopped) = within(10.0, || {
+            assert!(charge(3.0));
+            let (ok, used) = detached(left(), || charge(5.0) && charge(1.0));
+            assert!(ok);
+            assert_eq!(used, 6.0);
+            assert_eq!(
+                left(),
+                Some(7.0),
+                "the thread's budget is restored unchanged"
+            );
+            let (ok, used) = detached(Some(2.0), || charge(5.0));
+            assert!(!ok && used == 5.0);
+            assert!(
+                !spent(),
+                "a spent detached budget does not spend the thread's"
+            );
+            let (ok, used) = detached(None, || charge(1e300));
+            assert!(ok && used == 0.0);
+            assert!(
+                charge(6.0),
+                "the forking thread charges what its forks used"
+            );
+            assert!(!charge(1.0));
+        });
+        assert!(stopped);
+    }
 
     #[test]
     fn charges_stop_at_the_budget_and_nest() {

@@ -72,7 +72,7 @@ impl Workflow {
                 let Ok(reduced) = fit_spec(&spec, data) else {
                     continue;
                 };
-                // the step's own rule (`try_refit`): no unstable or new marginal pole
+                // the step's own rule (`judge_refit`): no unstable or new marginal pole
                 if !reduced.is_stable() || reduced.marginal_poles() > current.marginal_poles() {
                     continue;
                 }

@@ -36,6 +36,18 @@ pub trait Hypothesis: Sized {
     /// this structure cannot take it (or has it already).
     fn augment(&self, data: &FrequencyData<f64>, finding: &Finding) -> Option<Result<Self>>;
 
+    /// [`Hypothesis::augment`] with each of `findings`, in their order. The default runs
+    /// them one after the other; [`SpecFit`]'s runs them in parallel (with the `rayon`
+    /// feature), with the outcomes of the default while the workflow's work budget is not
+    /// reached.
+    fn augment_each(
+        &self,
+        data: &FrequencyData<f64>,
+        findings: &[Finding],
+    ) -> Vec<Option<Result<Self>>> {
+        findings.iter().map(|f| self.augment(data, f)).collect()
+    }
+
     /// The structure under the criterion `finding` proposes (errors-in-variables), fitted
     /// on `data`; `None` (the default) when the structure does not switch criteria: the
     /// finding is then reported as not added.
@@ -79,7 +91,7 @@ impl Hypothesis for SpecFit {
             .filter_map(|poles| {
                 super::spec::fit_spec_from_poles(&finding.proposal, data, &poles).ok()
             });
-        // the step's own rule (`try_refit`): unstable or new marginal poles are rejected
+        // the step's own rule (`judge_refit`): unstable or new marginal poles are rejected
         let marginal = self.marginal_poles();
         let rank = |f: &SpecFit| (!f.is_stable() || f.marginal_poles() > marginal, f.cost);
         let best = warm.fold(scratch, |best, fit| match best {
@@ -87,6 +99,16 @@ impl Hypothesis for SpecFit {
             _ => Ok(fit),
         });
         Some(best)
+    }
+
+    /// The refits on rayon's threads, each under the step's work budget, relocation
+    /// setting and memo of fits (see `workflow::fork`).
+    fn augment_each(
+        &self,
+        data: &FrequencyData<f64>,
+        findings: &[Finding],
+    ) -> Vec<Option<Result<Self>>> {
+        super::fork::map_forked(findings, |f| self.augment(data, f))
     }
 
     fn switch_criterion(
@@ -429,9 +451,17 @@ impl Workflow {
         };
         let mut attempts = Vec::new();
         let mut candidates: Vec<(usize, Finding, H, f64, f64)> = Vec::new();
-        for finding in all.into_iter().filter(|f| silent || f.p_value < ctx.alpha) {
-            crate::progress::report(|| format!("refitting for {}", finding.effect));
-            let (outcome, candidate) = try_refit(current, data, &finding, alpha);
+        let tried: Vec<Finding> = all
+            .into_iter()
+            .filter(|f| silent || f.p_value < ctx.alpha)
+            .collect();
+        crate::progress::report(|| {
+            let effects: Vec<String> = tried.iter().map(|f| f.effect.to_string()).collect();
+            format!("refitting for {}", effects.join(", "))
+        });
+        let refits = current.augment_each(data, &tried);
+        for (finding, next) in tried.into_iter().zip(refits) {
+            let (outcome, candidate) = judge_refit(current, next, data, alpha);
             if let Some((next, p, gain)) = candidate {
                 candidates.push((attempts.len(), finding.clone(), next, p, gain));
             }
@@ -484,16 +514,17 @@ fn explains_more<H>(measured: &Measured<H>, step: &Step, now: &SpecFit, next: &S
     better(Some((step.lr_p, gain)), m.step.lr_p, tv_gain)
 }
 
-/// Refits `current` with `finding`'s effect and judges it at `level`: the outcome, and
-/// when accepted the refit with its LR p-value and cost drop per added parameter.
-fn try_refit<H: Hypothesis>(
+/// Judges at `level` the refit `next` of `current` with a finding's effect
+/// ([`Hypothesis::augment`]): the outcome, and when accepted the refit with its LR p-value
+/// and cost drop per added parameter.
+fn judge_refit<H: Hypothesis>(
     current: &H,
+    next: Option<Result<H>>,
     data: &FrequencyData<f64>,
-    finding: &Finding,
     level: f64,
 ) -> (Outcome, Option<(H, f64, f64)>) {
     let now = current.fit();
-    let next = match current.augment(data, finding) {
+    let next = match next {
         None => return (Outcome::NotApplicable, None),
         Some(Err(e)) => {
             return (

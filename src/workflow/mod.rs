@@ -68,6 +68,7 @@ mod custom;
 pub mod detectors;
 mod eliminate;
 mod finding;
+mod fork;
 mod hypothesis;
 pub mod lrt;
 mod ltv_step;

@@ -7,6 +7,7 @@ use crate::fit::Fit;
 use crate::model::{Domain, ModelStructure, Output, PolesZeros};
 use crate::scalar::Complex;
 use nalgebra::DMatrix;
+use std::sync::Arc;
 
 /// The result of [`fit_spec`]: the statistics the detectors and the likelihood-ratio test
 /// use. Residuals are the normalised r_k = (Y_k − Ŷ_k)/σ_k of the criterion (eq. 23 or 42;
@@ -170,8 +171,8 @@ pub fn fit_spec(spec: &ModelSpec, data: &FrequencyData<f64>) -> Result<SpecFit> 
     let known = MEMO.with_borrow(|memo| {
         memo.as_ref()?
             .iter()
-            .find(|(s, d, _)| s == spec && d == data)
-            .map(|(_, _, fit)| fit.clone())
+            .find(|e| e.0 == *spec && e.1 == *data)
+            .map(|e| e.2.clone())
     });
     if let Some(fit) = known {
         return fit;
@@ -179,15 +180,56 @@ pub fn fit_spec(spec: &ModelSpec, data: &FrequencyData<f64>) -> Result<SpecFit> 
     let fit = fit_spec_by(spec, data, |s| s.fit(data));
     MEMO.with_borrow_mut(|memo| {
         if let Some(memo) = memo {
-            memo.push((spec.clone(), data.clone(), fit.clone()));
+            memo.push(Arc::new((spec.clone(), data.clone(), fit.clone())));
         }
     });
     fit
 }
 
 /// The fits of [`fit_spec`] made on this thread inside [`memoised`]: spec, data and
-/// outcome.
-type Memo = Vec<(ModelSpec, FrequencyData<f64>, Result<SpecFit>)>;
+/// outcome (shared, so that a copy for forked work is cheap).
+pub(crate) type Memo = Vec<Arc<(ModelSpec, FrequencyData<f64>, Result<SpecFit>)>>;
+
+/// A copy of this thread's memo (`None` outside [`memoised`]), for work forked to other
+/// threads ([`with_memo`]).
+pub(crate) fn memo_copy() -> Option<Memo> {
+    MEMO.with_borrow(Clone::clone)
+}
+
+/// Runs `f` with `memo` as this thread's memo (the memo before is restored afterwards);
+/// returns the value and the memo as `f` left it.
+pub(crate) fn with_memo<R>(memo: Option<Memo>, f: impl FnOnce() -> R) -> (R, Option<Memo>) {
+    /// Puts the memo before back when dropped (also on a panic).
+    struct Restore(Option<Memo>);
+    impl Drop for Restore {
+        fn drop(&mut self) {
+            MEMO.set(self.0.take());
+        }
+    }
+    let restore = Restore(MEMO.replace(memo));
+    let value = f();
+    let left = MEMO.replace(None);
+    drop(restore);
+    (value, left)
+}
+
+/// Adds to this thread's memo (if it keeps one) the entries of `entries` it does not
+/// hold, in their order.
+pub(crate) fn memo_merge(entries: Memo) {
+    MEMO.with_borrow_mut(|memo| {
+        let Some(memo) = memo else {
+            return;
+        };
+        for e in entries {
+            if !memo
+                .iter()
+                .any(|m| Arc::ptr_eq(m, &e) || (m.0 == e.0 && m.1 == e.1))
+            {
+                memo.push(e);
+            }
+        }
+    });
+}
 
 thread_local! {
     /// [`Memo`], kept while a call of [`memoised`] runs on this thread.
