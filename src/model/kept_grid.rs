@@ -124,6 +124,53 @@ mod tests {
         assert!(kept.run(0.1, &[]).is_none());
     }
 
+    /// A model's evaluations give the same values bit for bit before its data check
+    /// (every line computes z⁻¹) and after it (runs of the grid read the kept values).
+    #[test]
+    fn a_checked_model_evaluates_as_an_unchecked_one() {
+        use crate::data::FrequencyData;
+        use crate::model::{EquationError, ModelStructure, Rational};
+        use nalgebra::DMatrix;
+        let ts = 0.1;
+        let omega: Vec<f64> = (1..=40).map(|k| 0.7 * k as f64).collect();
+        let one = vec![Complex::new(1.0, 0.5); omega.len()];
+        let data = FrequencyData::new(omega.clone(), one.clone(), one, Some(ts)).unwrap();
+        let pf = Rational::continuous(2, 2, &omega)
+            .and_then(|m| m.with_sampled_transient(ts))
+            .unwrap();
+        let dt = Rational::discrete(3, 2, ts)
+            .and_then(|m| m.with_transient())
+            .unwrap();
+        for model in [pf, dt] {
+            let theta: Vec<f64> = (0..model.n_params())
+                .map(|j| 0.3 / (1.0 + j as f64) - 0.1)
+                .collect();
+            let evaluate = |m: &Rational<f64>, w: &[f64]| {
+                let zero = Complex::new(0.0, 0.0);
+                let (n, p) = (w.len(), m.n_params());
+                let (mut g, mut jac) = (vec![zero; n], DMatrix::from_element(n, p, zero));
+                m.jacobian_into(&theta, w, &mut g, &mut jac);
+                let (mut t, mut tjac) = (vec![zero; n], DMatrix::from_element(n, p, zero));
+                assert!(m.transient_into(&theta, w, &mut t, Some(&mut tjac)));
+                let mut r = vec![zero; n];
+                m.response_into(&theta, w, &mut r);
+                (g, jac, t, tjac, r)
+            };
+            let unchecked = model.clone();
+            model.check_data(&data).unwrap();
+            assert!(model.kept_zinv(&omega[3..17]).is_some());
+            for w in [&omega[..], &omega[3..17], &[0.5, 1.4, 2.1]] {
+                assert_eq!(evaluate(&model, w), evaluate(&unchecked, w));
+            }
+            let mut rows =
+                DMatrix::from_element(10, model.n_coefficients(), Complex::new(0.0, 0.0));
+            let mut rows0 = rows.clone();
+            model.regressor_lines_into(&data, 20, &mut rows);
+            unchecked.regressor_lines_into(&data, 20, &mut rows0);
+            assert_eq!(rows, rows0);
+        }
+    }
+
     #[test]
     fn a_grid_that_does_not_rise_is_matched_from_its_start() {
         let omega = [3.0, 1.0, 2.0, 1.0];

@@ -260,7 +260,7 @@ impl<T: Real> Rational<T> {
     /// z⁻¹ = e^{−iωTs} (Ts of [`Rational::delay_ts`]) on the lines `omega` from the grid
     /// kept by [`ModelStructure::check_data`], when the lines are a run of it; `None` when
     /// each line computes its own.
-    fn kept_zinv(&self, omega: &[T]) -> Option<&[Complex<T>]> {
+    pub(crate) fn kept_zinv(&self, omega: &[T]) -> Option<&[Complex<T>]> {
         self.grid.run(self.delay_ts()?, omega)
     }
 

@@ -256,3 +256,65 @@ fn disagreement_bands_are_calibrated_and_locate_a_resonance() {
         .is_err()
     );
 }
+
+/// Runs `f` on a pool of `threads` threads with the `rayon` feature (directly without).
+fn on_threads<R: Send>(threads: usize, f: impl FnOnce() -> R + Send) -> R {
+    #[cfg(feature = "rayon")]
+    {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+            .install(f)
+    }
+    #[cfg(not(feature = "rayon"))]
+    {
+        let _ = threads;
+        f()
+    }
+}
+
+/// The refits of a step run in parallel (`Hypothesis::augment_each`), each under the
+/// step's work budget, relocation setting and memo: the report is the same on one thread
+/// and on three, with a work budget that is not reached and with one that is (then each
+/// refit of a step starts from the budget left at the step).
+#[test]
+fn the_report_does_not_depend_on_the_thread_count() {
+    let n = 160;
+    let omega: Vec<f64> = (1..=n)
+        .map(|k| k as f64 * std::f64::consts::PI / (n + 1) as f64)
+        .collect();
+    let (r, th) = (0.98f64, 2.0f64);
+    let ar = [1.0, -2.0 * r * th.cos(), r * r];
+    let br = [0.0, 0.01, 0.0];
+    let truth = |w: f64| {
+        let zi = Complex::new(0.0, -w).exp();
+        (poly(&B2, zi) / poly(&A2, zi) + poly(&br, zi) / poly(&ar, zi))
+            * Complex::new(0.0, -w * 2.5).exp()
+    };
+    let data = lines(&omega, truth, 1e-3, Some(1.0), 5003);
+    let report = |threads: usize, budget: f64| {
+        on_threads(threads, || {
+            fdid::solver::work::within(budget, || {
+                Workflow::default()
+                    .run(
+                        &data,
+                        ModelSpec::discrete(2, 2, 1.0),
+                        Context::periodic(ALPHA),
+                    )
+                    .map(|r| format!("{r:?}"))
+            })
+        })
+    };
+    for budget in [1e12, 2e6, 3e7, 1e8] {
+        let (one, stopped) = report(1, budget);
+        let (three, stopped3) = report(3, budget);
+        println!("budget {budget:e}: stopped {stopped}");
+        assert_eq!(stopped, stopped3, "budget {budget:e}");
+        assert_eq!(budget < 1e12, stopped, "budget {budget:e}: reached or not");
+        match (one, three) {
+            (Ok(one), Ok(three)) => assert!(one == three, "budget {budget:e}: reports differ"),
+            (one, three) => assert_eq!(one.err(), three.err(), "budget {budget:e}"),
+        }
+    }
+}
