@@ -221,10 +221,7 @@ pub(crate) fn memo_merge(entries: Memo) {
             return;
         };
         for e in entries {
-            if !memo
-                .iter()
-                .any(|m| Arc::ptr_eq(m, &e) || (m.0 == e.0 && m.1 == e.1))
-            {
+            if !memo.iter().any(|m| m.0 == e.0 && m.1 == e.1) {
                 memo.push(e);
             }
         }

@@ -551,3 +551,20 @@ pub fn second_order_lines(p2: f64, var: f64, seed: u64) -> fdid::FrequencyData<f
         .with_noise(fdid::data::NoiseVariances::output_only(vec![var; n]))
         .unwrap()
 }
+
+/// Runs `f` on a local pool of `threads` threads with the `rayon` feature (directly without).
+pub fn on_threads<R: Send>(threads: usize, f: impl FnOnce() -> R + Send) -> R {
+    #[cfg(feature = "rayon")]
+    {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+            .install(f)
+    }
+    #[cfg(not(feature = "rayon"))]
+    {
+        let _ = threads;
+        f()
+    }
+}

@@ -2,6 +2,7 @@
 //! results of the sequential loop bit for bit, in order, and a failing item does not stop
 //! the batch.
 
+use crate::common::on_threads;
 use fdid::estimate::batch::{fit_each, fit_each_sequential, fit_many, fit_many_sequential};
 use fdid::prelude::*;
 use rand::rngs::StdRng;
@@ -52,23 +53,6 @@ fn assert_identical<M: ModelStructure<f64> + std::fmt::Debug>(
             (Err(x), Err(y)) => assert_eq!(x.to_string(), y.to_string(), "item {k}: error"),
             _ => panic!("item {k}: one batch fitted it and the other did not: {x:?} / {y:?}"),
         }
-    }
-}
-
-/// Runs `f` on a local pool of `threads` threads with the `rayon` feature (directly without).
-fn on_threads<R: Send>(threads: usize, f: impl FnOnce() -> R + Send) -> R {
-    #[cfg(feature = "rayon")]
-    {
-        rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .unwrap()
-            .install(f)
-    }
-    #[cfg(not(feature = "rayon"))]
-    {
-        let _ = threads;
-        f()
     }
 }
 

@@ -3,7 +3,7 @@
 //! order tests in s).
 use crate::common;
 
-use common::{Noise, logspace};
+use common::{Noise, logspace, on_threads};
 use fdid::prelude::*;
 use fdid::workflow::detectors::{Added, OrderIncrease};
 use fdid::workflow::{
@@ -63,25 +63,36 @@ fn coverage(report: &fdid::workflow::Report, g: impl Fn(f64) -> Complex<f64>) ->
 /// A delay of 2.5 samples and an extra lightly damped mode at 2 rad/sample: both are
 /// named (in either order), the final model is consistent with the noise and covers the
 /// truth.
-#[test]
-fn hidden_delay_and_resonance_are_both_found() {
+/// The delay (samples) of [`delayed_with_resonance`].
+const TAU: f64 = 2.5;
+
+/// The second-order truth with an extra lightly damped mode at 2 rad/sample, delayed by
+/// [`TAU`] samples.
+fn delayed_with_resonance(w: f64) -> Complex<f64> {
+    let (r, th) = (0.98f64, 2.0f64);
+    let ar = [1.0, -2.0 * r * th.cos(), r * r];
+    let br = [0.0, 0.01, 0.0];
+    let zi = Complex::new(0.0, -w).exp();
+    (poly(&B2, zi) / poly(&A2, zi) + poly(&br, zi) / poly(&ar, zi))
+        * Complex::new(0.0, -w * TAU).exp()
+}
+
+/// [`delayed_with_resonance`] on 160 lines below Nyquist (Ts = 1), noise variance 10⁻³.
+fn delayed_with_resonance_data(seed: u64) -> FrequencyData<f64> {
     let n = 160;
     let omega: Vec<f64> = (1..=n)
         .map(|k| k as f64 * std::f64::consts::PI / (n + 1) as f64)
         .collect();
-    let (r, th) = (0.98f64, 2.0f64);
-    let ar = [1.0, -2.0 * r * th.cos(), r * r];
-    let br = [0.0, 0.01, 0.0];
-    let tau = 2.5;
-    let truth = |w: f64| {
-        let zi = Complex::new(0.0, -w).exp();
-        (poly(&B2, zi) / poly(&A2, zi) + poly(&br, zi) / poly(&ar, zi))
-            * Complex::new(0.0, -w * tau).exp()
-    };
+    lines(&omega, delayed_with_resonance, 1e-3, Some(1.0), seed)
+}
+
+#[test]
+fn hidden_delay_and_resonance_are_both_found() {
+    let (truth, tau) = (delayed_with_resonance, TAU);
     let seeds = 8;
     let (mut both, mut consistent, mut mean_cov) = (0, 0, 0.0);
     for seed in 0..seeds {
-        let data = lines(&omega, truth, 1e-3, Some(1.0), 5000 + seed);
+        let data = delayed_with_resonance_data(5000 + seed);
         let report = Workflow::default()
             .run(
                 &data,
@@ -257,42 +268,13 @@ fn disagreement_bands_are_calibrated_and_locate_a_resonance() {
     );
 }
 
-/// Runs `f` on a pool of `threads` threads with the `rayon` feature (directly without).
-fn on_threads<R: Send>(threads: usize, f: impl FnOnce() -> R + Send) -> R {
-    #[cfg(feature = "rayon")]
-    {
-        rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .unwrap()
-            .install(f)
-    }
-    #[cfg(not(feature = "rayon"))]
-    {
-        let _ = threads;
-        f()
-    }
-}
-
 /// The refits of a step run in parallel (`Hypothesis::augment_each`), each under the
 /// step's work budget, relocation setting and memo: the report is the same on one thread
 /// and on three, with a work budget that is not reached and with one that is (then each
 /// refit of a step starts from the budget left at the step).
 #[test]
 fn the_report_does_not_depend_on_the_thread_count() {
-    let n = 160;
-    let omega: Vec<f64> = (1..=n)
-        .map(|k| k as f64 * std::f64::consts::PI / (n + 1) as f64)
-        .collect();
-    let (r, th) = (0.98f64, 2.0f64);
-    let ar = [1.0, -2.0 * r * th.cos(), r * r];
-    let br = [0.0, 0.01, 0.0];
-    let truth = |w: f64| {
-        let zi = Complex::new(0.0, -w).exp();
-        (poly(&B2, zi) / poly(&A2, zi) + poly(&br, zi) / poly(&ar, zi))
-            * Complex::new(0.0, -w * 2.5).exp()
-    };
-    let data = lines(&omega, truth, 1e-3, Some(1.0), 5003);
+    let data = delayed_with_resonance_data(5003);
     let report = |threads: usize, budget: f64| {
         on_threads(threads, || {
             fdid::solver::work::within(budget, || {
