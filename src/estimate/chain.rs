@@ -721,9 +721,9 @@ impl Pipeline {
     /// basis and the estimate in it.
     fn relocate<T: Real, M: EquationError<T> + Clone>(
         &self,
-        mut model: M,
+        model: M,
         data: &FrequencyData<T>,
-        mut theta: Vec<T>,
+        theta: Vec<T>,
         fp: &FixedPoint,
         work: &mut LevyWork<T>,
         gram: bool,
@@ -750,14 +750,18 @@ impl Pipeline {
         let mut g_old = vec![];
         let mut cost = oe_cost(&model, &theta, &mut g_old);
         let mut g_new = vec![];
-        let mut best = (model.clone(), theta.clone(), cost);
+        // the best iterate, and the latest when it is not the best (moved, not cloned, so
+        // that the model keeps its basis tables for the ML stage)
+        let mut best = (model, theta, cost);
+        let mut latest: Option<(M, Vec<T>)> = None;
         let linear = LinearLeastSquares {
             rcond_eps: fp.rcond_eps,
         };
         for it in 1..=fp.max_iterations.max(1) {
             // no basis from the estimate's poles (two met, or one is not finite): the
             // iteration ends with the best model seen, as when it stalls
-            let Some(Ok(next)) = model.relocated(&theta) else {
+            let (from, from_theta) = latest.as_ref().map_or((&best.0, &best.1), |l| (&l.0, &l.1));
+            let Some(Ok(next)) = from.relocated(from_theta) else {
                 break;
             };
             // only θ is needed: the SK cost is the output-error one
@@ -772,12 +776,13 @@ impl Pipeline {
             let change = crate::criterion::relative_change(&g_old, &g_new);
             let stalled = num_traits::Float::abs(new_cost - cost)
                 <= ctol * num_traits::Float::max(new_cost, cost);
-            model = next;
-            theta = next_theta;
             cost = new_cost;
             std::mem::swap(&mut g_old, &mut g_new);
             if cost < best.2 {
-                best = (model.clone(), theta.clone(), cost);
+                best = (next, next_theta, cost);
+                latest = None;
+            } else {
+                latest = Some((next, next_theta));
             }
             if change < tol || stalled {
                 let (model, theta, cost) = best;

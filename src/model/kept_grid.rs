@@ -1,15 +1,18 @@
-//! z⁻¹ = e^{−iωTs} kept on a model's frequency grid, so that repeated evaluations on the
-//! grid read it instead of taking a sine and a cosine per line.
+//! A model's frequency grid kept at its first data check, with z⁻¹ = e^{−iωTs} on it for a
+//! model that samples, so that repeated evaluations on the grid read z⁻¹ instead of taking
+//! a sine and a cosine per line, and find where their lines lie on the grid (for
+//! [`super::kept_basis`]).
 
 use crate::scalar::{Complex, Real};
 use std::sync::{Arc, OnceLock};
 
-/// z⁻¹ = e^{−iωTs} on the lines of one frequency grid, with the grid itself as the key:
-/// lines of an evaluation read it only when their frequencies are, bit for bit, a run of
-/// consecutive lines of the grid.
+/// One frequency grid with, for a sample time Ts, z⁻¹ = e^{−iωTs} on its lines; the grid
+/// itself is the key: lines of an evaluation read it only when their frequencies are, bit
+/// for bit, a run of consecutive lines of the grid.
 #[derive(Debug)]
 struct DelayGrid<T: Real> {
-    ts: T,
+    /// Ts of `zinv`; `None` when no z⁻¹ is kept (`zinv` empty).
+    ts: Option<T>,
     omega: Vec<T>,
     zinv: Vec<Complex<T>>,
     /// The grid rises strictly, so a run's first line is found by bisection.
@@ -17,24 +20,23 @@ struct DelayGrid<T: Real> {
 }
 
 impl<T: Real> DelayGrid<T> {
-    fn new(ts: T, omega: &[T]) -> Self {
+    fn new(ts: Option<T>, omega: &[T]) -> Self {
         Self {
             ts,
             omega: omega.to_vec(),
-            zinv: omega
-                .iter()
-                .map(|w| crate::basis::delay_variable(*w, ts))
-                .collect(),
+            zinv: ts.map_or_else(Vec::new, |ts| {
+                omega
+                    .iter()
+                    .map(|w| crate::basis::delay_variable(*w, ts))
+                    .collect()
+            }),
             rising: omega.windows(2).all(|w| w[0] < w[1]),
         }
     }
 
-    /// z⁻¹ on the lines `omega` with sample time `ts`, when they are a run of this grid.
-    fn run(&self, ts: T, omega: &[T]) -> Option<&[Complex<T>]> {
+    /// The grid lines the lines `omega` are, when they are a (non-empty) run of this grid.
+    fn lines(&self, omega: &[T]) -> Option<std::ops::Range<usize>> {
         let first = omega.first()?;
-        if !same(ts, self.ts) {
-            return None;
-        }
         let start = if self.rising {
             self.omega.partition_point(|w| w < first)
         } else {
@@ -45,7 +47,15 @@ impl<T: Real> DelayGrid<T> {
         kept.iter()
             .zip(omega)
             .all(|(a, b)| same(*a, *b))
-            .then(|| &self.zinv[lines])
+            .then_some(lines)
+    }
+
+    /// z⁻¹ on the lines `omega` with sample time `ts`, when they are a run of this grid.
+    fn run(&self, ts: T, omega: &[T]) -> Option<&[Complex<T>]> {
+        if !self.ts.is_some_and(|kept| same(ts, kept)) {
+            return None;
+        }
+        self.lines(omega).map(|lines| &self.zinv[lines])
     }
 }
 
@@ -55,8 +65,8 @@ fn same<T: Real>(a: T, b: T) -> bool {
 }
 
 /// The [`DelayGrid`] a model keeps, set once by its first data check (see
-/// [`crate::ModelStructure::check_data`]) and shared by its clones. A model is equal to, and
-/// stores as, the same model without it.
+/// [`crate::ModelStructure::check_data`]) and shared by its clones and relocations. A model
+/// is equal to, and stores as, the same model without it.
 #[derive(Clone, Default)]
 pub(crate) struct KeptGrid<T: Real>(OnceLock<Arc<DelayGrid<T>>>);
 
@@ -69,9 +79,16 @@ impl<T: Real> std::fmt::Debug for KeptGrid<T> {
 }
 
 impl<T: Real> KeptGrid<T> {
-    /// Keeps z⁻¹ with sample time `ts` on `omega`, unless a grid is kept already.
-    pub(crate) fn keep(&self, ts: T, omega: &[T]) {
+    /// Keeps the grid `omega`, with z⁻¹ for the sample time `ts` when there is one, unless
+    /// a grid is kept already.
+    pub(crate) fn keep(&self, ts: Option<T>, omega: &[T]) {
         self.0.get_or_init(|| Arc::new(DelayGrid::new(ts, omega)));
+    }
+
+    /// The kept grid and where the lines `omega` lie on it, when they are a run of it.
+    pub(crate) fn lines(&self, omega: &[T]) -> Option<(&[T], std::ops::Range<usize>)> {
+        let grid = self.0.get()?;
+        grid.lines(omega).map(|lines| (&grid.omega[..], lines))
     }
 
     /// z⁻¹ with sample time `ts` on the lines `omega` from the kept grid, when they are a
@@ -97,7 +114,7 @@ mod tests {
         let omega: Vec<f64> = (0..50).map(|k| 0.01 + 0.06 * k as f64).collect();
         let kept = KeptGrid::default();
         assert!(kept.run(0.1, &omega).is_none());
-        kept.keep(0.1, &omega);
+        kept.keep(Some(0.1), &omega);
         let direct: Vec<_> = omega
             .iter()
             .map(|w| crate::basis::delay_variable(*w, 0.1))
@@ -113,11 +130,11 @@ mod tests {
         assert!(kept.run(0.1, &[omega[49], 3.5]).is_none());
         assert!(kept.run(0.1, &[f64::NAN]).is_none());
         let zero = KeptGrid::default();
-        zero.keep(0.1, &[0.0, 1.0]);
+        zero.keep(Some(0.1), &[0.0, 1.0]);
         assert!(zero.run(0.1, &[-0.0, 1.0]).is_none());
         assert!(zero.run(0.1, &[0.0, 1.0]).is_some());
         // a second grid does not replace the first
-        kept.keep(0.1, &[1.0, 2.0]);
+        kept.keep(Some(0.1), &[1.0, 2.0]);
         assert!(kept.run(0.1, &[1.0, 2.0]).is_none());
         assert!(kept.run(0.1, &omega).is_some());
         // an empty run reads nothing
@@ -129,7 +146,7 @@ mod tests {
     #[test]
     fn a_checked_model_evaluates_as_an_unchecked_one() {
         use crate::data::FrequencyData;
-        use crate::model::{EquationError, ModelStructure, Rational};
+        use crate::model::{Domain, EquationError, ModelStructure, Rational};
         use nalgebra::DMatrix;
         let ts = 0.1;
         let omega: Vec<f64> = (1..=40).map(|k| 0.7 * k as f64).collect();
@@ -141,7 +158,12 @@ mod tests {
         let dt = Rational::discrete(3, 2, ts)
             .and_then(|m| m.with_transient())
             .unwrap();
-        for model in [pf, dt] {
+        // basis tables ([`super::super::kept_basis`]): partial fractions with the numerator
+        // reflected (relative degree 3) and without, the orthonormal polynomials
+        let reflected = Rational::continuous(4, 1, &omega).unwrap();
+        let plain = Rational::continuous(3, 2, &omega).unwrap();
+        let polynomial = Rational::polynomial(2, 3, &omega).unwrap();
+        for model in [pf, dt, reflected, plain, polynomial] {
             let theta: Vec<f64> = (0..model.n_params())
                 .map(|j| 0.3 / (1.0 + j as f64) - 0.1)
                 .collect();
@@ -151,23 +173,43 @@ mod tests {
                 let (mut g, mut jac) = (vec![zero; n], DMatrix::from_element(n, p, zero));
                 m.jacobian_into(&theta, w, &mut g, &mut jac);
                 let (mut t, mut tjac) = (vec![zero; n], DMatrix::from_element(n, p, zero));
-                assert!(m.transient_into(&theta, w, &mut t, Some(&mut tjac)));
+                let with_t = m.transient_into(&theta, w, &mut t, Some(&mut tjac));
+                assert_eq!(with_t, m.has_transient());
                 let mut r = vec![zero; n];
                 m.response_into(&theta, w, &mut r);
                 (g, jac, t, tjac, r)
             };
             let unchecked = model.clone();
             model.check_data(&data).unwrap();
-            assert!(model.kept_zinv(&omega[3..17]).is_some());
-            for w in [&omega[..], &omega[3..17], &[0.5, 1.4, 2.1]] {
+            let sampled = model.transient_ts().is_some() || model.domain() != Domain::Continuous;
+            assert_eq!(model.kept_zinv(&omega[3..17]).is_some(), sampled);
+            // a run of the grid first: the table is built for the whole grid
+            for w in [&omega[3..17], &omega[..], &[0.5, 1.4, 2.1]] {
                 assert_eq!(evaluate(&model, w), evaluate(&unchecked, w));
             }
+            assert!(model.tabulated(&omega[5..9], true).is_some());
+            assert!(unchecked.tabulated(&omega, true).is_none());
+            assert!(model.tabulated(&[0.5, 1.4], true).is_none());
+            // a clone keeps the grid, not the table, and builds its own
+            assert_eq!(
+                evaluate(&model.clone(), &omega),
+                evaluate(&unchecked, &omega)
+            );
             let mut rows =
                 DMatrix::from_element(10, model.n_coefficients(), Complex::new(0.0, 0.0));
             let mut rows0 = rows.clone();
             model.regressor_lines_into(&data, 20, &mut rows);
             unchecked.regressor_lines_into(&data, 20, &mut rows0);
             assert_eq!(rows, rows0);
+            let (mut a, mut a0) = (vec![Complex::new(0.0, 0.0); 40], vec![]);
+            a0.resize(40, a[0]);
+            model.denominator_into(&theta, &omega, &mut a);
+            unchecked.denominator_into(&theta, &omega, &mut a0);
+            assert_eq!(a, a0);
+            let (mut g, mut g0) = (a.clone(), a.clone());
+            model.response_and_denominator_into(&theta, &omega, &mut g, &mut a);
+            unchecked.response_and_denominator_into(&theta, &omega, &mut g0, &mut a0);
+            assert_eq!((g, a), (g0, a0));
         }
     }
 
@@ -175,7 +217,7 @@ mod tests {
     fn a_grid_that_does_not_rise_is_matched_from_its_start() {
         let omega = [3.0, 1.0, 2.0, 1.0];
         let kept = KeptGrid::default();
-        kept.keep(0.5f64, &omega);
+        kept.keep(Some(0.5f64), &omega);
         assert!(kept.run(0.5, &omega).is_some());
         assert!(kept.run(0.5, &omega[..2]).is_some());
         assert!(kept.run(0.5, &omega[1..]).is_none());

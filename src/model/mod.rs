@@ -6,6 +6,7 @@
 //! [`PolesZeros`].
 
 pub(crate) mod delay;
+mod kept_basis;
 mod kept_grid;
 mod modal;
 mod noise;

@@ -1,5 +1,6 @@
 //! Rational transfer-function models G = B/A in s (continuous time) or z⁻¹ (discrete time).
 
+use super::kept_basis::{BasisTable, KeptBasis, TableRun};
 use super::kept_grid::KeptGrid;
 use super::{EquationError, ModelStructure, PolesZeros};
 use crate::basis::PolyBasis;
@@ -71,9 +72,13 @@ pub struct Rational<T: Real> {
     numerator_reflectors: Option<crate::linalg::householder::Complement<T>>,
     /// Sample time of the transient term, when the model has one.
     transient: Option<T>,
-    /// z⁻¹ kept on the grid of the first data checked ([`ModelStructure::check_data`]).
+    /// The grid of the first data checked ([`ModelStructure::check_data`]), with z⁻¹ on
+    /// it for a model that samples.
     #[cfg_attr(feature = "serde", serde(skip))]
     grid: KeptGrid<T>,
+    /// The basis values on `grid` ([`Rational::tabulated`]); not cloned.
+    #[cfg_attr(feature = "serde", serde(skip))]
+    table: KeptBasis<T>,
 }
 
 /// A pole p with its sensitivities ∂p/∂θᵢ to the denominator parameters
@@ -120,6 +125,7 @@ impl<T: Real> Rational<T> {
             numerator_reflectors: None,
             transient: None,
             grid: KeptGrid::default(),
+            table: KeptBasis::default(),
         })
     }
 
@@ -139,6 +145,7 @@ impl<T: Real> Rational<T> {
             numerator_reflectors: None,
             transient: None,
             grid: KeptGrid::default(),
+            table: KeptBasis::default(),
         })
     }
 
@@ -264,6 +271,81 @@ impl<T: Real> Rational<T> {
         self.grid.run(self.delay_ts()?, omega)
     }
 
+    /// The basis values φ on the lines `omega` from the model's table
+    /// ([`super::kept_basis`]), built over the whole kept grid by the first call, when the
+    /// lines are a run of the grid kept by [`ModelStructure::check_data`]; with `psi`, also
+    /// the numerator basis ψ ([`Rational::numerator_basis`]) when it is not a slice of φ.
+    /// `None` (each line computes its own) off the grid and above
+    /// [`super::kept_basis::MAX_VALUES`] values.
+    pub(crate) fn tabulated(&self, omega: &[T], psi: bool) -> Option<TableRun<'_, T>> {
+        let (grid, lines) = self.grid.lines(omega)?;
+        let zero = Complex::new(T::zero(), T::zero());
+        let phi = || {
+            // z⁻¹ as the evaluations on the grid read it
+            let kept = self.kept_zinv(grid);
+            BasisTable::build(grid.len(), self.na.max(self.nb) + 1, |k, phi| {
+                self.basis.eval_at_known(grid[k], kept.map(|z| z[k]), phi);
+            })
+        };
+        let reflected = self.numerator_reflectors.is_some() || self.numerator_map.is_some();
+        let psi = (psi && reflected).then_some(|phi: &BasisTable<T>| {
+            let (mut scratch, mut psi) = (self.zero_phi(), vec![zero; self.nb + 1]);
+            BasisTable::build(grid.len(), self.nb + 1, |k, line| {
+                scratch.copy_from_slice(phi.line(k));
+                line.copy_from_slice(self.numerator_basis(&mut scratch, &mut psi));
+            })
+        });
+        self.table.run(lines.start, phi, psi)
+    }
+
+    /// φ at the evaluation's line `k` (frequency `omega`, z⁻¹ `kept` when known): read
+    /// from `run` when there is one, else computed into `scratch`.
+    #[inline]
+    fn phi_at<'a>(
+        &self,
+        run: Option<TableRun<'a, T>>,
+        k: usize,
+        omega: T,
+        kept: Option<Complex<T>>,
+        scratch: &'a mut [Complex<T>],
+    ) -> &'a [Complex<T>] {
+        match run {
+            Some(run) => run.phi(k),
+            None => {
+                self.basis.eval_at_known(omega, kept, scratch);
+                scratch
+            }
+        }
+    }
+
+    /// ψ at the evaluation's line `k` ([`Rational::numerator_basis`] of the line's φ):
+    /// from the run's ψ table, a slice of its φ, or computed from φ in `phi` (the line's φ,
+    /// which the reflections overwrite) into `psi`.
+    #[inline]
+    fn numerator_at<'a>(
+        &self,
+        run: Option<TableRun<'a, T>>,
+        k: usize,
+        phi: &'a mut [Complex<T>],
+        psi: &'a mut [Complex<T>],
+    ) -> &'a [Complex<T>] {
+        let reflected = self.numerator_reflectors.is_some() || self.numerator_map.is_some();
+        match run {
+            Some(run) if !reflected => {
+                let off = self.b_offset();
+                &run.phi(k)[off..=off + self.nb]
+            }
+            Some(run) => match run.psi(k) {
+                Some(psi) => psi,
+                None => {
+                    phi.copy_from_slice(run.phi(k));
+                    self.numerator_basis(phi, psi)
+                }
+            },
+            None => self.numerator_basis(phi, psi),
+        }
+    }
+
     /// The transient basis values χⱼ at the variable z⁻¹ = `zinv` of
     /// [`Rational::transient_variable`] (see [`Rational::with_transient`] and
     /// [`Rational::with_sampled_transient`]).
@@ -339,6 +421,7 @@ impl<T: Real> Rational<T> {
             numerator_reflectors,
             transient: None,
             grid: KeptGrid::default(),
+            table: KeptBasis::default(),
         })
     }
 
@@ -669,24 +752,15 @@ impl<T: Real> Rational<T> {
     }
 
     /// The numerator's coefficients over the whole basis, c = [0…, θ_b] or [0, Zθ_b]
-    /// ([`Rational::b_in_basis`]), for [`Rational::eval_ab`].
+    /// ([`Rational::b_in_basis`]), for [`Rational::ab_at`].
     fn numerator_coefficients(&self, theta: &[T]) -> Vec<T> {
         self.b_in_basis(&theta[self.na..=self.na + self.nb])
     }
 
-    /// Evaluates A and B at the variable of ω, with the basis values in `phi` and the
-    /// numerator coefficients `c` of [`Rational::numerator_coefficients`]: B = Σ cₙφₙ.
-    /// `kept` is z⁻¹ at ω when it is known ([`Rational::kept_zinv`]).
+    /// A and B from the basis values `phi` at a line and the numerator coefficients `c`
+    /// of [`Rational::numerator_coefficients`]: B = Σ cₙφₙ.
     #[inline]
-    fn eval_ab(
-        &self,
-        theta: &[T],
-        c: &[T],
-        omega: T,
-        kept: Option<Complex<T>>,
-        phi: &mut [Complex<T>],
-    ) -> (Complex<T>, Complex<T>) {
-        self.basis.eval_at_known(omega, kept, phi);
+    fn ab_at(&self, theta: &[T], c: &[T], phi: &[Complex<T>]) -> (Complex<T>, Complex<T>) {
         let zero = Complex::new(T::zero(), T::zero());
         let na = self.na;
         let dot = |phi: &[Complex<T>], c: &[T]| {
@@ -745,8 +819,10 @@ impl<T: Real> ModelStructure<T> for Rational<T> {
         let mut phi = self.zero_phi();
         let c = self.numerator_coefficients(theta);
         let kept = self.kept_zinv(omega);
+        let run = self.tabulated(omega, false);
         for (k, (w, o)) in omega.iter().zip(out.iter_mut()).enumerate() {
-            let (a, b) = self.eval_ab(theta, &c, *w, kept.map(|z| z[k]), &mut phi);
+            let p = self.phi_at(run, k, *w, kept.map(|z| z[k]), &mut phi);
+            let (a, b) = self.ab_at(theta, &c, p);
             *o = b * crate::scalar::recip(a);
         }
     }
@@ -773,16 +849,18 @@ impl<T: Real> ModelStructure<T> for Rational<T> {
         }
         let c = self.numerator_coefficients(theta);
         let kept = self.kept_zinv(omega);
+        let run = self.tabulated(omega, true);
         for (k, (w, g)) in omega.iter().zip(g.iter_mut()).enumerate() {
-            let (a, b) = self.eval_ab(theta, &c, *w, kept.map(|z| z[k]), &mut phi);
+            let p = self.phi_at(run, k, *w, kept.map(|z| z[k]), &mut phi);
+            let (a, b) = self.ab_at(theta, &c, p);
             let inv_a = crate::scalar::recip(a);
             let gk = b * inv_a;
             *g = gk;
             let minus_g_over_a = -gk * inv_a;
-            for (col, p) in cols[..na].iter_mut().zip(&phi[off..]) {
+            for (col, p) in cols[..na].iter_mut().zip(&p[off..]) {
                 col[k] = *p * minus_g_over_a;
             }
-            let psi = self.numerator_basis(&mut phi, &mut psi);
+            let psi = self.numerator_at(run, k, &mut phi, &mut psi);
             for (col, p) in cols[na..].iter_mut().zip(psi) {
                 col[k] = *p * inv_a;
             }
@@ -808,10 +886,12 @@ impl<T: Real> ModelStructure<T> for Rational<T> {
         let off = self.a_offset();
         let c = self.numerator_coefficients(theta);
         let kept = self.kept_zinv(omega);
+        let run = self.tabulated(omega, false);
         for (k, w) in omega.iter().enumerate() {
             let zinv = kept.map(|z| z[k]);
-            let (a, _) = self.eval_ab(theta, &c, *w, zinv, &mut phi);
-            let zinv = self.transient_variable(ts, *w, &phi, zinv);
+            let phi = self.phi_at(run, k, *w, zinv, &mut phi);
+            let (a, _) = self.ab_at(theta, &c, phi);
+            let zinv = self.transient_variable(ts, *w, phi, zinv);
             self.transient_basis(ts, zinv, &mut chi);
             let inv_a = a.inv();
             let num = chi
@@ -855,9 +935,7 @@ impl<T: Real> ModelStructure<T> for Rational<T> {
         if let PolyBasis::DelayPowers { ts } = &self.basis {
             data.check_sampled_grid(*ts, "model")?;
         }
-        if let Some(ts) = self.delay_ts() {
-            self.grid.keep(ts, data.omega());
-        }
+        self.grid.keep(self.delay_ts(), data.omega());
         Ok(())
     }
 }
@@ -907,16 +985,17 @@ impl<T: Real> EquationError<T> for Rational<T> {
         // the columns of the block, written line by line
         let mut cols: Vec<&mut [Complex<T>]> = out.as_mut_slice().chunks_exact_mut(len).collect();
         let kept = self.kept_zinv(omega);
+        let run = self.tabulated(omega, true);
         for (k, ((w, y), u)) in omega.iter().zip(y).zip(u).enumerate() {
             let zinv = kept.map(|z| z[k]);
-            self.basis.eval_at_known(*w, zinv, &mut phi);
+            let p = self.phi_at(run, k, *w, zinv, &mut phi);
             let zinv = self
                 .transient
-                .map(|ts| self.transient_variable(ts, *w, &phi, zinv));
-            for (col, p) in cols[..=na].iter_mut().zip(&phi) {
+                .map(|ts| self.transient_variable(ts, *w, p, zinv));
+            for (col, p) in cols[..=na].iter_mut().zip(p) {
                 col[k] = *p * *y;
             }
-            let psi = self.numerator_basis(&mut phi, &mut psi);
+            let psi = self.numerator_at(run, k, &mut phi, &mut psi);
             for (col, p) in cols[na + 1..].iter_mut().zip(psi) {
                 col[k] = -(*p * *u);
             }
@@ -933,8 +1012,10 @@ impl<T: Real> EquationError<T> for Rational<T> {
         let mut phi = self.zero_phi();
         let c = self.numerator_coefficients(theta);
         let kept = self.kept_zinv(omega);
+        let run = self.tabulated(omega, false);
         for (k, (w, o)) in omega.iter().zip(out.iter_mut()).enumerate() {
-            *o = self.eval_ab(theta, &c, *w, kept.map(|z| z[k]), &mut phi).0;
+            let p = self.phi_at(run, k, *w, kept.map(|z| z[k]), &mut phi);
+            *o = self.ab_at(theta, &c, p).0;
         }
     }
 
@@ -948,8 +1029,10 @@ impl<T: Real> EquationError<T> for Rational<T> {
         let mut phi = self.zero_phi();
         let c = self.numerator_coefficients(theta);
         let kept = self.kept_zinv(omega);
+        let run = self.tabulated(omega, false);
         for (k, ((w, g), a)) in omega.iter().zip(g.iter_mut()).zip(a.iter_mut()).enumerate() {
-            let (den, num) = self.eval_ab(theta, &c, *w, kept.map(|z| z[k]), &mut phi);
+            let p = self.phi_at(run, k, *w, kept.map(|z| z[k]), &mut phi);
+            let (den, num) = self.ab_at(theta, &c, p);
             *g = num * crate::scalar::recip(den);
             *a = den;
         }
@@ -1159,6 +1242,7 @@ impl<T: Real> TryFrom<Stored<T>> for Rational<T> {
                     numerator_reflectors: None,
                     transient: None,
                     grid: KeptGrid::default(),
+                    table: KeptBasis::default(),
                 }
             }
             PolyBasis::PartialFractions { poles } => {

@@ -1,0 +1,183 @@
+//! A model's basis values kept on its frequency grid (the grid of
+//! [`super::kept_grid::KeptGrid`]): φ₀(ω) … φ_d(ω) and the numerator basis ψ(ω) = φ(ω)Z
+//! of every grid line, computed once and read by each later evaluation on a run of the
+//! grid, in place of the recurrence or the partial fractions 1/(s − qⱼ) and the Householder
+//! reflections per line. The values do not depend on θ, so the Levy rows and the
+//! output-error cost of one relocation, and every residual and Jacobian of the ML
+//! iterations, share one table.
+
+use crate::scalar::{Complex, Real};
+use std::sync::OnceLock;
+
+/// The most basis values (φ and ψ, all lines) a table holds: 2¹⁹, 8 MiB in `f64`; a larger
+/// grid or order evaluates line by line as without a table.
+pub(crate) const MAX_VALUES: usize = 1 << 19;
+
+/// Values of `width` a line (φ or ψ) on every line of a grid, line after line.
+#[derive(Debug)]
+pub(crate) struct BasisTable<T: Real> {
+    width: usize,
+    values: Vec<Complex<T>>,
+}
+
+impl<T: Real> BasisTable<T> {
+    /// The table of `lines` lines of `width` values, line k written by `fill(k, values)`;
+    /// `None` when it would hold more than [`MAX_VALUES`] values or none a line.
+    pub(crate) fn build(
+        lines: usize,
+        width: usize,
+        mut fill: impl FnMut(usize, &mut [Complex<T>]),
+    ) -> Option<Self> {
+        if width == 0 || lines.checked_mul(width)? > MAX_VALUES {
+            return None;
+        }
+        let mut line = vec![Complex::new(T::zero(), T::zero()); width];
+        let mut values = Vec::with_capacity(lines * width);
+        for k in 0..lines {
+            fill(k, &mut line);
+            values.extend_from_slice(&line);
+        }
+        Some(Self { width, values })
+    }
+
+    /// The values of line `k`.
+    #[inline]
+    pub(crate) fn line(&self, k: usize) -> &[Complex<T>] {
+        &self.values[k * self.width..(k + 1) * self.width]
+    }
+}
+
+/// The lines of a model's tables from `start` on: line k of an evaluation is line
+/// `start + k` of the grid.
+#[derive(Clone, Copy)]
+pub(crate) struct TableRun<'a, T: Real> {
+    phi: &'a BasisTable<T>,
+    psi: Option<&'a BasisTable<T>>,
+    start: usize,
+}
+
+impl<'a, T: Real> TableRun<'a, T> {
+    /// φ of the evaluation's line `k`.
+    #[inline]
+    pub(crate) fn phi(&self, k: usize) -> &'a [Complex<T>] {
+        self.phi.line(self.start + k)
+    }
+
+    /// ψ of the evaluation's line `k`, when the run has a ψ table.
+    #[inline]
+    pub(crate) fn psi(&self, k: usize) -> Option<&'a [Complex<T>]> {
+        self.psi.map(|t| t.line(self.start + k))
+    }
+}
+
+/// The tables of a model: φ, built by its first evaluation on a run of its kept grid, and
+/// ψ, built from φ by its first evaluation that needs ψ (`None` inside when the model
+/// keeps none: ψ a slice of φ, or a table above
+/// [`MAX_VALUES`]). A clone starts without them, so that models kept in results (fits,
+/// memos) do not hold the tables of the working models they were cloned from; a model is
+/// equal to, and stores as, the same model without them.
+#[derive(Default)]
+pub(crate) struct KeptBasis<T: Real> {
+    phi: OnceLock<Option<BasisTable<T>>>,
+    psi: OnceLock<Option<BasisTable<T>>>,
+}
+
+impl<T: Real> Clone for KeptBasis<T> {
+    /// Without the tables (see [`KeptBasis`]).
+    fn clone(&self) -> Self {
+        Self::default()
+    }
+}
+
+impl<T: Real> std::fmt::Debug for KeptBasis<T> {
+    /// The number of values kept, not the values.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let count = |t: &OnceLock<Option<BasisTable<T>>>| {
+            t.get()
+                .and_then(Option::as_ref)
+                .map_or(0, |t| t.values.len())
+        };
+        write!(
+            f,
+            "KeptBasis({} values)",
+            count(&self.phi) + count(&self.psi)
+        )
+    }
+}
+
+impl<T: Real> PartialEq for KeptBasis<T> {
+    /// Always: the kept values are those any evaluation computes.
+    fn eq(&self, _: &Self) -> bool {
+        true
+    }
+}
+
+impl<T: Real> KeptBasis<T> {
+    /// The tables from line `start` on: φ built by `phi` on the first call, and with
+    /// `psi` given, ψ built by it from the φ table on the first call that gives it (each
+    /// table once: later calls, from any thread, read the same table or, when its builder
+    /// gave none, go without it). `None` without a φ table.
+    pub(crate) fn run(
+        &self,
+        start: usize,
+        phi: impl FnOnce() -> Option<BasisTable<T>>,
+        psi: Option<impl FnOnce(&BasisTable<T>) -> Option<BasisTable<T>>>,
+    ) -> Option<TableRun<'_, T>> {
+        let phi = self.phi.get_or_init(phi).as_ref()?;
+        let psi = psi.and_then(|build| self.psi.get_or_init(|| build(phi)).as_ref());
+        Some(TableRun { phi, psi, start })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn numbered(k: usize, line: &mut [Complex<f64>]) {
+        for (j, v) in line.iter_mut().enumerate() {
+            *v = Complex::new(k as f64, j as f64);
+        }
+    }
+
+    #[test]
+    fn a_table_holds_each_lines_values_and_refuses_too_many() {
+        let t = BasisTable::build(5, 3, numbered).unwrap();
+        assert_eq!(t.line(4), &[0.0, 1.0, 2.0].map(|j| Complex::new(4.0, j)));
+        assert_eq!(t.line(0), &[0.0, 1.0, 2.0].map(|j| Complex::new(0.0, j)));
+        assert!(BasisTable::<f64>::build(MAX_VALUES / 4 + 1, 4, numbered).is_none());
+        assert!(BasisTable::<f64>::build(usize::MAX / 2, 3, numbered).is_none());
+        assert!(BasisTable::<f64>::build(3, 0, numbered).is_none());
+        assert!(BasisTable::<f64>::build(MAX_VALUES / 4, 4, |_, _| ()).is_some());
+    }
+
+    #[test]
+    fn kept_tables_are_built_once_and_not_cloned() {
+        let kept = KeptBasis::<f64>::default();
+        let (mut phis, mut psis) = (0, 0);
+        let mut phi = || {
+            phis += 1;
+            BasisTable::build(4, 2, numbered)
+        };
+        let no_psi = None::<fn(&BasisTable<f64>) -> Option<BasisTable<f64>>>;
+        let run = kept.run(1, &mut phi, no_psi).unwrap();
+        assert_eq!(run.phi(2)[1], Complex::new(3.0, 1.0));
+        assert!(run.psi(2).is_none());
+        let mut psi = |t: &BasisTable<f64>| {
+            psis += 1;
+            BasisTable::build(4, 1, |k, line| line[0] = t.line(k)[1] * 2.0)
+        };
+        let run = kept.run(0, &mut phi, Some(&mut psi)).unwrap();
+        assert_eq!(run.psi(3), Some(&[Complex::new(6.0, 2.0)][..]));
+        assert!(kept.run(2, &mut phi, Some(&mut psi)).is_some());
+        assert_eq!((phis, psis), (1, 1));
+        assert_eq!(format!("{kept:?}"), "KeptBasis(12 values)");
+        assert_eq!(format!("{:?}", kept.clone()), "KeptBasis(0 values)");
+        // a model without a φ table stays without one
+        let none = KeptBasis::<f64>::default();
+        assert!(none.run(0, || None, no_psi).is_none());
+        assert!(
+            none.run(0, || BasisTable::build(1, 1, numbered), no_psi)
+                .is_none()
+        );
+    }
+}
