@@ -9,9 +9,9 @@
 use crate::scalar::{Complex, Real};
 use std::sync::OnceLock;
 
-/// The most basis values (φ and ψ, all lines) a table holds: 2¹⁹, 8 MiB in `f64`; a larger
+/// The most basis values a table (φ or ψ, all lines) holds: 2²¹, 32 MiB in `f64`; a larger
 /// grid or order evaluates line by line as without a table.
-pub(crate) const MAX_VALUES: usize = 1 << 19;
+pub(crate) const MAX_VALUES: usize = 1 << 21;
 
 /// Values of `width` a line (φ or ψ) on every line of a grid, line after line.
 #[derive(Debug)]
@@ -40,6 +40,12 @@ impl<T: Real> BasisTable<T> {
         Some(Self { width, values })
     }
 
+    /// The values of lines `start` … `start + lines − 1`, one slice each.
+    #[inline]
+    fn lines(&self, start: usize, lines: usize) -> std::slice::ChunksExact<'_, Complex<T>> {
+        self.values[start * self.width..(start + lines) * self.width].chunks_exact(self.width)
+    }
+
     /// The values of line `k`.
     #[inline]
     pub(crate) fn line(&self, k: usize) -> &[Complex<T>] {
@@ -61,6 +67,21 @@ impl<'a, T: Real> TableRun<'a, T> {
     #[inline]
     pub(crate) fn phi(&self, k: usize) -> &'a [Complex<T>] {
         self.phi.line(self.start + k)
+    }
+
+    /// φ of the evaluation's lines 0, 1, … `lines` − 1, one slice each.
+    #[inline]
+    pub(crate) fn phi_lines(&self, lines: usize) -> std::slice::ChunksExact<'a, Complex<T>> {
+        self.phi.lines(self.start, lines)
+    }
+
+    /// ψ of the evaluation's lines 0, 1, … `lines` − 1, when the run has a ψ table.
+    #[inline]
+    pub(crate) fn psi_lines(
+        &self,
+        lines: usize,
+    ) -> Option<std::slice::ChunksExact<'a, Complex<T>>> {
+        self.psi.map(|t| t.lines(self.start, lines))
     }
 
     /// ψ of the evaluation's line `k`, when the run has a ψ table.

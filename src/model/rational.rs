@@ -287,8 +287,7 @@ impl<T: Real> Rational<T> {
                 self.basis.eval_at_known(grid[k], kept.map(|z| z[k]), phi);
             })
         };
-        let reflected = self.numerator_reflectors.is_some() || self.numerator_map.is_some();
-        let psi = (psi && reflected).then_some(|phi: &BasisTable<T>| {
+        let psi = (psi && self.reflected()).then_some(|phi: &BasisTable<T>| {
             let (mut scratch, mut psi) = (self.zero_phi(), vec![zero; self.nb + 1]);
             BasisTable::build(grid.len(), self.nb + 1, |k, line| {
                 scratch.copy_from_slice(phi.line(k));
@@ -318,6 +317,66 @@ impl<T: Real> Rational<T> {
         }
     }
 
+    /// [`ModelStructure::jacobian_into`] from a table run (`g` and `jac` of its lines):
+    /// G, −G/A and 1/A line by line, then the Jacobian column by column,
+    /// ∂G/∂aⱼ = −φⱼ G/A and ∂G/∂bⱼ = ψⱼ/A, with the same values as line by line. False,
+    /// with nothing written, when ψ is neither a slice of φ nor in a table (the caller
+    /// then goes line by line).
+    fn jacobian_from_table(
+        &self,
+        theta: &[T],
+        c: &[T],
+        run: TableRun<'_, T>,
+        g: &mut [Complex<T>],
+        jac: &mut DMatrix<Complex<T>>,
+    ) -> bool {
+        let zero = Complex::new(T::zero(), T::zero());
+        let (n, na, off) = (jac.nrows(), self.na, self.a_offset());
+        let psi_lines = || {
+            if self.reflected() {
+                run.psi_lines(n).map(|l| (l, 0))
+            } else {
+                Some((run.phi_lines(n), self.b_offset()))
+            }
+        };
+        if psi_lines().is_none() {
+            return false;
+        }
+        let mut factors = vec![(zero, zero); n];
+        for ((f, g), p) in factors.iter_mut().zip(g.iter_mut()).zip(run.phi_lines(n)) {
+            let (a, b) = self.ab_at(theta, c, p);
+            let inv_a = crate::scalar::recip(a);
+            let gk = b * inv_a;
+            *g = gk;
+            *f = (-gk * inv_a, inv_a);
+        }
+        let mut cols = jac.as_mut_slice().chunks_exact_mut(n);
+        for (j, col) in cols.by_ref().take(na).enumerate() {
+            for ((d, f), p) in col.iter_mut().zip(&factors).zip(run.phi_lines(n)) {
+                *d = p[off + j] * f.0;
+            }
+        }
+        for (j, col) in cols.by_ref().take(self.nb + 1).enumerate() {
+            let Some((psi, at)) = psi_lines() else {
+                return false;
+            };
+            for ((d, f), p) in col.iter_mut().zip(&factors).zip(psi) {
+                *d = p[at + j] * f.1;
+            }
+        }
+        // the transient coefficients do not enter G
+        for col in cols {
+            col.fill(zero);
+        }
+        true
+    }
+
+    /// Whether ψ is φ reflected or mapped ([`Rational::numerator_basis`]), not a slice of
+    /// it.
+    fn reflected(&self) -> bool {
+        self.numerator_reflectors.is_some() || self.numerator_map.is_some()
+    }
+
     /// ψ at the evaluation's line `k` ([`Rational::numerator_basis`] of the line's φ):
     /// from the run's ψ table, a slice of its φ, or computed from φ in `phi` (the line's φ,
     /// which the reflections overwrite) into `psi`.
@@ -329,9 +388,8 @@ impl<T: Real> Rational<T> {
         phi: &'a mut [Complex<T>],
         psi: &'a mut [Complex<T>],
     ) -> &'a [Complex<T>] {
-        let reflected = self.numerator_reflectors.is_some() || self.numerator_map.is_some();
         match run {
-            Some(run) if !reflected => {
+            Some(run) if !self.reflected() => {
                 let off = self.b_offset();
                 &run.phi(k)[off..=off + self.nb]
             }
@@ -842,14 +900,19 @@ impl<T: Real> ModelStructure<T> for Rational<T> {
         if n == 0 {
             return;
         }
+        let c = self.numerator_coefficients(theta);
+        let kept = self.kept_zinv(omega);
+        let run = self.tabulated(omega, true);
+        if let Some(run) = run
+            && self.jacobian_from_table(theta, &c, run, g, jac)
+        {
+            return;
+        }
         let mut cols: Vec<&mut [Complex<T>]> = jac.as_mut_slice().chunks_exact_mut(n).collect();
         // the transient coefficients do not enter G
         for col in cols[na + self.nb + 1..].iter_mut() {
             col.fill(Complex::new(T::zero(), T::zero()));
         }
-        let c = self.numerator_coefficients(theta);
-        let kept = self.kept_zinv(omega);
-        let run = self.tabulated(omega, true);
         for (k, (w, g)) in omega.iter().zip(g.iter_mut()).enumerate() {
             let p = self.phi_at(run, k, *w, kept.map(|z| z[k]), &mut phi);
             let (a, b) = self.ab_at(theta, &c, p);
