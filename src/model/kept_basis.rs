@@ -31,11 +31,9 @@ impl<T: Real> BasisTable<T> {
         if width == 0 || lines.checked_mul(width)? > MAX_VALUES {
             return None;
         }
-        let mut line = vec![Complex::new(T::zero(), T::zero()); width];
-        let mut values = Vec::with_capacity(lines * width);
-        for k in 0..lines {
-            fill(k, &mut line);
-            values.extend_from_slice(&line);
+        let mut values = vec![Complex::new(T::zero(), T::zero()); lines * width];
+        for (k, line) in values.chunks_exact_mut(width).enumerate() {
+            fill(k, line);
         }
         Some(Self { width, values })
     }
