@@ -1,10 +1,10 @@
 //! A model's basis values kept on its frequency grid (the grid of
 //! [`super::kept_grid::KeptGrid`]): φ₀(ω) … φ_d(ω) and the numerator basis ψ(ω) = φ(ω)Z
 //! of every grid line, computed once and read by each later evaluation on a run of the
-//! grid, in place of the recurrence or the partial fractions 1/(s − qⱼ) and the Householder
-//! reflections per line. The values do not depend on θ, so the Levy rows and the
-//! output-error cost of one relocation, and every residual and Jacobian of the ML
-//! iterations, share one table.
+//! grid, in place of the recurrence, the powers of z⁻¹ or the partial fractions
+//! 1/(s − qⱼ), and of the Householder reflections, per line. The values do not depend on
+//! θ, so the Levy rows and the output-error cost of one relocation, and every residual and
+//! Jacobian of the ML iterations, share one table.
 
 use crate::scalar::{Complex, Real};
 use std::sync::OnceLock;
@@ -91,10 +91,10 @@ impl<'a, T: Real> TableRun<'a, T> {
 
 /// The tables of a model: φ, built by its first evaluation on a run of its kept grid, and
 /// ψ, built from φ by its first evaluation that needs ψ (`None` inside when the model
-/// keeps none: ψ a slice of φ, or a table above
-/// [`MAX_VALUES`]). A clone starts without them, so that models kept in results (fits,
-/// memos) do not hold the tables of the working models they were cloned from; a model is
-/// equal to, and stores as, the same model without them.
+/// keeps none: ψ a slice of φ, or a table above [`MAX_VALUES`]). A clone starts without
+/// them, so that models kept in results (fits, memos) do not hold the tables of the
+/// working models they were cloned from; a model is equal to, and stores as, the same
+/// model without them.
 #[derive(Default)]
 pub(crate) struct KeptBasis<T: Real> {
     phi: OnceLock<Option<BasisTable<T>>>,

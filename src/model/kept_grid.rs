@@ -137,6 +137,16 @@ mod tests {
         kept.keep(Some(0.1), &[1.0, 2.0]);
         assert!(kept.run(0.1, &[1.0, 2.0]).is_none());
         assert!(kept.run(0.1, &omega).is_some());
+        // a grid without a sample time finds runs but keeps no z⁻¹
+        let plain = KeptGrid::default();
+        plain.keep(None, &omega);
+        assert!(plain.run(0.1, &omega).is_none());
+        assert_eq!(plain.lines(&omega[7..19]).map(|(_, l)| l), Some(7..19));
+        assert!(plain.lines(&[omega[2], omega[4]]).is_none());
+        assert_eq!(
+            kept.lines(&omega[3..5]).map(|(g, l)| (g.len(), l)),
+            Some((50, 3..5))
+        );
         // an empty run reads nothing
         assert!(kept.run(0.1, &[]).is_none());
     }

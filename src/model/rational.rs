@@ -332,14 +332,7 @@ impl<T: Real> Rational<T> {
     ) -> bool {
         let zero = Complex::new(T::zero(), T::zero());
         let (n, na, off) = (jac.nrows(), self.na, self.a_offset());
-        let psi_lines = || {
-            if self.reflected() {
-                run.psi_lines(n).map(|l| (l, 0))
-            } else {
-                Some((run.phi_lines(n), self.b_offset()))
-            }
-        };
-        if psi_lines().is_none() {
+        if self.numerator_lines(run, n).is_none() {
             return false;
         }
         let mut factors = vec![(zero, zero); n];
@@ -357,7 +350,7 @@ impl<T: Real> Rational<T> {
             }
         }
         for (j, col) in cols.by_ref().take(self.nb + 1).enumerate() {
-            let Some((psi, at)) = psi_lines() else {
+            let Some((psi, at)) = self.numerator_lines(run, n) else {
                 return false;
             };
             for ((d, f), p) in col.iter_mut().zip(&factors).zip(psi) {
@@ -367,6 +360,53 @@ impl<T: Real> Rational<T> {
         // the transient coefficients do not enter G
         for col in cols {
             col.fill(zero);
+        }
+        true
+    }
+
+    /// ψ of the first `lines` lines of a table run, with the index of ψ₀ in each slice:
+    /// the ψ table's lines, or φ's when ψ is a slice of φ; `None` when ψ is reflected and
+    /// has no table.
+    fn numerator_lines<'a>(
+        &self,
+        run: TableRun<'a, T>,
+        lines: usize,
+    ) -> Option<(std::slice::ChunksExact<'a, Complex<T>>, usize)> {
+        if self.reflected() {
+            run.psi_lines(lines).map(|l| (l, 0))
+        } else {
+            Some((run.phi_lines(lines), self.b_offset()))
+        }
+    }
+
+    /// The Levy rows of a model without transient from a table run (`out` of the run's
+    /// lines, `y` and `u` theirs), column by column: φⱼY and −ψⱼU, with the same values as
+    /// line by line. False, with nothing written, when ψ is neither a slice of φ nor in a
+    /// table.
+    fn rows_from_table(
+        &self,
+        run: TableRun<'_, T>,
+        y: &[Complex<T>],
+        u: &[Complex<T>],
+        out: &mut DMatrix<Complex<T>>,
+    ) -> bool {
+        let n = out.nrows();
+        if self.transient.is_some() || self.numerator_lines(run, n).is_none() {
+            return false;
+        }
+        let mut cols = out.as_mut_slice().chunks_exact_mut(n);
+        for (j, col) in cols.by_ref().take(self.na + 1).enumerate() {
+            for ((d, y), p) in col.iter_mut().zip(y).zip(run.phi_lines(n)) {
+                *d = p[j] * *y;
+            }
+        }
+        for (j, col) in cols.take(self.nb + 1).enumerate() {
+            let Some((psi, at)) = self.numerator_lines(run, n) else {
+                return false;
+            };
+            for ((d, u), p) in col.iter_mut().zip(u).zip(psi) {
+                *d = -(p[at + j] * *u);
+            }
         }
         true
     }
@@ -1045,10 +1085,15 @@ impl<T: Real> EquationError<T> for Rational<T> {
         if len == 0 {
             return;
         }
-        // the columns of the block, written line by line
-        let mut cols: Vec<&mut [Complex<T>]> = out.as_mut_slice().chunks_exact_mut(len).collect();
         let kept = self.kept_zinv(omega);
         let run = self.tabulated(omega, true);
+        if let Some(run) = run
+            && self.rows_from_table(run, y, u, out)
+        {
+            return;
+        }
+        // the columns of the block, written line by line
+        let mut cols: Vec<&mut [Complex<T>]> = out.as_mut_slice().chunks_exact_mut(len).collect();
         for (k, ((w, y), u)) in omega.iter().zip(y).zip(u).enumerate() {
             let zinv = kept.map(|z| z[k]);
             let p = self.phi_at(run, k, *w, zinv, &mut phi);
