@@ -332,9 +332,9 @@ impl<T: Real> Rational<T> {
     ) -> bool {
         let zero = Complex::new(T::zero(), T::zero());
         let (n, na, off) = (jac.nrows(), self.na, self.a_offset());
-        if self.numerator_lines(run, n).is_none() {
+        let Some((psi, at)) = self.numerator_lines(run, n) else {
             return false;
-        }
+        };
         let mut factors = vec![(zero, zero); n];
         for ((f, g), p) in factors.iter_mut().zip(g.iter_mut()).zip(run.phi_lines(n)) {
             let (a, b) = self.ab_at(theta, c, p);
@@ -350,10 +350,7 @@ impl<T: Real> Rational<T> {
             }
         }
         for (j, col) in cols.by_ref().take(self.nb + 1).enumerate() {
-            let Some((psi, at)) = self.numerator_lines(run, n) else {
-                return false;
-            };
-            for ((d, f), p) in col.iter_mut().zip(&factors).zip(psi) {
+            for ((d, f), p) in col.iter_mut().zip(&factors).zip(psi.clone()) {
                 *d = p[at + j] * f.1;
             }
         }
@@ -391,9 +388,9 @@ impl<T: Real> Rational<T> {
         out: &mut DMatrix<Complex<T>>,
     ) -> bool {
         let n = out.nrows();
-        if self.transient.is_some() || self.numerator_lines(run, n).is_none() {
+        let (None, Some((psi, at))) = (self.transient, self.numerator_lines(run, n)) else {
             return false;
-        }
+        };
         let mut cols = out.as_mut_slice().chunks_exact_mut(n);
         for (j, col) in cols.by_ref().take(self.na + 1).enumerate() {
             for ((d, y), p) in col.iter_mut().zip(y).zip(run.phi_lines(n)) {
@@ -401,10 +398,7 @@ impl<T: Real> Rational<T> {
             }
         }
         for (j, col) in cols.take(self.nb + 1).enumerate() {
-            let Some((psi, at)) = self.numerator_lines(run, n) else {
-                return false;
-            };
-            for ((d, u), p) in col.iter_mut().zip(u).zip(psi) {
+            for ((d, u), p) in col.iter_mut().zip(u).zip(psi.clone()) {
                 *d = -(p[at + j] * *u);
             }
         }
