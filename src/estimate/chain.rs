@@ -195,6 +195,15 @@ const LONG_ML: usize = 30;
 /// grows with the record.
 pub const START_LINES: usize = 2_048;
 
+/// Lines per coefficient that start ML as well as all lines: the linear stages of a model
+/// of q coefficients run on at most max([`MIN_START_LINES`], 64·q) lines (and never more
+/// than [`Pipeline::start_lines`]), so a low order starts from fewer lines than a high one.
+pub const START_LINES_PER_COEFFICIENT: usize = 64;
+
+/// The fewest lines the per-coefficient rule of [`START_LINES_PER_COEFFICIENT`] leaves the
+/// linear stages.
+pub const MIN_START_LINES: usize = 512;
+
 /// Buffers of the Levy/SK solves of one fit.
 struct LevyWork<T: Real> {
     weights: Option<Option<Vec<T>>>,
@@ -226,7 +235,7 @@ impl<T: Real> Default for LevyWork<T> {
 /// | `linear` | [`LinearLeastSquares::default`] | the Levy solve |
 /// | `restarts` | `true` | further starts on evidence of a local minimum |
 /// | `stable` | `false` | a stable fit by construction (see below) |
-/// | `start_lines` | `Some(`[`START_LINES`]`)` = 2 048 | when ML follows, the most lines Levy and SK run on (see below) |
+/// | `start_lines` | `Some(`[`START_LINES`]`)` = 2 048 | when ML follows, the most lines Levy and SK run on, whatever the order (see below) |
 ///
 /// If ML fails from the SK estimate it is retried from the Levy estimate (in the model's
 /// original basis). When SK or ML stops at its iteration cap, two more ML starts are
@@ -259,12 +268,16 @@ impl<T: Real> Default for LevyWork<T> {
 /// the roots of its numerator and denominator.
 ///
 /// **Start on fewer lines** (`start_lines`). When ML follows and the data have more than
-/// `start_lines` lines, Levy and SK run on every m-th line, m = ⌈N/`start_lines`⌉ (the
+/// L = min(`start_lines`, max([`MIN_START_LINES`], [`START_LINES_PER_COEFFICIENT`]·q))
+/// lines, q the model's coefficients (L = 512 up to q = 8, as for order 4 over 2, and
+/// 1 280 for order 10 over 8), Levy and SK run on every m-th line, m = ⌈N/L⌉ (the
 /// highest line kept; all lines when that would leave fewer than twice the model's
 /// coefficients): their estimate only starts ML, which runs on all lines, so the result
 /// is the ML estimate of all the data either way, while the linear stages' cost no longer
 /// grows with N. Their [`Stage::lines`](crate::fit::Stage::lines) records the lines they
-/// used (their costs are on those). When the fit from that start shows evidence of a local
+/// used (their costs are on those). A relocatable basis then takes one more relocation on
+/// all lines (an `sk` stage of one direct solve), which starts ML nearer its optimum and
+/// builds the basis tables ML reads. When the fit from that start shows evidence of a local
 /// minimum (the tests below), the chain runs again with the linear stages on all lines
 /// and the lower cost is kept. The further starts of a long record then run on the
 /// same fewer lines (their ML too), and ML on all lines from the best of them gives the
@@ -428,15 +441,48 @@ impl Pipeline {
         }
     }
 
+    /// The most lines the linear stages of `model` run on when ML follows:
+    /// min(`start_lines`, max([`MIN_START_LINES`], [`START_LINES_PER_COEFFICIENT`]·q)) for
+    /// q coefficients; `None` without a limit.
+    pub(crate) fn start_lines_for<T: Real, M: EquationError<T>>(&self, model: &M) -> Option<usize> {
+        let per_coefficient = START_LINES_PER_COEFFICIENT
+            .saturating_mul(model.n_coefficients())
+            .max(MIN_START_LINES);
+        self.start_lines.map(|most| most.min(per_coefficient))
+    }
+
     /// The lines the linear stages run on when ML follows and the data have more than
-    /// `start_lines` lines: every ⌈N/`start_lines`⌉-th line, the highest kept; `None` (all
-    /// lines) otherwise, or when those would be fewer than twice the model's coefficients.
+    /// m = [`Pipeline::start_lines_for`] lines: every ⌈N/m⌉-th line, the highest kept;
+    /// `None` (all lines) otherwise, or when those would be fewer than twice the model's
+    /// coefficients.
     pub(crate) fn start_data<T: Real, M: EquationError<T>>(
         &self,
         model: &M,
         data: &FrequencyData<T>,
     ) -> Option<FrequencyData<T>> {
-        let most = self.start_lines?;
+        self.fewer_lines(model, data, self.start_lines_for(model)?)
+    }
+
+    /// The lines the further starts of a long record run on
+    /// ([`FurtherStarts::further_starts`] for [`crate::Rational`]): as
+    /// [`Pipeline::start_data`] with at most `start_lines` lines, whatever the order. The
+    /// starts search for another optimum, which a low order's few start lines can miss.
+    pub(crate) fn search_data<T: Real, M: EquationError<T>>(
+        &self,
+        model: &M,
+        data: &FrequencyData<T>,
+    ) -> Option<FrequencyData<T>> {
+        self.fewer_lines(model, data, self.start_lines?)
+    }
+
+    /// Every ⌈N/`most`⌉-th line of `data` when ML follows and N > `most` (`None`
+    /// otherwise, or when they would be fewer than twice the model's coefficients).
+    fn fewer_lines<T: Real, M: EquationError<T>>(
+        &self,
+        model: &M,
+        data: &FrequencyData<T>,
+        most: usize,
+    ) -> Option<FrequencyData<T>> {
         if self.ml.is_none() || data.len() <= most {
             return None;
         }
@@ -445,7 +491,8 @@ impl Pipeline {
     }
 
     /// The linear stages on `fewer` lines (on all when `None`), their stages marked with
-    /// the number of lines.
+    /// the number of lines; after relocations on fewer lines, one more on all lines (see
+    /// [`Pipeline::relocate_on_all`]).
     fn linear_stages_on<T: Real, M: EquationError<T> + Clone>(
         &self,
         model: &M,
@@ -460,7 +507,70 @@ impl Pipeline {
         for s in &mut l.stages {
             s.lines = Some(fewer.len());
         }
+        if l.relocated
+            && let Some(fp) = &self.sk
+            && let Some((model, stage)) = self.relocate_on_all(&l.model, &l.current, data, fp, gram)
+        {
+            l.current = stage.solution.theta.clone();
+            l.model = model;
+            l.stages.push(stage);
+        }
         Ok(l)
+    }
+
+    /// One relocation on all lines after those on fewer (the SK stage of a long record):
+    /// the Levy solve in the basis of the fewer lines' poles. Its estimate starts ML from
+    /// nearer the optimum (on the peers' order-4 and order-10 cases, 4 ML evaluations
+    /// instead of 6), and its basis tables, built on ML's grid, serve ML. An SK stage of
+    /// one direct solve, on all lines, with the output-error cost there; `None` when the
+    /// basis or the solve fails (ML then starts from the fewer lines' estimate).
+    fn relocate_on_all<T: Real, M: EquationError<T> + Clone>(
+        &self,
+        model: &M,
+        theta: &[T],
+        data: &FrequencyData<T>,
+        fp: &FixedPoint,
+        gram: bool,
+    ) -> Option<(M, Stage<T>)> {
+        let next = model.relocated(theta)?.ok()?;
+        let linear = LinearLeastSquares {
+            rcond_eps: fp.rcond_eps,
+        };
+        let mut work = LevyWork::default();
+        let theta = if gram {
+            self.levy_normal_equations(&next, data, &linear, &mut work, false)
+                .ok()?
+                .0
+        } else {
+            self.levy_solve(&next, data, &linear, &mut work, false)
+                .ok()?
+                .theta
+        };
+        let theta = stable_start(&next, theta, self.stable).ok()?;
+        let weights = self.weighting.weights(data).ok()?;
+        let mut out = crate::model::Output::new(data.len(), next.n_params());
+        let cost = crate::criterion::output_error_cost_in(
+            &mut out,
+            &next,
+            &theta,
+            data,
+            weights.as_deref(),
+        );
+        if !num_traits::Float::is_finite(cost) {
+            return None;
+        }
+        Some((
+            next,
+            Stage::new(
+                StageKind::Sk,
+                Solution {
+                    theta,
+                    cost,
+                    iterations: 1,
+                    termination: crate::solver::Termination::Direct,
+                },
+            ),
+        ))
     }
 
     /// [`Pipeline::run`] with the linear stages on `fewer` lines (all when `None`).
@@ -489,7 +599,8 @@ impl Pipeline {
                 ml_solve_in(&fast, lm, m, &problem, start, stable)
             };
             let problem = ml.problem(&model, data)?;
-            let sk_capped = stages.last().is_some_and(|s| !s.solution.converged());
+            // (the relocation on all lines after those on fewer is a direct solve)
+            let sk_capped = stages.iter().any(|s| !s.solution.converged());
             let first = ml_solve_in(&fast, lm, &model, &problem, &current, stable);
             // the Levy estimate belongs to the original basis
             let from_levy = || solve_in(original, &levy.theta);

@@ -32,7 +32,9 @@ mod noise_start;
 mod spec;
 mod work;
 
-pub use chain::{FurtherStarts, Pipeline, START_LINES, estimate};
+pub use chain::{
+    FurtherStarts, MIN_START_LINES, Pipeline, START_LINES, START_LINES_PER_COEFFICIENT, estimate,
+};
 pub use delay::{DelayStart, delay_start, fit_delayed};
 pub use eiv::{fit_eiv, fit_eiv_delayed};
 pub use modal::{ModalOptions, fit_modal};

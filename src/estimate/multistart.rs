@@ -963,12 +963,13 @@ pub fn fit_multistart_discrete<T: Real>(
 /// every start fails. The caller keeps `fit` unless the returned fit has a lower cost.
 ///
 /// On a record longer than the pipeline's `start_lines`, the starts (and `fit` among them)
-/// run on the lines its linear stages use (every m-th line, [`Pipeline`]), and ML on all
-/// lines from the best of them gives the returned fit (an `ml-polish` stage; the earlier
-/// stages marked with their lines): on 40 random systems of orders 1–10 on 2 500–20 000
-/// lines (`examples/start_lines_study.rs`) 48 s instead of 138 s in all, the same optimum
-/// on 37, a lower cost on 1 (by 4.6·10⁻⁴ relative) and a higher on 2 (by 3.7·10⁻⁵ and
-/// 1.2·10⁻⁴).
+/// run on every ⌈N/`start_lines`⌉-th line, whatever the order (the chain's own linear
+/// stages may use fewer, [`Pipeline`]), and ML on all lines from the best of them gives the
+/// returned fit (an `ml-polish` stage; the earlier stages marked with their lines): on 40
+/// random systems of orders 1–10 on 2 500–20 000 lines (`examples/start_lines_study.rs`)
+/// 48 s instead of 138 s in all, the same optimum on 37, a lower cost on 1 (by 4.6·10⁻⁴
+/// relative) and a higher on 2 (by 3.7·10⁻⁵ and 1.2·10⁻⁴), when the chain's linear stages
+/// used the same lines.
 fn restart<T: Real>(
     model: &Rational<T>,
     pipeline: &Pipeline,
@@ -991,7 +992,7 @@ fn restart<T: Real>(
     {
         return None;
     }
-    let Some(fewer) = pipeline.start_data(model, data) else {
+    let Some(fewer) = pipeline.search_data(model, data) else {
         return search_starts(model, pipeline, data, Some(fit.clone()))
             .filter(|b| b.cost() < fit.cost());
     };

@@ -5,6 +5,7 @@
 
 use crate::common::{self, Noise, logspace, modal};
 use fdid::prelude::*;
+use fdid::solver::Termination;
 
 /// `sys`'s FRF on `n` log-spaced lines over 0.1–10 rad/s with output noise of variance
 /// `var` (known).
@@ -30,8 +31,9 @@ fn all_lines() -> Pipeline {
 }
 
 /// Both fits reach one optimum (cost within 10⁻⁹ relative, responses within 10⁻⁶ of the
-/// largest), the default's linear stages on ⌈N/m⌉ lines and its ML on all.
-fn same_optimum(model: &Rational<f64>, data: &FrequencyData<f64>, lines: usize) {
+/// largest), the default's linear stages on ⌈N/m⌉ lines and its ML on all; with
+/// `relocated` (a partial-fraction basis) one relocation on all lines between them.
+fn same_optimum(model: &Rational<f64>, data: &FrequencyData<f64>, lines: usize, relocated: bool) {
     let fewer = Pipeline::default().fit(model, data).unwrap();
     let all = all_lines().fit(model, data).unwrap();
     assert!(
@@ -45,13 +47,33 @@ fn same_optimum(model: &Rational<f64>, data: &FrequencyData<f64>, lines: usize) 
         assert!((a - b).norm() <= 1e-6 * peak, "{a} vs {b}");
     }
     let stages = fewer.stages();
-    assert_eq!(stages[0].kind, StageKind::Levy);
-    for s in stages {
-        match s.kind {
-            StageKind::Levy | StageKind::Sk => assert_eq!(s.lines, Some(lines), "{s:?}"),
-            _ => assert_eq!(s.lines, None, "{s:?}"),
-        }
+    let names: Vec<String> = stages.iter().map(|s| s.kind.name()).collect();
+    let expected: &[&str] = if relocated {
+        &["levy", "sk", "sk", "ml"]
+    } else {
+        &["levy", "sk", "ml"]
+    };
+    assert_eq!(names, expected);
+    assert_eq!(stages[0].lines, Some(lines));
+    assert_eq!(stages[1].lines, Some(lines));
+    if relocated {
+        // one direct solve on all lines, its cost the output-error one there
+        let last = &stages[2];
+        assert_eq!(last.lines, None);
+        assert_eq!(last.solution.iterations, 1);
+        assert_eq!(last.solution.termination, Termination::Direct);
+        let at_start = Fit::new(
+            fewer.model().clone(),
+            data,
+            last.solution.theta.clone(),
+            NoiseWeighting::Auto,
+            vec![],
+        )
+        .unwrap();
+        assert!((at_start.cost() - last.solution.cost).abs() <= 1e-9 * last.solution.cost);
+        assert!(last.solution.cost >= fewer.cost());
     }
+    assert_eq!(stages.last().unwrap().lines, None);
     assert!(all.stages().iter().all(|s| s.lines.is_none()));
 }
 
@@ -59,18 +81,19 @@ fn same_optimum(model: &Rational<f64>, data: &FrequencyData<f64>, lines: usize) 
 fn five_resonances_on_20_000_lines_reach_the_optimum_of_all_lines() {
     let data = record(&common::b_ct10(), 20_000, 1e-4, 5);
     let model = Rational::continuous(10, 9, data.omega()).unwrap();
-    // every 10th line
-    same_optimum(&model, &data, 2_000);
+    // 21 coefficients: at most 64·21 = 1 344 lines, every 15th line
+    same_optimum(&model, &data, 1_334, true);
 }
 
-/// A resonance of ζ = 3·10⁻⁴ (about 1.3 of the kept lines across its half-power band)
+/// A resonance of ζ = 3·10⁻⁴ (about half a kept line across its half-power band)
 /// between two heavily damped modes.
 #[test]
 fn a_narrow_resonance_between_broad_modes_reaches_the_optimum_of_all_lines() {
     let sys = modal(&[0.3, 1.0, 3.0], &[0.3, 3e-4, 0.2], &[1.0, 0.05, 1.0]);
     let data = record(&sys, 20_000, 1e-6, 3);
     let model = Rational::continuous(6, 5, data.omega()).unwrap();
-    same_optimum(&model, &data, 2_000);
+    // 13 coefficients: at most 832 lines, every 25th line
+    same_optimum(&model, &data, 800, true);
 }
 
 #[test]
@@ -95,19 +118,21 @@ fn a_discrete_time_record_of_8_192_lines_reaches_the_optimum_of_all_lines() {
         .with_noise(NoiseVariances::output_only(vec![var; n]))
         .unwrap();
     let model = Rational::discrete(3, 2, 1.0).unwrap();
-    // every 4th line
-    same_optimum(&model, &data, 2_048);
+    // 7 coefficients: at most 512 lines (the floor), every 16th line; powers of z⁻¹ are
+    // not relocated
+    same_optimum(&model, &data, 512, false);
 }
 
 /// Without ML every stage is the estimator on all lines; a `start_lines` below twice the
-/// model's coefficients, or at least the record's length, leaves all lines too.
+/// model's coefficients leaves all lines too; `start_lines` bounds the lines, and so does
+/// the per-coefficient rule.
 #[test]
 fn without_ml_or_with_too_few_lines_every_stage_uses_all_lines() {
     let data = record(&common::a_ct4(), 6_000, 1e-4, 2);
     let model = Rational::continuous(4, 3, data.omega()).unwrap();
     let sk = Pipeline::sk().fit(&model, &data).unwrap();
     assert!(sk.stages().iter().all(|s| s.lines.is_none()));
-    for start_lines in [Some(10), Some(6_000), None] {
+    for start_lines in [Some(10), None] {
         let fit = Pipeline {
             start_lines,
             ..Pipeline::default()
@@ -126,6 +151,10 @@ fn without_ml_or_with_too_few_lines_every_stage_uses_all_lines() {
     .fit(&model, &data)
     .unwrap();
     assert_eq!(fit.stages()[0].lines, Some(100));
+    // 9 coefficients: at most 64·9 = 576 of the 6 000 lines, every 11th line
+    let fit = Pipeline::default().fit(&model, &data).unwrap();
+    assert_eq!(fit.stages()[0].lines, Some(546));
+    assert_eq!(fit.stages().last().unwrap().lines, None);
 }
 
 /// A long record whose fit shows evidence of a local minimum (SK at its cap): the further
