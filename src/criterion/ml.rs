@@ -159,7 +159,6 @@ impl<'a, T: Real, M: ModelStructure<T> + ?Sized> MlProblem<'a, T, M> {
     ) -> bool {
         let (n, p) = (self.data.len(), self.model.n_params());
         let mut blocks = self.blocks.borrow_mut();
-        let (omega, u) = (self.data.omega(), self.data.u());
         let lines = crate::linalg::gram::block_lines(p);
         for k0 in (0..n).step_by(lines) {
             let len = lines.min(n - k0);
@@ -168,19 +167,12 @@ impl<'a, T: Real, M: ModelStructure<T> + ?Sized> MlProblem<'a, T, M> {
             *at = None;
             if !reuse {
                 let lines = k0..k0 + len;
-                if !out.evaluate_lines(self.model, theta, &omega[lines.clone()], &u[lines], true) {
-                    return false;
-                }
                 if jac.shape() != (2 * len, p) {
                     *jac = DMatrix::zeros(2 * len, p);
                 }
                 let weight = self.weight.as_deref().map(|w| &w[k0..k0 + len]);
-                for (col, src) in jac
-                    .as_mut_slice()
-                    .chunks_exact_mut(2 * len)
-                    .zip(out.dyhat.as_slice().chunks_exact(len))
-                {
-                    stack_weighted(src, weight, -T::one(), col);
+                if !self.stacked_rows(out, theta, lines, weight, jac) {
+                    return false;
                 }
                 if !all_finite(jac.as_slice()) {
                     return false;
@@ -190,6 +182,39 @@ impl<'a, T: Real, M: ModelStructure<T> + ?Sized> MlProblem<'a, T, M> {
                 }
             }
             f(k0, out, jac);
+        }
+        true
+    }
+
+    /// G and Ŷ of `lines` into `out` and their rows of J (real-stacked, weighted) into
+    /// `jac`: in one pass of the model when it has one
+    /// ([`ModelStructure::stacked_jacobian_into`]), else from its Jacobian ∂Ŷ/∂θ. False
+    /// when a value of G, Ŷ or ∂Ŷ/∂θ is not finite.
+    fn stacked_rows(
+        &self,
+        out: &mut Output<T>,
+        theta: &[T],
+        lines: std::ops::Range<usize>,
+        weight: Option<&[T]>,
+        jac: &mut DMatrix<T>,
+    ) -> bool {
+        let (omega, u) = (&self.data.omega()[lines.clone()], &self.data.u()[lines]);
+        if let Some(finite) = out.stacked_jacobian(self.model, theta, omega, u, weight, jac) {
+            return finite;
+        }
+        if !out.evaluate_lines(self.model, theta, omega, u, true) {
+            return false;
+        }
+        let len = omega.len();
+        if len == 0 {
+            return true;
+        }
+        for (col, src) in jac
+            .as_mut_slice()
+            .chunks_exact_mut(2 * len)
+            .zip(out.dyhat.as_slice().chunks_exact(len))
+        {
+            stack_weighted(src, weight, -T::one(), col);
         }
         true
     }
@@ -292,19 +317,10 @@ impl<T: Real, M: ModelStructure<T> + ?Sized> NonlinearProblem<T> for MlProblem<'
 
     fn jacobian_into(&self, theta: &[T], r: &mut [T], jac: &mut DMatrix<T>) -> bool {
         let mut out = self.scratch.borrow_mut();
-        let finite = out.evaluate(self.model, theta, self.data, true);
+        let n = self.data.len();
+        let finite = self.stacked_rows(&mut out, theta, 0..n, self.weight.as_deref(), jac);
         self.mark_scratch(theta);
         self.residuals_of(0, &out.yhat, r);
-        let n = self.data.len();
-        if n > 0 {
-            for (col, src) in jac
-                .as_mut_slice()
-                .chunks_exact_mut(2 * n)
-                .zip(out.dyhat.as_slice().chunks_exact(n))
-            {
-                stack_weighted(src, self.weight.as_deref(), -T::one(), col);
-            }
-        }
         finite && all_finite(r) && all_finite(jac.as_slice())
     }
 

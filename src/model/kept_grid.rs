@@ -223,6 +223,90 @@ mod tests {
         }
     }
 
+    /// The one-pass rows of the output-error Jacobian equal ∂G/∂θ·U from `jacobian_into`,
+    /// stacked and scaled by −w (or −1), bit for bit, on runs of the kept grid; elsewhere,
+    /// and for a model with a transient term, the pass is refused.
+    #[test]
+    fn stacked_jacobian_rows_equal_the_stacked_jacobian() {
+        use crate::data::FrequencyData;
+        use crate::model::{ModelStructure, Rational};
+        use nalgebra::DMatrix;
+        let ts = 0.1;
+        let omega: Vec<f64> = (1..=40).map(|k| 0.7 * k as f64).collect();
+        let u: Vec<Complex<f64>> = (0..40)
+            .map(|k| Complex::new(1.0 + 0.1 * k as f64, 0.5 - 0.03 * k as f64))
+            .collect();
+        let weight: Vec<f64> = (0..40).map(|k| 0.5 + 0.07 * k as f64).collect();
+        let data = FrequencyData::new(omega.clone(), u.clone(), u.clone(), Some(ts)).unwrap();
+        let models = [
+            Rational::continuous(4, 1, &omega).unwrap(),
+            Rational::continuous(3, 2, &omega).unwrap(),
+            Rational::polynomial(2, 3, &omega).unwrap(),
+            Rational::discrete(3, 2, ts).unwrap(),
+        ];
+        let zero = Complex::new(0.0, 0.0);
+        for model in models {
+            let p = model.n_params();
+            let theta: Vec<f64> = (0..p).map(|j| 0.3 / (1.0 + j as f64) - 0.1).collect();
+            let (lines, w) = (5..29, &omega[5..29]);
+            let n = w.len();
+            let (mut g, mut jac) = (vec![zero; n], DMatrix::zeros(2 * n, p));
+            // no table before the data check
+            assert!(!model.stacked_jacobian_into(
+                &theta,
+                w,
+                &u[lines.clone()],
+                None,
+                &mut g,
+                &mut jac
+            ));
+            model.check_data(&data).unwrap();
+            let (mut g0, mut dg) = (vec![zero; n], DMatrix::from_element(n, p, zero));
+            model.jacobian_into(&theta, w, &mut g0, &mut dg);
+            for weights in [None, Some(&weight[lines.clone()])] {
+                let (mut g, mut jac) = (vec![zero; n], DMatrix::from_element(2 * n, p, 7.0));
+                assert!(model.stacked_jacobian_into(
+                    &theta,
+                    w,
+                    &u[lines.clone()],
+                    weights,
+                    &mut g,
+                    &mut jac
+                ));
+                assert_eq!(g, g0);
+                for j in 0..p {
+                    for k in 0..n {
+                        let d = dg[(k, j)] * u[lines.start + k];
+                        let s = weights.map_or(-1.0, |w| -w[k]);
+                        assert_eq!(jac[(2 * k, j)].to_bits(), (d.re * s).to_bits());
+                        assert_eq!(jac[(2 * k + 1, j)].to_bits(), (d.im * s).to_bits());
+                    }
+                }
+            }
+            // not a run of the grid, or a wrong shape
+            let off = [0.5, 1.4];
+            let (mut g2, mut jac2) = (vec![zero; 2], DMatrix::zeros(4, p));
+            assert!(!model.stacked_jacobian_into(&theta, &off, &u[..2], None, &mut g2, &mut jac2));
+            let mut wrong = DMatrix::zeros(2 * n, p + 1);
+            assert!(!model.stacked_jacobian_into(
+                &theta,
+                w,
+                &u[lines.clone()],
+                None,
+                &mut g,
+                &mut wrong
+            ));
+        }
+        let transient = Rational::discrete(3, 2, ts)
+            .and_then(|m| m.with_transient())
+            .unwrap();
+        transient.check_data(&data).unwrap();
+        let p = transient.n_params();
+        let (mut g, mut jac) = (vec![zero; 40], DMatrix::zeros(80, p));
+        let theta = vec![0.01; p];
+        assert!(!transient.stacked_jacobian_into(&theta, &omega, &u, None, &mut g, &mut jac));
+    }
+
     #[test]
     fn a_grid_that_does_not_rise_is_matched_from_its_start() {
         let omega = [3.0, 1.0, 2.0, 1.0];

@@ -69,6 +69,26 @@ pub trait ModelStructure<T: Real> {
         true
     }
 
+    /// The output-error Jacobian rows in one pass, for a model without a transient term:
+    /// G(θ, ω_k) into `g` and s_k·∂G(θ, ω_k)/∂θ_j·U_k real-stacked into `jac` (rows 2k and
+    /// 2k + 1 of column j the real and imaginary parts, `jac` 2N × p), with s_k = −w_k, or
+    /// −1 without `weight`; each value rounded as `(∂G/∂θ_j · U_k)·s_k` from
+    /// [`ModelStructure::jacobian_into`]'s ∂G/∂θ_j. Returns false, with nothing promised
+    /// written, when the structure has no such pass (the default): the caller then
+    /// evaluates [`ModelStructure::jacobian_into`] and stacks its values.
+    fn stacked_jacobian_into(
+        &self,
+        theta: &[T],
+        omega: &[T],
+        u: &[Complex<T>],
+        weight: Option<&[T]>,
+        g: &mut [Complex<T>],
+        jac: &mut DMatrix<T>,
+    ) -> bool {
+        let _ = (theta, omega, u, weight, g, jac);
+        false
+    }
+
     /// The diagonal map back from a fit to normalised data: for θ′ fitted to
     /// (c_y·Y_k, c_u·U_k) (`output` = c_y, `input` = c_u), θ_j = d_j·θ′_j describes the data
     /// (Y_k, U_k), with d returned here. Parameters of G's gain (a numerator) have

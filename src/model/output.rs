@@ -70,6 +70,41 @@ impl<T: Real> Output<T> {
         self.evaluate_lines(model, theta, data.omega(), data.u(), jacobian)
     }
 
+    /// G and Ŷ at θ, and the stacked weighted Jacobian rows of the output-error residuals
+    /// in `jac` (2N × p), in one pass of the model
+    /// ([`ModelStructure::stacked_jacobian_into`]); ∂G/∂θ and ∂Ŷ/∂θ are not kept. `None`
+    /// when the model has no such pass (a transient term, or none implemented), else
+    /// whether G and Ŷ are finite.
+    pub(crate) fn stacked_jacobian<M: ModelStructure<T> + ?Sized>(
+        &mut self,
+        model: &M,
+        theta: &[T],
+        omega: &[T],
+        u: &[Complex<T>],
+        weight: Option<&[T]>,
+        jac: &mut DMatrix<T>,
+    ) -> Option<bool> {
+        let n = omega.len().min(u.len());
+        if model.has_transient() {
+            return None;
+        }
+        let zero = Complex::new(T::zero(), T::zero());
+        for v in [&mut self.g, &mut self.yhat] {
+            if v.len() != n {
+                v.resize(n, zero);
+            }
+        }
+        let (omega, u) = (&omega[..n], &u[..n]);
+        if !model.stacked_jacobian_into(theta, omega, u, weight, &mut self.g, jac) {
+            return None;
+        }
+        for ((yhat, g), u) in self.yhat.iter_mut().zip(&self.g).zip(u) {
+            *yhat = *g * *u;
+        }
+        use crate::scalar::all_finite_complex;
+        Some(all_finite_complex(&self.yhat) && all_finite_complex(&self.g))
+    }
+
     /// G and Ŷ (no Jacobian) at θ on the lines `range` of `omega` and `u` (the buffers
     /// hold all of them, resized when their lengths differ; the other lines are left as
     /// they are), so that a caller can go through a long record block by block while the
