@@ -279,9 +279,10 @@ impl<T: Real> Default for LevyWork<T> {
 /// all lines (an `sk` stage of one direct solve), which starts ML nearer its optimum and
 /// builds the basis tables ML reads. When the fit from that start shows evidence of a local
 /// minimum (the tests below), the chain runs again with the linear stages on all lines
-/// and the lower cost is kept. The further starts of a long record then run on the
-/// same fewer lines (their ML too), and ML on all lines from the best of them gives the
-/// fit that competes with this one (see [`FurtherStarts`] for [`crate::Rational`]).
+/// and the lower cost is kept. The further starts of a long record then run on every
+/// ⌈N/`start_lines`⌉-th line whatever the order (their ML too), and ML on all lines from
+/// the best of them gives the fit that competes with this one (see [`FurtherStarts`] for
+/// [`crate::Rational`]).
 /// Without ML (`Pipeline::levy`, `Pipeline::sk`) every stage uses all lines.
 ///
 /// **Stability** (`stable`, [`crate::estimate::Stability::Enforced`]). The estimate of
