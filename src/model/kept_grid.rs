@@ -307,6 +307,63 @@ mod tests {
         assert!(!transient.stacked_jacobian_into(&theta, &omega, &u, None, &mut g, &mut jac));
     }
 
+    /// The delayed model's one-pass rows equal its `jacobian_into` values times U, stacked
+    /// and scaled, bit for bit, with and without the inner model's tables; an inner model
+    /// with a transient term refuses the pass.
+    #[test]
+    fn delayed_stacked_jacobian_rows_equal_the_stacked_jacobian() {
+        use crate::data::FrequencyData;
+        use crate::model::{Delayed, ModelStructure, Rational};
+        use nalgebra::DMatrix;
+        let ts = 0.1;
+        let omega: Vec<f64> = (1..=40).map(|k| 0.7 * k as f64).collect();
+        let u: Vec<Complex<f64>> = (0..40)
+            .map(|k| Complex::new(1.0 + 0.1 * k as f64, 0.5 - 0.03 * k as f64))
+            .collect();
+        let weight: Vec<f64> = (0..40).map(|k| 0.5 + 0.07 * k as f64).collect();
+        let data = FrequencyData::new(omega.clone(), u.clone(), u.clone(), Some(ts)).unwrap();
+        let zero = Complex::new(0.0, 0.0);
+        let checked = Rational::continuous(3, 2, &omega).unwrap();
+        checked.check_data(&data).unwrap();
+        let models = [
+            Delayed::new(checked),
+            Delayed::new(Rational::continuous(4, 1, &omega).unwrap()),
+            Delayed::new(Rational::discrete(3, 2, ts).unwrap()),
+        ];
+        for model in models {
+            let p = model.n_params();
+            let mut theta: Vec<f64> = (0..p).map(|j| 0.3 / (1.0 + j as f64) - 0.1).collect();
+            theta[p - 1] = 0.37;
+            let n = omega.len();
+            let (mut g0, mut dg) = (vec![zero; n], DMatrix::from_element(n, p, zero));
+            model.jacobian_into(&theta, &omega, &mut g0, &mut dg);
+            for weights in [None, Some(&weight[..])] {
+                let (mut g, mut jac) = (vec![zero; n], DMatrix::from_element(2 * n, p, 7.0));
+                assert!(model.stacked_jacobian_into(&theta, &omega, &u, weights, &mut g, &mut jac));
+                assert_eq!(g, g0);
+                for j in 0..p {
+                    for k in 0..n {
+                        let d = dg[(k, j)] * u[k];
+                        let s = weights.map_or(-1.0, |w| -w[k]);
+                        assert_eq!(jac[(2 * k, j)].to_bits(), (d.re * s).to_bits());
+                        assert_eq!(jac[(2 * k + 1, j)].to_bits(), (d.im * s).to_bits());
+                    }
+                }
+            }
+            let (mut g, mut wrong) = (vec![zero; n], DMatrix::zeros(2 * n, p - 1));
+            assert!(!model.stacked_jacobian_into(&theta, &omega, &u, None, &mut g, &mut wrong));
+        }
+        let transient = Delayed::new(
+            Rational::discrete(3, 2, ts)
+                .and_then(|m| m.with_transient())
+                .unwrap(),
+        );
+        let p = transient.n_params();
+        let (mut g, mut jac) = (vec![zero; 40], DMatrix::zeros(80, p));
+        let theta = vec![0.01; p];
+        assert!(!transient.stacked_jacobian_into(&theta, &omega, &u, None, &mut g, &mut jac));
+    }
+
     #[test]
     fn a_grid_that_does_not_rise_is_matched_from_its_start() {
         let omega = [3.0, 1.0, 2.0, 1.0];
