@@ -320,16 +320,11 @@ impl<T: Real, M: ModelStructure<T>> ModelStructure<T> for Delayed<M> {
         jac: &mut DMatrix<T>,
     ) -> bool {
         let (n, p) = (omega.len(), self.inner.n_params());
-        if self.inner.has_transient()
-            || n == 0
-            || u.len() != n
-            || g.len() != n
-            || weight.is_some_and(|w| w.len() != n)
-            || jac.shape() != (2 * n, p + 1)
-            || theta.len() != p + 1
-        {
+        let rows = super::stacked_rows::StackedRows::new(omega, u, weight, g, jac, p + 1);
+        let Some(rows) = rows.filter(|_| !self.inner.has_transient() && theta.len() == p + 1)
+        else {
             return false;
-        }
+        };
         let zero = Complex::new(T::zero(), T::zero());
         let mut lead = DMatrix::from_element(n, p, zero);
         self.inner.jacobian_into(&theta[..p], omega, g, &mut lead);
@@ -338,24 +333,15 @@ impl<T: Real, M: ModelStructure<T>> ModelStructure<T> for Delayed<M> {
         for (g, d) in g.iter_mut().zip(&d) {
             *g *= *d;
         }
-        let minus_one = -T::one();
-        // s_k as the stacking of ∂Ŷ/∂θ rounds it: sign times weight
-        let scale = |k: usize| weight.map_or(minus_one, |w| minus_one * w[k]);
-        let write = |out: &mut [T], v: Complex<T>, k: usize| {
-            let v = v * u[k];
-            let s = scale(k);
-            out[0] = v.re * s;
-            out[1] = v.im * s;
-        };
         let mut cols = jac.as_mut_slice().chunks_exact_mut(2 * n);
         for (col, src) in cols.by_ref().take(p).zip(lead.as_slice().chunks_exact(n)) {
             for (k, (out, v)) in col.chunks_exact_mut(2).zip(src).enumerate() {
-                write(out, *v * d[k], k);
+                rows.write(out, *v * d[k], k);
             }
         }
         if let Some(col) = cols.next() {
             for (k, (out, w)) in col.chunks_exact_mut(2).zip(omega).enumerate() {
-                write(out, Complex::new(T::zero(), -*w) * g[k], k);
+                rows.write(out, Complex::new(T::zero(), -*w) * g[k], k);
             }
         }
         true

@@ -223,88 +223,116 @@ mod tests {
         }
     }
 
-    /// The one-pass rows of the output-error Jacobian equal ∂G/∂θ·U from `jacobian_into`,
-    /// stacked and scaled by −w (or −1), bit for bit, on runs of the kept grid; elsewhere,
-    /// and for a model with a transient term, the pass is refused.
-    #[test]
-    fn stacked_jacobian_rows_equal_the_stacked_jacobian() {
-        use crate::data::FrequencyData;
-        use crate::model::{ModelStructure, Rational};
-        use nalgebra::DMatrix;
-        let ts = 0.1;
+    /// The 40-line grid, input, weights and data of the one-pass row tests.
+    struct RowCase {
+        omega: Vec<f64>,
+        u: Vec<Complex<f64>>,
+        weight: Vec<f64>,
+        data: crate::data::FrequencyData<f64>,
+    }
+
+    const ROW_TS: f64 = 0.1;
+
+    fn row_case() -> RowCase {
         let omega: Vec<f64> = (1..=40).map(|k| 0.7 * k as f64).collect();
         let u: Vec<Complex<f64>> = (0..40)
             .map(|k| Complex::new(1.0 + 0.1 * k as f64, 0.5 - 0.03 * k as f64))
             .collect();
         let weight: Vec<f64> = (0..40).map(|k| 0.5 + 0.07 * k as f64).collect();
-        let data = FrequencyData::new(omega.clone(), u.clone(), u.clone(), Some(ts)).unwrap();
-        let models = [
-            Rational::continuous(4, 1, &omega).unwrap(),
-            Rational::continuous(3, 2, &omega).unwrap(),
-            Rational::polynomial(2, 3, &omega).unwrap(),
-            Rational::discrete(3, 2, ts).unwrap(),
-        ];
-        let zero = Complex::new(0.0, 0.0);
-        for model in models {
-            let p = model.n_params();
-            let theta: Vec<f64> = (0..p).map(|j| 0.3 / (1.0 + j as f64) - 0.1).collect();
-            let (lines, w) = (5..29, &omega[5..29]);
-            let n = w.len();
-            let (mut g, mut jac) = (vec![zero; n], DMatrix::zeros(2 * n, p));
-            // no table before the data check
-            assert!(!model.stacked_jacobian_into(
-                &theta,
-                w,
-                &u[lines.clone()],
-                None,
-                &mut g,
-                &mut jac
-            ));
-            model.check_data(&data).unwrap();
-            let (mut g0, mut dg) = (vec![zero; n], DMatrix::from_element(n, p, zero));
-            model.jacobian_into(&theta, w, &mut g0, &mut dg);
-            for weights in [None, Some(&weight[lines.clone()])] {
-                let (mut g, mut jac) = (vec![zero; n], DMatrix::from_element(2 * n, p, 7.0));
-                assert!(model.stacked_jacobian_into(
-                    &theta,
-                    w,
-                    &u[lines.clone()],
-                    weights,
-                    &mut g,
-                    &mut jac
-                ));
-                assert_eq!(g, g0);
-                for j in 0..p {
-                    for k in 0..n {
-                        let d = dg[(k, j)] * u[lines.start + k];
-                        let s = weights.map_or(-1.0, |w| -w[k]);
-                        assert_eq!(jac[(2 * k, j)].to_bits(), (d.re * s).to_bits());
-                        assert_eq!(jac[(2 * k + 1, j)].to_bits(), (d.im * s).to_bits());
-                    }
+        let data =
+            crate::data::FrequencyData::new(omega.clone(), u.clone(), u.clone(), Some(ROW_TS))
+                .unwrap();
+        RowCase {
+            omega,
+            u,
+            weight,
+            data,
+        }
+    }
+
+    /// Asserts that `model`'s one-pass rows on `omega` equal its `jacobian_into` values
+    /// times `u`, stacked and scaled by −w (or −1), bit for bit, with and without the
+    /// weights, and that a `jac` of the wrong width is refused.
+    fn assert_rows_match<M: crate::model::ModelStructure<f64>>(
+        model: &M,
+        theta: &[f64],
+        omega: &[f64],
+        u: &[Complex<f64>],
+        weight: &[f64],
+    ) {
+        use nalgebra::DMatrix;
+        let (n, p, zero) = (omega.len(), model.n_params(), Complex::new(0.0, 0.0));
+        let (mut g0, mut dg) = (vec![zero; n], DMatrix::from_element(n, p, zero));
+        model.jacobian_into(theta, omega, &mut g0, &mut dg);
+        for weights in [None, Some(weight)] {
+            let (mut g, mut jac) = (vec![zero; n], DMatrix::from_element(2 * n, p, 7.0));
+            assert!(model.stacked_jacobian_into(theta, omega, u, weights, &mut g, &mut jac));
+            assert_eq!(g, g0);
+            for j in 0..p {
+                for k in 0..n {
+                    let d = dg[(k, j)] * u[k];
+                    let s = weights.map_or(-1.0, |w| -w[k]);
+                    assert_eq!(jac[(2 * k, j)].to_bits(), (d.re * s).to_bits());
+                    assert_eq!(jac[(2 * k + 1, j)].to_bits(), (d.im * s).to_bits());
                 }
             }
-            // not a run of the grid, or a wrong shape
-            let off = [0.5, 1.4];
-            let (mut g2, mut jac2) = (vec![zero; 2], DMatrix::zeros(4, p));
-            assert!(!model.stacked_jacobian_into(&theta, &off, &u[..2], None, &mut g2, &mut jac2));
-            let mut wrong = DMatrix::zeros(2 * n, p + 1);
-            assert!(!model.stacked_jacobian_into(
-                &theta,
-                w,
-                &u[lines.clone()],
-                None,
-                &mut g,
-                &mut wrong
-            ));
         }
-        let transient = Rational::discrete(3, 2, ts)
+        let (mut g, mut wrong) = (vec![zero; n], DMatrix::zeros(2 * n, p + 1));
+        assert!(!model.stacked_jacobian_into(theta, omega, u, None, &mut g, &mut wrong));
+    }
+
+    /// Refuses the one-pass rows on `omega`.
+    fn assert_rows_refused<M: crate::model::ModelStructure<f64>>(
+        model: &M,
+        theta: &[f64],
+        omega: &[f64],
+        u: &[Complex<f64>],
+    ) {
+        let (n, p) = (omega.len(), model.n_params());
+        let mut g = vec![Complex::new(0.0, 0.0); n];
+        let mut jac = nalgebra::DMatrix::zeros(2 * n, p);
+        assert!(!model.stacked_jacobian_into(theta, omega, u, None, &mut g, &mut jac));
+    }
+
+    /// θ of `p` values for the row tests.
+    fn row_theta(p: usize) -> Vec<f64> {
+        (0..p).map(|j| 0.3 / (1.0 + j as f64) - 0.1).collect()
+    }
+
+    /// The one-pass rows of the output-error Jacobian equal ∂G/∂θ·U from `jacobian_into`,
+    /// stacked and scaled by −w (or −1), bit for bit, on runs of the kept grid; elsewhere,
+    /// and for a model with a transient term, the pass is refused.
+    #[test]
+    fn stacked_jacobian_rows_equal_the_stacked_jacobian() {
+        use crate::model::{ModelStructure, Rational};
+        let c = row_case();
+        let models = [
+            Rational::continuous(4, 1, &c.omega).unwrap(),
+            Rational::continuous(3, 2, &c.omega).unwrap(),
+            Rational::polynomial(2, 3, &c.omega).unwrap(),
+            Rational::discrete(3, 2, ROW_TS).unwrap(),
+        ];
+        let lines = 5..29;
+        let (w, u) = (&c.omega[lines.clone()], &c.u[lines.clone()]);
+        for model in models {
+            let theta = row_theta(model.n_params());
+            // no table before the data check
+            assert_rows_refused(&model, &theta, w, u);
+            model.check_data(&c.data).unwrap();
+            assert_rows_match(&model, &theta, w, u, &c.weight[lines.clone()]);
+            // not a run of the grid
+            assert_rows_refused(&model, &theta, &[0.5, 1.4], &c.u[..2]);
+        }
+        let transient = Rational::discrete(3, 2, ROW_TS)
             .and_then(|m| m.with_transient())
             .unwrap();
-        transient.check_data(&data).unwrap();
-        let p = transient.n_params();
-        let (mut g, mut jac) = (vec![zero; 40], DMatrix::zeros(80, p));
-        let theta = vec![0.01; p];
-        assert!(!transient.stacked_jacobian_into(&theta, &omega, &u, None, &mut g, &mut jac));
+        transient.check_data(&c.data).unwrap();
+        assert_rows_refused(
+            &transient,
+            &vec![0.01; transient.n_params()],
+            &c.omega,
+            &c.u,
+        );
     }
 
     /// The delayed model's one-pass rows equal its `jacobian_into` values times U, stacked
@@ -312,56 +340,32 @@ mod tests {
     /// with a transient term refuses the pass.
     #[test]
     fn delayed_stacked_jacobian_rows_equal_the_stacked_jacobian() {
-        use crate::data::FrequencyData;
         use crate::model::{Delayed, ModelStructure, Rational};
-        use nalgebra::DMatrix;
-        let ts = 0.1;
-        let omega: Vec<f64> = (1..=40).map(|k| 0.7 * k as f64).collect();
-        let u: Vec<Complex<f64>> = (0..40)
-            .map(|k| Complex::new(1.0 + 0.1 * k as f64, 0.5 - 0.03 * k as f64))
-            .collect();
-        let weight: Vec<f64> = (0..40).map(|k| 0.5 + 0.07 * k as f64).collect();
-        let data = FrequencyData::new(omega.clone(), u.clone(), u.clone(), Some(ts)).unwrap();
-        let zero = Complex::new(0.0, 0.0);
-        let checked = Rational::continuous(3, 2, &omega).unwrap();
-        checked.check_data(&data).unwrap();
+        let c = row_case();
+        let checked = Rational::continuous(3, 2, &c.omega).unwrap();
+        checked.check_data(&c.data).unwrap();
         let models = [
             Delayed::new(checked),
-            Delayed::new(Rational::continuous(4, 1, &omega).unwrap()),
-            Delayed::new(Rational::discrete(3, 2, ts).unwrap()),
+            Delayed::new(Rational::continuous(4, 1, &c.omega).unwrap()),
+            Delayed::new(Rational::discrete(3, 2, ROW_TS).unwrap()),
         ];
         for model in models {
             let p = model.n_params();
-            let mut theta: Vec<f64> = (0..p).map(|j| 0.3 / (1.0 + j as f64) - 0.1).collect();
+            let mut theta = row_theta(p);
             theta[p - 1] = 0.37;
-            let n = omega.len();
-            let (mut g0, mut dg) = (vec![zero; n], DMatrix::from_element(n, p, zero));
-            model.jacobian_into(&theta, &omega, &mut g0, &mut dg);
-            for weights in [None, Some(&weight[..])] {
-                let (mut g, mut jac) = (vec![zero; n], DMatrix::from_element(2 * n, p, 7.0));
-                assert!(model.stacked_jacobian_into(&theta, &omega, &u, weights, &mut g, &mut jac));
-                assert_eq!(g, g0);
-                for j in 0..p {
-                    for k in 0..n {
-                        let d = dg[(k, j)] * u[k];
-                        let s = weights.map_or(-1.0, |w| -w[k]);
-                        assert_eq!(jac[(2 * k, j)].to_bits(), (d.re * s).to_bits());
-                        assert_eq!(jac[(2 * k + 1, j)].to_bits(), (d.im * s).to_bits());
-                    }
-                }
-            }
-            let (mut g, mut wrong) = (vec![zero; n], DMatrix::zeros(2 * n, p - 1));
-            assert!(!model.stacked_jacobian_into(&theta, &omega, &u, None, &mut g, &mut wrong));
+            assert_rows_match(&model, &theta, &c.omega, &c.u, &c.weight);
         }
         let transient = Delayed::new(
-            Rational::discrete(3, 2, ts)
+            Rational::discrete(3, 2, ROW_TS)
                 .and_then(|m| m.with_transient())
                 .unwrap(),
         );
-        let p = transient.n_params();
-        let (mut g, mut jac) = (vec![zero; 40], DMatrix::zeros(80, p));
-        let theta = vec![0.01; p];
-        assert!(!transient.stacked_jacobian_into(&theta, &omega, &u, None, &mut g, &mut jac));
+        assert_rows_refused(
+            &transient,
+            &vec![0.01; transient.n_params()],
+            &c.omega,
+            &c.u,
+        );
     }
 
     #[test]

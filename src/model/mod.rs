@@ -12,6 +12,7 @@ mod modal;
 mod noise;
 mod output;
 mod rational;
+mod stacked_rows;
 
 pub use delay::{Delayed, remove_delay};
 pub use modal::{Modal, ModalParts};

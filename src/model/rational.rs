@@ -335,14 +335,7 @@ impl<T: Real> Rational<T> {
         let Some((psi, at)) = self.numerator_lines(run, n) else {
             return false;
         };
-        let mut factors = vec![(zero, zero); n];
-        for ((f, g), p) in factors.iter_mut().zip(g.iter_mut()).zip(run.phi_lines(n)) {
-            let (a, b) = self.ab_at(theta, c, p);
-            let inv_a = crate::scalar::recip(a);
-            let gk = b * inv_a;
-            *g = gk;
-            *f = (-gk * inv_a, inv_a);
-        }
+        let factors = self.table_factors(theta, c, run, g);
         let mut cols = jac.as_mut_slice().chunks_exact_mut(n);
         for (j, col) in cols.by_ref().take(na).enumerate() {
             for ((d, f), p) in col.iter_mut().zip(&factors).zip(run.phi_lines(n)) {
@@ -361,69 +354,26 @@ impl<T: Real> Rational<T> {
         true
     }
 
-    /// G into `g` and the stacked rows s_k·∂G/∂θ_j·U_k into `jac` from a table run (see
-    /// [`ModelStructure::stacked_jacobian_into`]), the factors −G/A and 1/A line by line
-    /// first, then column by column; false, with nothing written, without a transient-free
-    /// model, a table run on `omega` and ψ's lines.
-    fn stacked_jacobian_from_table(
+    /// G into `g` and, line by line, the factors (−G/A, 1/A) of the Jacobian
+    /// ∂G/∂aⱼ = φⱼ·(−G/A), ∂G/∂bⱼ = ψⱼ·(1/A) from the φ of a table run (`g.len()` lines).
+    fn table_factors(
         &self,
         theta: &[T],
-        omega: &[T],
-        u: &[Complex<T>],
-        weight: Option<&[T]>,
+        c: &[T],
+        run: TableRun<'_, T>,
         g: &mut [Complex<T>],
-        jac: &mut DMatrix<T>,
-    ) -> bool {
-        let n = omega.len();
-        if self.transient.is_some()
-            || n == 0
-            || u.len() != n
-            || g.len() != n
-            || weight.is_some_and(|w| w.len() != n)
-            || jac.shape() != (2 * n, self.n_params())
-        {
-            return false;
-        }
-        let Some(run) = self.tabulated(omega, true) else {
-            return false;
-        };
-        let Some((psi, at)) = self.numerator_lines(run, n) else {
-            return false;
-        };
-        let c = self.numerator_coefficients(theta);
-        let zero = Complex::new(T::zero(), T::zero());
-        let mut factors = vec![(zero, zero); n];
-        for ((f, g), p) in factors.iter_mut().zip(g.iter_mut()).zip(run.phi_lines(n)) {
-            let (a, b) = self.ab_at(theta, &c, p);
-            let inv_a = crate::scalar::recip(a);
-            let gk = b * inv_a;
-            *g = gk;
-            *f = (-gk * inv_a, inv_a);
-        }
-        let minus_one = -T::one();
-        // s_k as the stacking of ∂Ŷ/∂θ rounds it: sign times weight
-        let scale = |k: usize| weight.map_or(minus_one, |w| minus_one * w[k]);
-        let (na, off) = (self.na, self.a_offset());
-        let mut cols = jac.as_mut_slice().chunks_exact_mut(2 * n);
-        for (j, col) in cols.by_ref().take(na).enumerate() {
-            let lines = col.chunks_exact_mut(2).zip(&factors).zip(run.phi_lines(n));
-            for (k, ((out, f), p)) in lines.enumerate() {
-                let d = (p[off + j] * f.0) * u[k];
-                let s = scale(k);
-                out[0] = d.re * s;
-                out[1] = d.im * s;
-            }
-        }
-        for (j, col) in cols.enumerate() {
-            let lines = col.chunks_exact_mut(2).zip(&factors).zip(psi.clone());
-            for (k, ((out, f), p)) in lines.enumerate() {
-                let d = (p[at + j] * f.1) * u[k];
-                let s = scale(k);
-                out[0] = d.re * s;
-                out[1] = d.im * s;
-            }
-        }
-        true
+    ) -> Vec<(Complex<T>, Complex<T>)> {
+        let n = g.len();
+        g.iter_mut()
+            .zip(run.phi_lines(n))
+            .map(|(g, p)| {
+                let (a, b) = self.ab_at(theta, c, p);
+                let inv_a = crate::scalar::recip(a);
+                let gk = b * inv_a;
+                *g = gk;
+                (-gk * inv_a, inv_a)
+            })
+            .collect()
     }
 
     /// ψ of the first `lines` lines of a table run, with the index of ψ₀ in each slice:
@@ -1029,6 +979,9 @@ impl<T: Real> ModelStructure<T> for Rational<T> {
         }
     }
 
+    /// From the basis tables (see [`ModelStructure::stacked_jacobian_into`]): the factors
+    /// −G/A and 1/A line by line, then column by column; false, with nothing written, for
+    /// a model with a transient, off a run of the kept grid, or when ψ has no lines.
     fn stacked_jacobian_into(
         &self,
         theta: &[T],
@@ -1038,7 +991,33 @@ impl<T: Real> ModelStructure<T> for Rational<T> {
         g: &mut [Complex<T>],
         jac: &mut DMatrix<T>,
     ) -> bool {
-        self.stacked_jacobian_from_table(theta, omega, u, weight, g, jac)
+        let n = omega.len();
+        let rows = super::stacked_rows::StackedRows::new(omega, u, weight, g, jac, self.n_params());
+        let Some(rows) = rows.filter(|_| self.transient.is_none()) else {
+            return false;
+        };
+        let Some(run) = self.tabulated(omega, true) else {
+            return false;
+        };
+        let Some((psi, at)) = self.numerator_lines(run, n) else {
+            return false;
+        };
+        let factors = self.table_factors(theta, &self.numerator_coefficients(theta), run, g);
+        let (na, off) = (self.na, self.a_offset());
+        let mut cols = jac.as_mut_slice().chunks_exact_mut(2 * n);
+        for (j, col) in cols.by_ref().take(na).enumerate() {
+            let lines = col.chunks_exact_mut(2).zip(&factors).zip(run.phi_lines(n));
+            for (k, ((out, f), p)) in lines.enumerate() {
+                rows.write(out, p[off + j] * f.0, k);
+            }
+        }
+        for (j, col) in cols.enumerate() {
+            let lines = col.chunks_exact_mut(2).zip(&factors).zip(psi.clone());
+            for (k, ((out, f), p)) in lines.enumerate() {
+                rows.write(out, p[at + j] * f.1, k);
+            }
+        }
+        true
     }
 
     /// T(θ, ω) = Σⱼ tⱼ χⱼ(z)/A(θ, ω), z = e^{iωTs}, for a model with a transient term (see
