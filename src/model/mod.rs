@@ -73,8 +73,9 @@ pub trait ModelStructure<T: Real> {
     /// The output-error Jacobian rows in one pass, for a model without a transient term:
     /// G(θ, ω_k) into `g` and s_k·∂G(θ, ω_k)/∂θ_j·U_k real-stacked into `jac` (rows 2k and
     /// 2k + 1 of column j the real and imaginary parts, `jac` 2N × p), with s_k = −w_k, or
-    /// −1 without `weight`; each value rounded as `(∂G/∂θ_j · U_k)·s_k` from
-    /// [`ModelStructure::jacobian_into`]'s ∂G/∂θ_j. Returns false, with nothing promised
+    /// −1 without `weight`; each value within a few units of rounding of
+    /// `(∂G/∂θ_j · U_k)·s_k` from [`ModelStructure::jacobian_into`]'s ∂G/∂θ_j (the pass may
+    /// group the products differently). Returns false, with nothing promised
     /// written, when the structure has no such pass (the default): the caller then
     /// evaluates [`ModelStructure::jacobian_into`] and stacks its values.
     fn stacked_jacobian_into(

@@ -2,6 +2,7 @@
 
 use super::kept_basis::{BasisTable, KeptBasis, TableRun};
 use super::kept_grid::KeptGrid;
+use super::stacked_rows::StackedRows;
 use super::{EquationError, ModelStructure, PolesZeros};
 use crate::basis::PolyBasis;
 use crate::data::FrequencyData;
@@ -980,7 +981,9 @@ impl<T: Real> ModelStructure<T> for Rational<T> {
     }
 
     /// From the basis tables (see [`ModelStructure::stacked_jacobian_into`]): the factors
-    /// −G/A and 1/A line by line, then column by column; false, with nothing written, for
+    /// −G/A·U_k·s_k and U_k·s_k/A line by line, then column by column the values
+    /// φ_j·(−G/A·U_k·s_k) and ψ_j·(U_k·s_k/A), one complex product each (within a few
+    /// units of rounding of the three passes' (∂G/∂θ_j·U_k)·s_k); false, with nothing written, for
     /// a model with a transient, off a run of the kept grid, or when ψ has no lines.
     fn stacked_jacobian_into(
         &self,
@@ -992,7 +995,7 @@ impl<T: Real> ModelStructure<T> for Rational<T> {
         jac: &mut DMatrix<T>,
     ) -> bool {
         let n = omega.len();
-        let rows = super::stacked_rows::StackedRows::new(omega, u, weight, g, jac, self.n_params());
+        let rows = StackedRows::new(omega, u, weight, g, jac, self.n_params());
         let Some(rows) = rows.filter(|_| self.transient.is_none()) else {
             return false;
         };
@@ -1002,19 +1005,23 @@ impl<T: Real> ModelStructure<T> for Rational<T> {
         let Some((psi, at)) = self.numerator_lines(run, n) else {
             return false;
         };
-        let factors = self.table_factors(theta, &self.numerator_coefficients(theta), run, g);
+        let mut factors = self.table_factors(theta, &self.numerator_coefficients(theta), run, g);
+        // −G/A·U_k·s_k and U_k·s_k/A, once a line
+        for (k, f) in factors.iter_mut().enumerate() {
+            *f = (rows.scaled(f.0, k), rows.scaled(f.1, k));
+        }
         let (na, off) = (self.na, self.a_offset());
         let mut cols = jac.as_mut_slice().chunks_exact_mut(2 * n);
         for (j, col) in cols.by_ref().take(na).enumerate() {
             let lines = col.chunks_exact_mut(2).zip(&factors).zip(run.phi_lines(n));
-            for (k, ((out, f), p)) in lines.enumerate() {
-                rows.write(out, p[off + j] * f.0, k);
+            for ((out, f), p) in lines {
+                StackedRows::write_scaled(out, p[off + j], f.0);
             }
         }
         for (j, col) in cols.enumerate() {
             let lines = col.chunks_exact_mut(2).zip(&factors).zip(psi.clone());
-            for (k, ((out, f), p)) in lines.enumerate() {
-                rows.write(out, p[at + j] * f.1, k);
+            for ((out, f), p) in lines {
+                StackedRows::write_scaled(out, p[at + j], f.1);
             }
         }
         true

@@ -1,7 +1,10 @@
 //! The rows of the output-error Jacobian written in one pass
 //! ([`super::ModelStructure::stacked_jacobian_into`]): s_k·(∂G/∂θ_j·U_k) real-stacked,
-//! s_k = −w_k (−1 without weights), each value rounded as the three passes round it
-//! (∂G/∂θ, then ∂Ŷ/∂θ = ∂G/∂θ·U, then the weighted stacking).
+//! s_k = −w_k (−1 without weights), either each value rounded as the three passes round
+//! it (∂G/∂θ, then ∂Ŷ/∂θ = ∂G/∂θ·U, then the weighted stacking: [`StackedRows::write`]),
+//! or as φ_j·(f_k·U_k·s_k) from a factor f_k of the line scaled once
+//! ([`StackedRows::scaled`], [`StackedRows::write_scaled`]): one complex product a value
+//! instead of two and a scaling, within a few units of rounding of the first.
 
 use crate::scalar::{Complex, Real};
 use nalgebra::DMatrix;
@@ -35,11 +38,32 @@ impl<'a, T: Real> StackedRows<'a, T> {
     /// Writes (`d`·U_k)·s_k, d = ∂G(ω_k)/∂θ_j, into the row pair `out` of line k.
     #[inline]
     pub(crate) fn write(&self, out: &mut [T], d: Complex<T>, k: usize) {
-        let minus_one = -T::one();
-        // s_k as the stacking of ∂Ŷ/∂θ rounds it: sign times weight
-        let s = self.weight.map_or(minus_one, |w| minus_one * w[k]);
         let v = d * self.u[k];
+        let s = self.sign_weight(k);
         out[0] = v.re * s;
         out[1] = v.im * s;
+    }
+
+    /// (`f`·U_k)·s_k: a factor of line k's row pair scaled once, so that each of the
+    /// line's values φ_j·f·U_k·s_k costs one complex product (see
+    /// [`StackedRows::write_scaled`]).
+    #[inline]
+    pub(crate) fn scaled(&self, f: Complex<T>, k: usize) -> Complex<T> {
+        (f * self.u[k]).scale(self.sign_weight(k))
+    }
+
+    /// Writes `p`·`scaled` (a factor from [`StackedRows::scaled`]) into the row pair `out`.
+    #[inline]
+    pub(crate) fn write_scaled(out: &mut [T], p: Complex<T>, scaled: Complex<T>) {
+        let v = p * scaled;
+        out[0] = v.re;
+        out[1] = v.im;
+    }
+
+    /// s_k as the stacking of ∂Ŷ/∂θ rounds it: sign times weight.
+    #[inline]
+    fn sign_weight(&self, k: usize) -> T {
+        let minus_one = -T::one();
+        self.weight.map_or(minus_one, |w| minus_one * w[k])
     }
 }
