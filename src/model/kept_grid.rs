@@ -314,6 +314,12 @@ mod tests {
         assert!(!model.stacked_jacobian_into(theta, omega, u, None, &mut g, &mut jac));
     }
 
+    /// Refuses the one-pass rows of a model with a transient term on the whole case.
+    fn assert_transient_refused<M: crate::model::ModelStructure<f64>>(model: &M, c: &RowCase) {
+        let theta = vec![0.01; model.n_params()];
+        assert_rows_refused(model, &theta, &c.omega, &c.u);
+    }
+
     /// θ of `p` values for the row tests.
     fn row_theta(p: usize) -> Vec<f64> {
         (0..p).map(|j| 0.3 / (1.0 + j as f64) - 0.1).collect()
@@ -349,12 +355,7 @@ mod tests {
             .and_then(|m| m.with_transient())
             .unwrap();
         transient.check_data(&c.data).unwrap();
-        assert_rows_refused(
-            &transient,
-            &vec![0.01; transient.n_params()],
-            &c.omega,
-            &c.u,
-        );
+        assert_transient_refused(&transient, &c);
     }
 
     /// The delayed model's one-pass rows equal its `jacobian_into` values times U, stacked
@@ -382,12 +383,7 @@ mod tests {
                 .and_then(|m| m.with_transient())
                 .unwrap(),
         );
-        assert_rows_refused(
-            &transient,
-            &vec![0.01; transient.n_params()],
-            &c.omega,
-            &c.u,
-        );
+        assert_transient_refused(&transient, &c);
     }
 
     #[test]

@@ -983,8 +983,9 @@ impl<T: Real> ModelStructure<T> for Rational<T> {
     /// From the basis tables (see [`ModelStructure::stacked_jacobian_into`]): the factors
     /// −G/A·U_k·s_k and U_k·s_k/A line by line, then column by column the values
     /// φ_j·(−G/A·U_k·s_k) and ψ_j·(U_k·s_k/A), one complex product each (within a few
-    /// units of rounding of the three passes' (∂G/∂θ_j·U_k)·s_k); false, with nothing written, for
-    /// a model with a transient, off a run of the kept grid, or when ψ has no lines.
+    /// units of rounding of the three passes' (∂G/∂θ_j·U_k)·s_k); false, with nothing
+    /// written, for a model with a transient, off a run of the kept grid, or when ψ has no
+    /// lines.
     fn stacked_jacobian_into(
         &self,
         theta: &[T],
