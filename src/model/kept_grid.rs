@@ -1,7 +1,8 @@
 //! A model's frequency grid kept at its first data check, with z⁻¹ = e^{−iωTs} on it for a
 //! model that samples, so that repeated evaluations on the grid read z⁻¹ instead of taking
 //! a sine and a cosine per line, and find where their lines lie on the grid (for
-//! [`super::kept_basis`]).
+//! [`super::kept_basis`]): a run of consecutive lines, or every m-th line (the fewer lines
+//! the linear stages of a long record start from).
 
 use crate::scalar::{Complex, Real};
 use std::sync::{Arc, OnceLock};
@@ -34,34 +35,71 @@ impl<T: Real> DelayGrid<T> {
         }
     }
 
-    /// The grid lines the lines `omega` are, when they are a (non-empty) run of this grid.
-    fn lines(&self, omega: &[T]) -> Option<std::ops::Range<usize>> {
+    /// The grid lines the lines `omega` are, when they are a (non-empty) run of this grid:
+    /// consecutive lines, or (on a rising grid) every `step`-th line.
+    fn lines(&self, omega: &[T]) -> Option<GridRun> {
         let first = omega.first()?;
-        let start = if self.rising {
-            self.omega.partition_point(|w| w < first)
+        let (start, step) = if self.rising {
+            let start = self.omega.partition_point(|w| w < first);
+            // the second line's place gives the step (1 for a single line)
+            let step = omega.get(1).map_or(Some(1), |second| {
+                let after = self.omega.get(start + 1..)?;
+                Some(1 + after.partition_point(|w| w < second))
+            })?;
+            (start, step)
         } else {
-            0
+            (0, 1)
         };
-        let lines = start..start.checked_add(omega.len())?;
-        let kept = self.omega.get(lines.clone())?;
-        kept.iter()
-            .zip(omega)
-            .all(|(a, b)| same(*a, *b))
-            .then_some(lines)
+        let last = (omega.len() - 1).checked_mul(step)?.checked_add(start)?;
+        let kept = self.omega.get(start..=last)?;
+        // without a branch a line (a mismatch is rare, and the loop then vectorises)
+        let matches = |all: bool, (a, b): (&T, &T)| all & same(*a, *b);
+        let all = if step == 1 {
+            kept.iter().zip(omega).fold(true, matches)
+        } else {
+            kept.iter().step_by(step).zip(omega).fold(true, matches)
+        };
+        all.then_some(GridRun { start, step })
     }
 
-    /// z⁻¹ on the lines `omega` with sample time `ts`, when they are a run of this grid.
+    /// z⁻¹ on the lines `omega` with sample time `ts`, when they are a run of consecutive
+    /// lines of this grid.
     fn run(&self, ts: T, omega: &[T]) -> Option<&[Complex<T>]> {
         if !self.ts.is_some_and(|kept| same(ts, kept)) {
             return None;
         }
-        self.lines(omega).map(|lines| &self.zinv[lines])
+        let run = self.lines(omega).filter(|r| r.step == 1)?;
+        Some(&self.zinv[run.start..run.start + omega.len()])
+    }
+}
+
+/// Where an evaluation's lines lie on the kept grid: grid lines `start`, `start + step`,
+/// `start + 2·step`, … (`step` 1 for consecutive lines).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) struct GridRun {
+    pub(crate) start: usize,
+    pub(crate) step: usize,
+}
+
+impl GridRun {
+    /// The grid lines a table for this run holds, on a grid of `n` lines: every `step`-th
+    /// line from the first of the run's residue (start mod step), as (first, count) — the
+    /// whole grid for consecutive lines.
+    pub(crate) fn lattice(&self, n: usize) -> (usize, usize) {
+        let first = self.start % self.step;
+        (first, (n - first).div_ceil(self.step))
+    }
+
+    /// The table line of the run's first line, in the table of [`GridRun::lattice`].
+    pub(crate) fn table_start(&self) -> usize {
+        self.start / self.step
     }
 }
 
 /// The same value bit for bit (the sign of a zero included; NaN is never the same).
+#[inline]
 fn same<T: Real>(a: T, b: T) -> bool {
-    a == b && a.is_sign_negative() == b.is_sign_negative()
+    (a == b) & (a.is_sign_negative() == b.is_sign_negative())
 }
 
 /// The [`DelayGrid`] a model keeps, set once by its first data check (see
@@ -85,10 +123,11 @@ impl<T: Real> KeptGrid<T> {
         self.0.get_or_init(|| Arc::new(DelayGrid::new(ts, omega)));
     }
 
-    /// The kept grid and where the lines `omega` lie on it, when they are a run of it.
-    pub(crate) fn lines(&self, omega: &[T]) -> Option<(&[T], std::ops::Range<usize>)> {
+    /// The kept grid and where the lines `omega` lie on it, when they are a run of it
+    /// (consecutive lines or every m-th, see [`GridRun`]).
+    pub(crate) fn lines(&self, omega: &[T]) -> Option<(&[T], GridRun)> {
         let grid = self.0.get()?;
-        grid.lines(omega).map(|lines| (&grid.omega[..], lines))
+        grid.lines(omega).map(|run| (&grid.omega[..], run))
     }
 
     /// z⁻¹ with sample time `ts` on the lines `omega` from the kept grid, when they are a
@@ -141,12 +180,27 @@ mod tests {
         let plain = KeptGrid::default();
         plain.keep(None, &omega);
         assert!(plain.run(0.1, &omega).is_none());
-        assert_eq!(plain.lines(&omega[7..19]).map(|(_, l)| l), Some(7..19));
-        assert!(plain.lines(&[omega[2], omega[4]]).is_none());
+        let run = |start, step| Some(GridRun { start, step });
+        assert_eq!(plain.lines(&omega[7..19]).map(|(_, l)| l), run(7, 1));
         assert_eq!(
             kept.lines(&omega[3..5]).map(|(g, l)| (g.len(), l)),
-            Some((50, 3..5))
+            Some((50, GridRun { start: 3, step: 1 }))
         );
+        // every m-th line: found with its step, and its table's lattice
+        let every_third: Vec<f64> = omega[4..].iter().step_by(3).copied().collect();
+        assert_eq!(plain.lines(&every_third).map(|(_, l)| l), run(4, 3));
+        assert_eq!(plain.lines(&every_third[5..9]).map(|(_, l)| l), run(19, 3));
+        assert_eq!(plain.lines(&[omega[2], omega[4]]).map(|(_, l)| l), run(2, 2));
+        assert_eq!(plain.lines(&[omega[49]]).map(|(_, l)| l), run(49, 1));
+        assert_eq!(GridRun { start: 19, step: 3 }.lattice(50), (1, 17));
+        assert_eq!(GridRun { start: 19, step: 3 }.table_start(), 6);
+        assert_eq!(GridRun { start: 7, step: 1 }.lattice(50), (0, 50));
+        // a run whose step changes, falls back, or leaves the grid; z⁻¹ only for consecutive lines
+        assert!(plain.lines(&[omega[2], omega[4], omega[7]]).is_none());
+        assert!(plain.lines(&[omega[4], omega[2]]).is_none());
+        assert!(plain.lines(&[omega[4], omega[4]]).is_none());
+        assert!(plain.lines(&[omega[40], omega[45], 3.5]).is_none());
+        assert!(kept.run(0.1, &[omega[2], omega[4]]).is_none());
         // an empty run reads nothing
         assert!(kept.run(0.1, &[]).is_none());
     }
@@ -193,10 +247,32 @@ mod tests {
             model.check_data(&data).unwrap();
             let sampled = model.transient_ts().is_some() || model.domain() != Domain::Continuous;
             assert_eq!(model.kept_zinv(&omega[3..17]).is_some(), sampled);
-            // a run of the grid first: the table is built for the whole grid
-            for w in [&omega[3..17], &omega[..], &[0.5, 1.4, 2.1]] {
+            // every third line first (the table of that lattice), then a run of the grid
+            // (the table of the whole grid), lines of another lattice and off the grid
+            let every_third: Vec<f64> = omega[2..].iter().step_by(3).copied().collect();
+            let every_other: Vec<f64> = omega.iter().step_by(2).copied().collect();
+            for w in [
+                &every_third[..],
+                &every_third[4..9],
+                &omega[3..17],
+                &omega[..],
+                &every_other[..],
+                &[0.5, 1.4, 2.1],
+            ] {
                 assert_eq!(evaluate(&model, w), evaluate(&unchecked, w));
             }
+            assert!(model.tabulated(&every_third[1..], true).is_some());
+            assert!(model.tabulated(&every_other, true).is_none());
+            let fewer = |m: &Rational<f64>| {
+                let pick = |v: &[Complex<f64>]| v[2..].iter().step_by(3).copied().collect();
+                let y: Vec<Complex<f64>> = pick(data.y());
+                let u: Vec<Complex<f64>> = pick(data.u());
+                let fewer = FrequencyData::new(every_third.clone(), u, y, Some(ts)).unwrap();
+                let mut rows = DMatrix::from_element(6, m.n_coefficients(), Complex::new(0.0, 0.0));
+                m.regressor_lines_into(&fewer, 5, &mut rows);
+                rows
+            };
+            assert_eq!(fewer(&model), fewer(&unchecked));
             assert!(model.tabulated(&omega[5..9], true).is_some());
             assert!(unchecked.tabulated(&omega, true).is_none());
             assert!(model.tabulated(&[0.5, 1.4], true).is_none());

@@ -273,29 +273,34 @@ impl<T: Real> Rational<T> {
     }
 
     /// The basis values φ on the lines `omega` from the model's table
-    /// ([`super::kept_basis`]), built over the whole kept grid by the first call, when the
-    /// lines are a run of the grid kept by [`ModelStructure::check_data`]; with `psi`, also
-    /// the numerator basis ψ ([`Rational::numerator_basis`]) when it is not a slice of φ.
-    /// `None` (each line computes its own) off the grid and above
-    /// [`super::kept_basis::MAX_VALUES`] values.
+    /// ([`super::kept_basis`]) when the lines are a run of the grid kept by
+    /// [`ModelStructure::check_data`]: for consecutive lines the table of the whole grid,
+    /// for every m-th line that of every m-th line of the grid (the lines of the first such
+    /// run's residue), each built by the first call that reads it; with `psi`, also the
+    /// numerator basis ψ ([`Rational::numerator_basis`]) when it is not a slice of φ.
+    /// `None` (each line computes its own) off the grid, on a second lattice of every m-th
+    /// line, and above [`super::kept_basis::MAX_VALUES`] values.
     pub(crate) fn tabulated(&self, omega: &[T], psi: bool) -> Option<TableRun<'_, T>> {
-        let (grid, lines) = self.grid.lines(omega)?;
+        let (grid, run) = self.grid.lines(omega)?;
         let zero = Complex::new(T::zero(), T::zero());
-        let phi = || {
+        // the lines `first`, `first + step`, … (`count` of them) of the grid
+        let phi = |first: usize, step: usize, count: usize| {
             // z⁻¹ as the evaluations on the grid read it
             let kept = self.kept_zinv(grid);
-            BasisTable::build(grid.len(), self.na.max(self.nb) + 1, |k, phi| {
-                self.basis.eval_at_known(grid[k], kept.map(|z| z[k]), phi);
+            BasisTable::build(count, self.na.max(self.nb) + 1, |k, phi| {
+                let line = first + k * step;
+                self.basis
+                    .eval_at_known(grid[line], kept.map(|z| z[line]), phi);
             })
         };
         let psi = (psi && self.reflected()).then_some(|phi: &BasisTable<T>| {
             let (mut scratch, mut psi) = (self.zero_phi(), vec![zero; self.nb + 1]);
-            BasisTable::build(grid.len(), self.nb + 1, |k, line| {
+            BasisTable::build(phi.lines_count(), self.nb + 1, |k, line| {
                 scratch.copy_from_slice(phi.line(k));
                 line.copy_from_slice(self.numerator_basis(&mut scratch, &mut psi));
             })
         });
-        self.table.run(lines.start, phi, psi)
+        self.table.run(run, grid.len(), phi, psi)
     }
 
     /// φ at the evaluation's line `k` (frequency `omega`, z⁻¹ `kept` when known): read
