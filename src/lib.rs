@@ -93,6 +93,7 @@ pub mod mimo;
 pub mod model;
 pub mod problem;
 pub mod progress;
+mod recycle;
 pub mod roots;
 pub mod scalar;
 pub mod simulate;

@@ -48,6 +48,14 @@ struct Block<T: Real> {
     at: Option<Vec<T>>,
 }
 
+impl<T: Real> Drop for Block<T> {
+    /// Gives the block's buffers back for the next fit's ([`crate::recycle`]).
+    fn drop(&mut self) {
+        crate::recycle::keep_matrix(&mut self.jac);
+        self.out.recycle();
+    }
+}
+
 impl<T: Real> Block<T> {
     fn new() -> Self {
         Self {
@@ -168,7 +176,8 @@ impl<'a, T: Real, M: ModelStructure<T> + ?Sized> MlProblem<'a, T, M> {
             if !reuse {
                 let lines = k0..k0 + len;
                 if jac.shape() != (2 * len, p) {
-                    *jac = DMatrix::zeros(2 * len, p);
+                    crate::recycle::keep_matrix(jac);
+                    *jac = crate::recycle::matrix(2 * len, p, T::zero());
                 }
                 let weight = self.weight.as_deref().map(|w| &w[k0..k0 + len]);
                 if !self.stacked_rows(out, theta, lines, weight, jac) {

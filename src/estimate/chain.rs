@@ -200,6 +200,11 @@ pub const START_LINES: usize = 2_048;
 /// than [`Pipeline::start_lines`]), so a low order starts from fewer lines than a high one.
 pub const START_LINES_PER_COEFFICIENT: usize = 64;
 
+/// The relative model change at which SK on the fewer lines of a long record counts as
+/// converged, when [`FixedPoint::tolerance`] is left at its default (see [`Pipeline`]):
+/// its estimate only starts a relocation on all lines and ML.
+pub const FEWER_LINES_TOLERANCE: f64 = 1e-3;
+
 /// The fewest lines the per-coefficient rule of [`START_LINES_PER_COEFFICIENT`] leaves the
 /// linear stages.
 pub const MIN_START_LINES: usize = 512;
@@ -274,7 +279,8 @@ impl<T: Real> Default for LevyWork<T> {
 /// highest line kept; all lines when that would leave fewer than twice the model's
 /// coefficients): their estimate only starts ML, which runs on all lines, so the result
 /// is the ML estimate of all the data either way, while the linear stages' cost no longer
-/// grows with N. Their [`Stage::lines`](crate::fit::Stage::lines) records the lines they
+/// grows with N. SK there counts as converged at a relative model change of
+/// [`FEWER_LINES_TOLERANCE`] (10⁻³) unless [`FixedPoint::tolerance`] is set. Their [`Stage::lines`](crate::fit::Stage::lines) records the lines they
 /// used (their costs are on those). A relocatable basis then takes one more relocation on
 /// all lines (an `sk` stage of one direct solve), which starts ML nearer its optimum and
 /// builds the basis tables ML reads. When the fit from that start shows evidence of a local
@@ -504,7 +510,15 @@ impl Pipeline {
         let Some(fewer) = fewer else {
             return self.linear_stages(model, data, gram);
         };
-        let mut l = self.linear_stages(model, fewer, gram)?;
+        // SK there only starts the relocation on all lines: converged at a smaller change
+        let start = Pipeline {
+            sk: self.sk.map(|fp| FixedPoint {
+                tolerance: fp.tolerance.or(Some(FEWER_LINES_TOLERANCE)),
+                ..fp
+            }),
+            ..*self
+        };
+        let mut l = start.linear_stages(model, fewer, gram)?;
         for s in &mut l.stages {
             s.lines = Some(fewer.len());
         }

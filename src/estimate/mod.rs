@@ -33,7 +33,8 @@ mod spec;
 mod work;
 
 pub use chain::{
-    FurtherStarts, MIN_START_LINES, Pipeline, START_LINES, START_LINES_PER_COEFFICIENT, estimate,
+    FEWER_LINES_TOLERANCE, FurtherStarts, MIN_START_LINES, Pipeline, START_LINES,
+    START_LINES_PER_COEFFICIENT, estimate,
 };
 pub use delay::{DelayStart, delay_start, fit_delayed};
 pub use eiv::{fit_eiv, fit_eiv_delayed};

@@ -19,6 +19,7 @@
 //! solve keeps at least about half the digits of the scalar type, and the caller falls back
 //! to the QR path otherwise.
 
+use crate::recycle;
 use crate::scalar::Real;
 use nalgebra::{Cholesky, DMatrix, DVector, Dyn};
 use num_traits::Float;
@@ -245,6 +246,17 @@ pub(crate) struct GramBlocks<T: Real> {
     wb: Vec<T>,
 }
 
+impl<T: Real> Drop for GramBlocks<T> {
+    /// Gives the block buffers back for the next fit's ([`crate::recycle`]).
+    fn drop(&mut self) {
+        for b in &mut self.bufs {
+            recycle::keep_matrix(&mut b.block);
+            recycle::keep_matrix(&mut b.rhs);
+            recycle::keep_matrix(&mut b.rows);
+        }
+    }
+}
+
 /// One block's stacked rows, right-hand side and complex regressor rows.
 struct GramBlock<T: Real> {
     block: DMatrix<T>,
@@ -295,9 +307,13 @@ pub(crate) fn lines_least_squares_gram<T: Real>(
         let len = lines.min(n - k0);
         let GramBlock { block, rhs, rows } = &mut blocks.bufs[usize::from(len < lines)];
         if block.shape() != (2 * len, p) || rows.shape() != (len, q) {
-            *block = DMatrix::zeros(2 * len, p);
-            *rhs = DVector::zeros(2 * len);
-            *rows = DMatrix::zeros(len, q);
+            let zero = crate::scalar::Complex::new(T::zero(), T::zero());
+            recycle::keep_matrix(block);
+            recycle::keep_matrix(rhs);
+            recycle::keep_matrix(rows);
+            *block = recycle::matrix(2 * len, p, T::zero());
+            *rhs = DVector::from_vec(recycle::filled(2 * len, T::zero()));
+            *rows = recycle::matrix(len, q, zero);
         }
         fill(k0, rows);
         wb.clear();
@@ -357,7 +373,8 @@ pub(crate) fn lines_least_squares_cost<T: Real>(
         let len = lines.min(n - k0);
         let rows = &mut blocks.bufs[usize::from(len < lines)].rows;
         if rows.shape() != (len, q) {
-            *rows = DMatrix::zeros(len, q);
+            recycle::keep_matrix(rows);
+            *rows = recycle::matrix(len, q, crate::scalar::Complex::new(T::zero(), T::zero()));
         }
         fill(k0, rows);
         e.clear();

@@ -24,6 +24,13 @@ pub(crate) struct BasisTable<T: Real> {
     values: Vec<Complex<T>>,
 }
 
+impl<T: Real> Drop for BasisTable<T> {
+    /// Gives the values' buffer back for the next table ([`crate::recycle`]).
+    fn drop(&mut self) {
+        crate::recycle::keep(std::mem::take(&mut self.values));
+    }
+}
+
 impl<T: Real> BasisTable<T> {
     /// The table of `lines` lines of `width` values, line k written by `fill(k, values)`;
     /// `None` when it would hold more than [`MAX_VALUES`] values or none a line.
@@ -35,7 +42,7 @@ impl<T: Real> BasisTable<T> {
         if width == 0 || lines.checked_mul(width)? > MAX_VALUES {
             return None;
         }
-        let mut values = vec![Complex::new(T::zero(), T::zero()); lines * width];
+        let mut values = crate::recycle::filled(lines * width, Complex::new(T::zero(), T::zero()));
         for (k, line) in values.chunks_exact_mut(width).enumerate() {
             fill(k, line);
         }
@@ -219,35 +226,41 @@ mod tests {
         let at = |start, step| GridRun { start, step };
         let (phis, psis) = (std::cell::Cell::new(0), std::cell::Cell::new(0));
         // line k of a table holds the grid line first + k·step
-        let mut phi = |first: usize, step: usize, count: usize| {
+        let phi = |first: usize, step: usize, count: usize| {
             phis.set(phis.get() + 1);
             BasisTable::build(count, 2, |k, line| numbered(first + k * step, line))
         };
         let no_psi = None::<fn(&BasisTable<f64>) -> Option<BasisTable<f64>>>;
-        let run = kept.run(at(1, 1), 4, &mut phi, no_psi).unwrap();
+        let run = kept.run(at(1, 1), 4, phi, no_psi).unwrap();
         assert_eq!(run.phi(2)[1], Complex::new(3.0, 1.0));
         assert!(run.psi(2).is_none());
-        let mut psi = |t: &BasisTable<f64>| {
+        let psi = |t: &BasisTable<f64>| {
             psis.set(psis.get() + 1);
             BasisTable::build(t.lines_count(), 1, |k, line| line[0] = t.line(k)[1] * 2.0)
         };
-        let run = kept.run(at(0, 1), 4, &mut phi, Some(&mut psi)).unwrap();
+        let run = kept.run(at(0, 1), 4, phi, Some(psi)).unwrap();
         assert_eq!(run.psi(3), Some(&[Complex::new(6.0, 2.0)][..]));
-        assert!(kept.run(at(2, 1), 4, &mut phi, Some(&mut psi)).is_some());
+        assert!(kept.run(at(2, 1), 4, phi, Some(psi)).is_some());
         assert_eq!((phis.get(), psis.get()), (1, 1));
         assert_eq!(format!("{kept:?}"), "KeptBasis(12 values)");
         // every third line of a 10-line grid from line 4: the lattice 1, 4, 7 (3 lines),
         // with its own tables; line k of the run is grid line 4 + 3k
-        let run = kept.run(at(4, 3), 10, &mut phi, Some(&mut psi)).unwrap();
+        let run = kept.run(at(4, 3), 10, phi, Some(psi)).unwrap();
         assert_eq!(run.phi(0)[0], Complex::new(4.0, 0.0));
         assert_eq!(run.phi(1)[1], Complex::new(7.0, 1.0));
         assert_eq!(run.psi(1), Some(&[Complex::new(14.0, 2.0)][..]));
-        assert_eq!(kept.run(at(1, 3), 10, &mut phi, no_psi).unwrap().phi(0)[0].re, 1.0);
+        assert_eq!(
+            kept.run(at(1, 3), 10, phi, no_psi).unwrap().phi(0)[0].re,
+            1.0
+        );
         assert_eq!((phis.get(), psis.get()), (2, 2));
         // another lattice goes without; consecutive lines still read the whole grid's
-        assert!(kept.run(at(2, 3), 10, &mut phi, no_psi).is_none());
-        assert!(kept.run(at(4, 2), 10, &mut phi, no_psi).is_none());
-        assert_eq!(kept.run(at(3, 1), 4, &mut phi, no_psi).unwrap().phi(0)[0].re, 3.0);
+        assert!(kept.run(at(2, 3), 10, phi, no_psi).is_none());
+        assert!(kept.run(at(4, 2), 10, phi, no_psi).is_none());
+        assert_eq!(
+            kept.run(at(3, 1), 4, phi, no_psi).unwrap().phi(0)[0].re,
+            3.0
+        );
         assert_eq!((phis.get(), psis.get()), (2, 2));
         assert_eq!(format!("{kept:?}"), "KeptBasis(21 values)");
         assert_eq!(format!("{:?}", kept.clone()), "KeptBasis(0 values)");

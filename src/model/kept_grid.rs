@@ -190,7 +190,10 @@ mod tests {
         let every_third: Vec<f64> = omega[4..].iter().step_by(3).copied().collect();
         assert_eq!(plain.lines(&every_third).map(|(_, l)| l), run(4, 3));
         assert_eq!(plain.lines(&every_third[5..9]).map(|(_, l)| l), run(19, 3));
-        assert_eq!(plain.lines(&[omega[2], omega[4]]).map(|(_, l)| l), run(2, 2));
+        assert_eq!(
+            plain.lines(&[omega[2], omega[4]]).map(|(_, l)| l),
+            run(2, 2)
+        );
         assert_eq!(plain.lines(&[omega[49]]).map(|(_, l)| l), run(49, 1));
         assert_eq!(GridRun { start: 19, step: 3 }.lattice(50), (1, 17));
         assert_eq!(GridRun { start: 19, step: 3 }.table_start(), 6);

@@ -49,12 +49,23 @@ impl<T: Real> Output<T> {
         let _ = params;
         let zero = Complex::new(T::zero(), T::zero());
         Self {
-            g: vec![zero; lines],
-            yhat: vec![zero; lines],
+            g: crate::recycle::filled(lines, zero),
+            yhat: crate::recycle::filled(lines, zero),
             dg: DMatrix::zeros(0, 0),
             dyhat: DMatrix::zeros(0, 0),
             t: Vec::new(),
             dt: DMatrix::zeros(0, 0),
+        }
+    }
+
+    /// Gives the buffers to the thread's shelf for later fits ([`crate::recycle`]), leaving
+    /// the output empty.
+    pub(crate) fn recycle(&mut self) {
+        for v in [&mut self.g, &mut self.yhat, &mut self.t] {
+            crate::recycle::keep(std::mem::take(v));
+        }
+        for m in [&mut self.dg, &mut self.dyhat, &mut self.dt] {
+            crate::recycle::keep_matrix(m);
         }
     }
 
@@ -91,7 +102,8 @@ impl<T: Real> Output<T> {
         let zero = Complex::new(T::zero(), T::zero());
         for v in [&mut self.g, &mut self.yhat] {
             if v.len() != n {
-                v.resize(n, zero);
+                crate::recycle::keep(std::mem::take(v));
+                *v = crate::recycle::filled(n, zero);
             }
         }
         let (omega, u) = (&omega[..n], &u[..n]);
@@ -178,7 +190,8 @@ impl<T: Real> Output<T> {
         }
         for m in [&mut self.dg, &mut self.dyhat] {
             if m.shape() != (n, p) {
-                *m = DMatrix::zeros(n, p);
+                crate::recycle::keep_matrix(m);
+                *m = crate::recycle::matrix(n, p, zero);
             }
         }
         model.jacobian_into(theta, omega, &mut self.g, &mut self.dg);

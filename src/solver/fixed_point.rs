@@ -14,7 +14,7 @@ use crate::scalar::Real;
 /// | setting | default | meaning |
 /// |---|---|---|
 /// | `max_iterations` | 30 | cap on linear solves |
-/// | `tolerance` | `None`: √ε (1.5e-8 for f64, 3.5e-4 for f32) | relative model change that counts as converged (SK is a start for ML, which refines further) |
+/// | `tolerance` | `None`: √ε (1.5e-8 for f64, 3.5e-4 for f32); 10⁻³ on the fewer lines of [`crate::estimate::Pipeline`]'s start | relative model change that counts as converged (SK is a start for ML, which refines further) |
 /// | `cost_tolerance` | 1e-4 | relative cost change that counts as converged |
 /// | `rcond_eps` | 1 | as [`super::LinearLeastSquares`]; smaller than Levy's default because the re-weighted systems are better scaled and truncation there degrades the fixed point |
 ///

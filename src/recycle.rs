@@ -1,0 +1,157 @@
+//! Large buffers a thread keeps from one fit to the next.
+//!
+//! A fit allocates buffers of tens of kilobytes (basis tables, blocks of stacked rows),
+//! frees them at its end, and the next fit allocates them again. The system allocator
+//! returns memory freed at the top of its heap to the operating system once more than
+//! a threshold lies free there (glibc: 128 KiB by default), so that each fit of a loop
+//! faults its pages in again — some 36 page faults, about a tenth of an order-4 fit of
+//! 2 000 lines on a virtual machine. Buffers given back with [`keep`] stay on the
+//! calling thread's shelf instead, up to [`MAX_KEPT_BYTES`] in all, and [`filled`] takes
+//! the smallest one large enough before asking the allocator.
+
+use std::any::Any;
+use std::cell::RefCell;
+
+/// The smallest buffer worth keeping, in bytes: smaller ones are served from the
+/// allocator's bins without touching the heap's top.
+pub(crate) const MIN_BYTES: usize = 4 << 10;
+
+/// The most bytes a thread keeps.
+pub(crate) const MAX_KEPT_BYTES: usize = 4 << 20;
+
+/// The most buffers a thread keeps.
+const MAX_KEPT: usize = 32;
+
+thread_local! {
+    /// The kept buffers, each with its size in bytes.
+    static SHELF: RefCell<Vec<(usize, Box<dyn Any>)>> = const { RefCell::new(Vec::new()) };
+}
+
+/// `len` copies of `value`, in the smallest kept buffer of this thread with room for
+/// them, else in a new one.
+pub(crate) fn filled<E: Copy + 'static>(len: usize, value: E) -> Vec<E> {
+    if len.saturating_mul(size_of::<E>()) >= MIN_BYTES
+        && let Some(mut v) = take::<E>(len)
+    {
+        v.clear();
+        v.resize(len, value);
+        return v;
+    }
+    vec![value; len]
+}
+
+/// Gives `v` to this thread's shelf for a later [`filled`]; dropped instead when it is
+/// smaller than [`MIN_BYTES`], or the shelf would hold more than [`MAX_KEPT_BYTES`] or
+/// [`MAX_KEPT`] buffers.
+pub(crate) fn keep<E: 'static>(v: Vec<E>) {
+    let bytes = v.capacity().saturating_mul(size_of::<E>());
+    if !(MIN_BYTES..=MAX_KEPT_BYTES).contains(&bytes) {
+        return;
+    }
+    // (a thread being torn down, or a shelf in use, just drops the buffer)
+    let _ = SHELF.try_with(|shelf| {
+        if let Ok(mut shelf) = shelf.try_borrow_mut() {
+            let held: usize = shelf.iter().map(|(b, _)| *b).sum();
+            if shelf.len() < MAX_KEPT && held + bytes <= MAX_KEPT_BYTES {
+                shelf.push((bytes, Box::new(v)));
+            }
+        }
+    });
+}
+
+/// An `rows` × `cols` matrix of `value` in a buffer of [`filled`].
+pub(crate) fn matrix<E: nalgebra::Scalar + Copy>(
+    rows: usize,
+    cols: usize,
+    value: E,
+) -> nalgebra::DMatrix<E> {
+    nalgebra::DMatrix::from_vec(rows, cols, filled(rows * cols, value))
+}
+
+/// Gives the buffer of `m` to the shelf ([`keep`]), leaving an empty matrix.
+pub(crate) fn keep_matrix<E: nalgebra::Scalar, C: nalgebra::Dim>(
+    m: &mut nalgebra::Matrix<E, nalgebra::Dyn, C, nalgebra::VecStorage<E, nalgebra::Dyn, C>>,
+) {
+    let (_, cols) = m.shape_generic();
+    let empty = nalgebra::VecStorage::new(nalgebra::Dyn(0), cols, Vec::new());
+    let storage = std::mem::replace(&mut m.data, empty);
+    keep(Vec::from(storage));
+}
+
+/// The smallest kept `Vec<E>` with room for `len` values, off the shelf.
+fn take<E: 'static>(len: usize) -> Option<Vec<E>> {
+    SHELF
+        .try_with(|shelf| {
+            let mut shelf = shelf.try_borrow_mut().ok()?;
+            let (i, _) = shelf
+                .iter()
+                .enumerate()
+                .filter_map(|(i, (_, b))| {
+                    let v = b.downcast_ref::<Vec<E>>()?;
+                    (v.capacity() >= len).then_some((i, v.capacity()))
+                })
+                .min_by_key(|(_, cap)| *cap)?;
+            let (_, b) = shelf.swap_remove(i);
+            b.downcast::<Vec<E>>().ok().map(|v| *v)
+        })
+        .ok()
+        .flatten()
+}
+
+/// The number of buffers and bytes this thread keeps.
+#[cfg(test)]
+fn held() -> (usize, usize) {
+    SHELF.with(|s| {
+        let s = s.borrow();
+        (s.len(), s.iter().map(|(b, _)| *b).sum())
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scalar::Complex;
+
+    #[test]
+    fn kept_buffers_are_reused_by_type_and_size_and_bounded() {
+        // each test runs on its own thread: the shelf starts empty
+        assert_eq!(held(), (0, 0));
+        let big = filled(1000, 1.5f64);
+        assert_eq!((big.len(), big[999]), (1000, 1.5));
+        let at = big.as_ptr();
+        keep(big);
+        assert_eq!(held(), (1, 8000));
+        // another type does not take it; a longer vector does not fit in it
+        let c = filled(600, Complex::new(0.0f64, 1.0));
+        assert_eq!(held().0, 1);
+        let longer = filled(1001, 0.0f64);
+        assert_eq!(held().0, 1);
+        // the same type of no more values takes it, refilled
+        let again = filled(700, 2.0f64);
+        assert_eq!(again.as_ptr(), at);
+        assert!(again.iter().all(|v| *v == 2.0) && again.len() == 700);
+        assert_eq!(held(), (0, 0));
+        // the smallest buffer with room is taken
+        keep(longer);
+        keep(again);
+        keep(c);
+        let small = filled(800, 0.0f64);
+        assert_eq!(small.capacity(), 1000);
+        keep(small);
+        // small buffers are not kept; nor beyond the byte budget
+        keep(vec![0u8; MIN_BYTES - 1]);
+        assert_eq!(held().0, 3);
+        keep(vec![0u8; MAX_KEPT_BYTES]);
+        assert_eq!(held().0, 3);
+        keep(vec![0u8; MAX_KEPT_BYTES + 1]);
+        assert_eq!(held().0, 3);
+        // small requests never read the shelf
+        let tiny = filled(3, 0.0f64);
+        assert_eq!((tiny.capacity(), held().0), (3, 3));
+        // at most MAX_KEPT buffers
+        for _ in 0..2 * MAX_KEPT {
+            keep(vec![0u8; MIN_BYTES]);
+        }
+        assert_eq!(held().0, MAX_KEPT);
+    }
+}
