@@ -41,7 +41,7 @@
 //! ([`workflow`]) augments one step by step.
 //!
 //! **Layers.** Each module belongs to one layer and imports only from its own and lower
-//! ones: foundation (`scalar`, `error`, `stats`) → linear algebra (`linalg`, `basis`,
+//! ones: foundation (`scalar`, `error`, `stats`, `recycle`) → linear algebra (`linalg`, `basis`,
 //! `roots`) → data (`data`, `simulate`, `io`) → models (`model`, `greybox`) → criteria
 //! (`problem`, `criterion`) → solvers (`solver`) → fits (`fit`, `fitted`, `validation`) →
 //! estimation strategies (`estimate`, `ltv`, `mimo`) → the workflow (`workflow`). Models and
@@ -93,7 +93,7 @@ pub mod mimo;
 pub mod model;
 pub mod problem;
 pub mod progress;
-mod recycle;
+pub mod recycle;
 pub mod roots;
 pub mod scalar;
 pub mod simulate;

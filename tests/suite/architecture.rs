@@ -7,7 +7,7 @@
 //!
 //! | layer | modules | holds |
 //! |---|---|---|
-//! | foundation | `scalar`, `error`, `stats`, `test_rng` | the float trait, errors, distributions |
+//! | foundation | `scalar`, `error`, `stats`, `test_rng`, `progress`, `recycle` | the float trait, errors, distributions, progress reports, buffers kept between fits |
 //! | linear algebra | `linalg`, `basis`, `roots` | least squares, SVD, Gram kernels, polynomial bases, roots |
 //! | data | `data`, `simulate`, `io` | frequency and time data, signals and systems to simulate, file readers |
 //! | model | `model`, `greybox` | structures θ ↦ G(θ, ω) and their factors: rational, modal, delay, noise model, grey box |
@@ -28,7 +28,9 @@ use std::path::{Path, PathBuf};
 const LAYERS: &[(&str, &[&str])] = &[
     (
         "foundation",
-        &["scalar", "error", "stats", "test_rng", "progress"],
+        &[
+            "scalar", "error", "stats", "test_rng", "progress", "recycle",
+        ],
     ),
     ("linear algebra", &["linalg", "basis", "roots"]),
     ("data", &["data", "simulate", "io"]),
