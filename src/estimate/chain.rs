@@ -280,8 +280,9 @@ impl<T: Real> Default for LevyWork<T> {
 /// coefficients): their estimate only starts ML, which runs on all lines, so the result
 /// is the ML estimate of all the data either way, while the linear stages' cost no longer
 /// grows with N. SK there counts as converged at a relative model change of
-/// [`FEWER_LINES_TOLERANCE`] (10⁻³) unless [`FixedPoint::tolerance`] is set. Their [`Stage::lines`](crate::fit::Stage::lines) records the lines they
-/// used (their costs are on those). A relocatable basis then takes one more relocation on
+/// [`FEWER_LINES_TOLERANCE`] (10⁻³) unless [`FixedPoint::tolerance`] is set. Their
+/// [`Stage::lines`](crate::fit::Stage::lines) records the lines they used (their costs are
+/// on those). A relocatable basis then takes one more relocation on
 /// all lines (an `sk` stage of one direct solve), which starts ML nearer its optimum and
 /// builds the basis tables ML reads. When the fit from that start shows evidence of a local
 /// minimum (the tests below), the chain runs again with the linear stages on all lines
