@@ -192,4 +192,50 @@ mod tests {
         release();
         assert_eq!((held(), kept_bytes()), ((0, 0), 0));
     }
+
+    /// Any sequence of requests and returns, of both precisions and of real and complex
+    /// values: each vector has the length and values asked for, and the shelf stays within
+    /// its bounds.
+    #[test]
+    fn any_use_of_the_shelf_gives_the_values_asked_for() {
+        fn check<E: Copy + PartialEq + 'static>(len: usize, value: E) -> Option<Vec<E>> {
+            let v = filled(len, value);
+            (v.len() == len && v.iter().all(|x| *x == value)).then_some(v)
+        }
+        fn prop(steps: Vec<(u8, u16, bool)>) -> bool {
+            release();
+            let mut out: Vec<Box<dyn Any>> = vec![];
+            for (kind, len, give_back) in steps {
+                // up to 65 535 values: some below the 4 KiB floor, most above
+                let (len, x) = (usize::from(len), f64::from(len));
+                let v: Option<Box<dyn Any>> = match kind % 4 {
+                    0 => check(len, x).map(|v| Box::new(v) as Box<dyn Any>),
+                    1 => check(len, x as f32).map(|v| Box::new(v) as Box<dyn Any>),
+                    2 => check(len, Complex::new(x, -x)).map(|v| Box::new(v) as Box<dyn Any>),
+                    _ => check(len, Complex::new(x as f32, 1.0)).map(|v| Box::new(v) as _),
+                };
+                let Some(v) = v else { return false };
+                if give_back {
+                    match kind % 4 {
+                        0 => keep(*v.downcast::<Vec<f64>>().unwrap()),
+                        1 => keep(*v.downcast::<Vec<f32>>().unwrap()),
+                        2 => keep(*v.downcast::<Vec<Complex<f64>>>().unwrap()),
+                        _ => keep(*v.downcast::<Vec<Complex<f32>>>().unwrap()),
+                    }
+                } else {
+                    out.push(v);
+                }
+                let (count, bytes) = held();
+                if count > MAX_KEPT || bytes > MAX_KEPT_BYTES {
+                    return false;
+                }
+            }
+            release();
+            true
+        }
+        quickcheck::QuickCheck::new()
+            .tests(300)
+            .rng(quickcheck::Gen::from_size_and_seed(40, 0x5eed))
+            .quickcheck(prop as fn(Vec<(u8, u16, bool)>) -> bool);
+    }
 }
