@@ -69,32 +69,50 @@ pub(crate) fn keep<E: 'static>(v: Vec<E>) {
     }
     // (a thread being torn down, or a shelf in use, just drops the buffer)
     let _ = SHELF.try_with(|shelf| {
-        if let Ok(mut shelf) = shelf.try_borrow_mut() {
-            let held: usize = shelf.iter().map(|(b, _)| *b).sum();
-            if shelf.len() < MAX_KEPT && held + bytes <= MAX_KEPT_BYTES {
-                shelf.push((bytes, Box::new(v)));
-            }
+        if let Ok(mut shelf) = shelf.try_borrow_mut()
+            && shelf.len() < MAX_KEPT
+            && bytes_on(&shelf) + bytes <= MAX_KEPT_BYTES
+        {
+            shelf.push((bytes, Box::new(v)));
         }
     });
 }
 
-/// An `rows` × `cols` matrix of `value` in a buffer of [`filled`].
-pub(crate) fn matrix<E: nalgebra::Scalar + Copy>(
+/// `v` as `len` copies of `value`: its buffer given to the shelf ([`keep`]) and the
+/// vector taken again by [`filled`].
+pub(crate) fn refill_vec<E: Copy + 'static>(v: &mut Vec<E>, len: usize, value: E) {
+    keep(std::mem::take(v));
+    *v = filled(len, value);
+}
+
+/// A matrix of `Dyn` rows whose buffer the shelf can take.
+type Owned<E, C> = nalgebra::Matrix<E, nalgebra::Dyn, C, nalgebra::VecStorage<E, nalgebra::Dyn, C>>;
+
+/// `m` as `rows` × `cols` copies of `value`: its buffer given to the shelf ([`keep`]) and
+/// the matrix's taken by [`filled`].
+pub(crate) fn refill<E: nalgebra::Scalar + Copy, C: nalgebra::Dim>(
+    m: &mut Owned<E, C>,
     rows: usize,
     cols: usize,
     value: E,
-) -> nalgebra::DMatrix<E> {
-    nalgebra::DMatrix::from_vec(rows, cols, filled(rows * cols, value))
+) {
+    keep_matrix(m);
+    let values = filled(rows * cols, value);
+    let storage = nalgebra::VecStorage::new(nalgebra::Dyn(rows), C::from_usize(cols), values);
+    *m = Owned::from_data(storage);
 }
 
 /// Gives the buffer of `m` to the shelf ([`keep`]), leaving an empty matrix.
-pub(crate) fn keep_matrix<E: nalgebra::Scalar, C: nalgebra::Dim>(
-    m: &mut nalgebra::Matrix<E, nalgebra::Dyn, C, nalgebra::VecStorage<E, nalgebra::Dyn, C>>,
-) {
+pub(crate) fn keep_matrix<E: nalgebra::Scalar, C: nalgebra::Dim>(m: &mut Owned<E, C>) {
     let (_, cols) = m.shape_generic();
     let empty = nalgebra::VecStorage::new(nalgebra::Dyn(0), cols, Vec::new());
     let storage = std::mem::replace(&mut m.data, empty);
     keep(Vec::from(storage));
+}
+
+/// The bytes of the buffers on `shelf`.
+fn bytes_on(shelf: &[(usize, Box<dyn Any>)]) -> usize {
+    shelf.iter().map(|(b, _)| *b).sum()
 }
 
 /// The smallest kept `Vec<E>` with room for `len` values, off the shelf.
@@ -135,10 +153,7 @@ pub fn kept_bytes() -> usize {
 /// The number of buffers and bytes this thread keeps (none while the shelf is in use).
 fn held() -> (usize, usize) {
     SHELF
-        .try_with(|s| {
-            s.try_borrow()
-                .map_or((0, 0), |s| (s.len(), s.iter().map(|(b, _)| *b).sum()))
-        })
+        .try_with(|s| s.try_borrow().map_or((0, 0), |s| (s.len(), bytes_on(&s))))
         .unwrap_or((0, 0))
 }
 
@@ -189,6 +204,20 @@ mod tests {
         }
         assert_eq!(held().0, MAX_KEPT);
         assert!(kept_bytes() >= MAX_KEPT * MIN_BYTES);
+        release();
+        // matrices and vectors refilled in a new shape, their old buffer reused
+        let mut m = nalgebra::DMatrix::from_element(40, 30, 1.0f64);
+        let at = m.as_ptr();
+        refill(&mut m, 30, 20, 2.0);
+        assert_eq!((m.shape(), m.as_ptr(), m[(29, 19)]), ((30, 20), at, 2.0));
+        let mut v = nalgebra::DVector::from_element(700, 1.0f64);
+        refill(&mut v, 600, 1, 3.0);
+        assert!(v.len() == 600 && v.iter().all(|x| *x == 3.0));
+        let mut w = vec![Complex::new(1.0f64, 0.0); 300];
+        refill_vec(&mut w, 290, Complex::new(0.0, 1.0));
+        assert!(w.len() == 290 && w.iter().all(|x| x.im == 1.0));
+        keep_matrix(&mut v);
+        assert_eq!((v.len(), held().0), (0, 1));
         release();
         assert_eq!((held(), kept_bytes()), ((0, 0), 0));
     }

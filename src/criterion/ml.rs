@@ -176,8 +176,7 @@ impl<'a, T: Real, M: ModelStructure<T> + ?Sized> MlProblem<'a, T, M> {
             if !reuse {
                 let lines = k0..k0 + len;
                 if jac.shape() != (2 * len, p) {
-                    crate::recycle::keep_matrix(jac);
-                    *jac = crate::recycle::matrix(2 * len, p, T::zero());
+                    crate::recycle::refill(jac, 2 * len, p, T::zero());
                 }
                 let weight = self.weight.as_deref().map(|w| &w[k0..k0 + len]);
                 if !self.stacked_rows(out, theta, lines, weight, jac) {

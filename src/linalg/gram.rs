@@ -308,12 +308,9 @@ pub(crate) fn lines_least_squares_gram<T: Real>(
         let GramBlock { block, rhs, rows } = &mut blocks.bufs[usize::from(len < lines)];
         if block.shape() != (2 * len, p) || rows.shape() != (len, q) {
             let zero = crate::scalar::Complex::new(T::zero(), T::zero());
-            recycle::keep_matrix(block);
-            recycle::keep_matrix(rhs);
-            recycle::keep_matrix(rows);
-            *block = recycle::matrix(2 * len, p, T::zero());
-            *rhs = DVector::from_vec(recycle::filled(2 * len, T::zero()));
-            *rows = recycle::matrix(len, q, zero);
+            recycle::refill(block, 2 * len, p, T::zero());
+            recycle::refill(rhs, 2 * len, 1, T::zero());
+            recycle::refill(rows, len, q, zero);
         }
         fill(k0, rows);
         wb.clear();
@@ -373,8 +370,8 @@ pub(crate) fn lines_least_squares_cost<T: Real>(
         let len = lines.min(n - k0);
         let rows = &mut blocks.bufs[usize::from(len < lines)].rows;
         if rows.shape() != (len, q) {
-            recycle::keep_matrix(rows);
-            *rows = recycle::matrix(len, q, crate::scalar::Complex::new(T::zero(), T::zero()));
+            let zero = crate::scalar::Complex::new(T::zero(), T::zero());
+            recycle::refill(rows, len, q, zero);
         }
         fill(k0, rows);
         e.clear();

@@ -102,8 +102,7 @@ impl<T: Real> Output<T> {
         let zero = Complex::new(T::zero(), T::zero());
         for v in [&mut self.g, &mut self.yhat] {
             if v.len() != n {
-                crate::recycle::keep(std::mem::take(v));
-                *v = crate::recycle::filled(n, zero);
+                crate::recycle::refill_vec(v, n, zero);
             }
         }
         let (omega, u) = (&omega[..n], &u[..n]);
@@ -190,8 +189,7 @@ impl<T: Real> Output<T> {
         }
         for m in [&mut self.dg, &mut self.dyhat] {
             if m.shape() != (n, p) {
-                crate::recycle::keep_matrix(m);
-                *m = crate::recycle::matrix(n, p, zero);
+                crate::recycle::refill(m, n, p, zero);
             }
         }
         model.jacobian_into(theta, omega, &mut self.g, &mut self.dg);
