@@ -90,7 +90,9 @@ impl<T: Real> NoiseVariances<T> {
 #[derive(Debug, Clone, PartialEq)]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct FrequencyData<T: Real> {
-    omega: Vec<T>,
+    /// Shared by the data derived from these with the same lines (normalised or with
+    /// another sample time) and by the grid a model keeps (see [`Self::shared_omega`]).
+    omega: std::sync::Arc<[T]>,
     y: Vec<Complex<T>>,
     u: Vec<Complex<T>>,
     noise: Option<NoiseVariances<T>>,
@@ -184,7 +186,7 @@ impl<T: Real> FrequencyData<T> {
             });
         }
         Ok(Self {
-            omega,
+            omega: omega.into(),
             y,
             u,
             noise: None,
@@ -274,6 +276,13 @@ impl<T: Real> FrequencyData<T> {
         &self.omega
     }
 
+    /// The frequencies' buffer itself: evaluations on [`Self::omega`] (or on a run of
+    /// its lines) read the very memory a model kept from it, which no other buffer
+    /// shares, so a model knows its lines without comparing their values.
+    pub(crate) fn shared_omega(&self) -> &std::sync::Arc<[T]> {
+        &self.omega
+    }
+
     /// Frequencies in Hz.
     pub fn freq_hz(&self) -> Vec<T> {
         let two_pi = T::two_pi();
@@ -314,7 +323,7 @@ impl<T: Real> FrequencyData<T> {
         }
         let noise = self.noise.clone();
         let dof = self.variance_dof;
-        let mut d = Self::new(self.omega, self.y, self.u, ts)?;
+        let mut d = Self::new(self.omega.to_vec(), self.y, self.u, ts)?;
         if let Some(n) = noise {
             d = d.with_noise(n)?;
         }
@@ -434,7 +443,7 @@ impl<T: Real> FrequencyData<T> {
     /// Keeps the lines where `keep[k]` is true (lengths must match; not checked here).
     pub(crate) fn filter(&self, keep: &[bool]) -> Self {
         Self {
-            omega: pick(&self.omega, keep),
+            omega: pick(&self.omega, keep).into(),
             y: pick(&self.y, keep),
             u: pick(&self.u, keep),
             noise: self.noise.as_ref().map(|n| n.filter(keep)),
@@ -449,7 +458,7 @@ impl<T: Real> FrequencyData<T> {
     pub(crate) fn scaled(&self, output: T, input: T) -> Self {
         let scale = |v: &[Complex<T>], c: T| v.iter().map(|x| x.scale(c)).collect();
         Self {
-            omega: self.omega.clone(),
+            omega: std::sync::Arc::clone(&self.omega),
             y: scale(&self.y, output),
             u: scale(&self.u, input),
             noise: self.noise.as_ref().map(|n| NoiseVariances {
@@ -477,7 +486,7 @@ impl<T: Real> FrequencyData<T> {
         ts: Option<T>,
     ) -> Self {
         Self {
-            omega,
+            omega: omega.into(),
             y,
             u,
             noise,

@@ -93,17 +93,38 @@ pub(crate) fn normalised_into<T: Real>(
     if b.len() != 2 * n {
         *b = DVector::zeros(2 * n);
     }
-    for j in 0..p {
-        for k in 0..n {
-            let wk = w.map_or(T::one(), |w| w[k]);
-            let v = regressor[(k, j)] * wk;
-            if j == normalising {
-                b[2 * k] = -v.re;
-                b[2 * k + 1] = -v.im;
-            } else {
-                let col = if j < normalising { j } else { j - 1 };
-                a[(2 * k, col)] = v.re;
-                a[(2 * k + 1, col)] = v.im;
+    if n == 0 {
+        return;
+    }
+    // column by column: a column of R (contiguous) into its stacked column of A or into b
+    let mut cols = a.as_mut_slice().chunks_exact_mut(2 * n);
+    for (j, src) in regressor.as_slice().chunks_exact(n).enumerate() {
+        let dst = if j == normalising {
+            b.as_mut_slice()
+        } else {
+            match cols.next() {
+                Some(col) => col,
+                None => return,
+            }
+        };
+        let sign = if j == normalising {
+            -T::one()
+        } else {
+            T::one()
+        };
+        match w {
+            Some(w) => {
+                for ((out, v), wk) in dst.chunks_exact_mut(2).zip(src).zip(w) {
+                    let v = *v * *wk;
+                    out[0] = sign * v.re;
+                    out[1] = sign * v.im;
+                }
+            }
+            None => {
+                for (out, v) in dst.chunks_exact_mut(2).zip(src) {
+                    out[0] = sign * v.re;
+                    out[1] = sign * v.im;
+                }
             }
         }
     }

@@ -10,21 +10,29 @@ use std::sync::{Arc, OnceLock};
 /// One frequency grid with, for a sample time Ts, z⁻¹ = e^{−iωTs} on its lines; the grid
 /// itself is the key: lines of an evaluation read it only when their frequencies are, bit
 /// for bit, a run of consecutive lines of the grid.
+///
+/// The grid is the data's own buffer ([`FrequencyData::shared_omega`]), held here: lines
+/// that lie in that memory are its lines, known without comparing their values (a
+/// buffer kept alive and shared is not written, and no other live buffer overlaps it),
+/// so that an evaluation on a long record does not read a second copy of its
+/// frequencies.
+///
+/// [`FrequencyData::shared_omega`]: crate::data::FrequencyData
 #[derive(Debug)]
 struct DelayGrid<T: Real> {
     /// Ts of `zinv`; `None` when no z⁻¹ is kept (`zinv` empty).
     ts: Option<T>,
-    omega: Vec<T>,
+    omega: Arc<[T]>,
     zinv: Vec<Complex<T>>,
     /// The grid rises strictly, so a run's first line is found by bisection.
     rising: bool,
 }
 
 impl<T: Real> DelayGrid<T> {
-    fn new(ts: Option<T>, omega: &[T]) -> Self {
+    fn new(ts: Option<T>, omega: &Arc<[T]>) -> Self {
         Self {
             ts,
-            omega: omega.to_vec(),
+            omega: Arc::clone(omega),
             zinv: ts.map_or_else(Vec::new, |ts| {
                 omega
                     .iter()
@@ -39,6 +47,9 @@ impl<T: Real> DelayGrid<T> {
     /// consecutive lines, or (on a rising grid) every `step`-th line.
     fn lines(&self, omega: &[T]) -> Option<GridRun> {
         let first = omega.first()?;
+        if let Some(start) = self.offset_of(omega) {
+            return Some(GridRun { start, step: 1 });
+        }
         let (start, step) = if self.rising {
             let start = self.omega.partition_point(|w| w < first);
             // the second line's place gives the step (1 for a single line)
@@ -60,6 +71,16 @@ impl<T: Real> DelayGrid<T> {
             kept.iter().step_by(step).zip(omega).fold(true, matches)
         };
         all.then_some(GridRun { start, step })
+    }
+
+    /// The grid line where `omega` starts when `omega` lies in the grid's own memory (then
+    /// a run of consecutive lines of it, whatever its values).
+    fn offset_of(&self, omega: &[T]) -> Option<usize> {
+        let size = size_of::<T>();
+        let base = self.omega.as_ptr() as usize;
+        let at = (omega.as_ptr() as usize).checked_sub(base)?;
+        let start = at / size;
+        (at % size == 0 && start + omega.len() <= self.omega.len()).then_some(start)
     }
 
     /// z⁻¹ on the lines `omega` with sample time `ts`, when they are a run of consecutive
@@ -117,9 +138,9 @@ impl<T: Real> std::fmt::Debug for KeptGrid<T> {
 }
 
 impl<T: Real> KeptGrid<T> {
-    /// Keeps the grid `omega`, with z⁻¹ for the sample time `ts` when there is one, unless
-    /// a grid is kept already.
-    pub(crate) fn keep(&self, ts: Option<T>, omega: &[T]) {
+    /// Keeps the grid `omega` (the buffer itself, shared), with z⁻¹ for the sample time `ts`
+    /// when there is one, unless a grid is kept already.
+    pub(crate) fn keep(&self, ts: Option<T>, omega: &Arc<[T]>) {
         self.0.get_or_init(|| Arc::new(DelayGrid::new(ts, omega)));
     }
 
@@ -148,12 +169,35 @@ impl<T: Real> PartialEq for KeptGrid<T> {
 mod tests {
     use super::*;
 
+    /// A grid buffer of its own (not the memory of the lines the tests look up).
+    fn shared(omega: &[f64]) -> Arc<[f64]> {
+        Arc::from(omega)
+    }
+
+    #[test]
+    fn lines_in_the_grids_own_memory_are_its_lines_without_their_values() {
+        // NaN is never the same value: lines with it are found only by where they lie
+        let grid = shared(&[0.5, f64::NAN, 2.0, 3.0]);
+        let kept = KeptGrid::default();
+        kept.keep(None, &grid);
+        let run = |start| Some(GridRun { start, step: 1 });
+        assert_eq!(kept.lines(&grid[1..3]).map(|(_, l)| l), run(1));
+        assert_eq!(kept.lines(&grid[3..]).map(|(_, l)| l), run(3));
+        assert_eq!(
+            kept.lines(&grid).map(|(g, l)| (g.len(), l)),
+            Some((4, run(0).unwrap()))
+        );
+        let copy = grid.to_vec();
+        assert!(kept.lines(&copy[1..3]).is_none());
+        assert_eq!(kept.lines(&copy[..1]).map(|(_, l)| l), run(0));
+    }
+
     #[test]
     fn a_run_of_the_grid_reads_the_kept_values() {
         let omega: Vec<f64> = (0..50).map(|k| 0.01 + 0.06 * k as f64).collect();
         let kept = KeptGrid::default();
         assert!(kept.run(0.1, &omega).is_none());
-        kept.keep(Some(0.1), &omega);
+        kept.keep(Some(0.1), &shared(&omega));
         let direct: Vec<_> = omega
             .iter()
             .map(|w| crate::basis::delay_variable(*w, 0.1))
@@ -169,16 +213,16 @@ mod tests {
         assert!(kept.run(0.1, &[omega[49], 3.5]).is_none());
         assert!(kept.run(0.1, &[f64::NAN]).is_none());
         let zero = KeptGrid::default();
-        zero.keep(Some(0.1), &[0.0, 1.0]);
+        zero.keep(Some(0.1), &shared(&[0.0, 1.0]));
         assert!(zero.run(0.1, &[-0.0, 1.0]).is_none());
         assert!(zero.run(0.1, &[0.0, 1.0]).is_some());
         // a second grid does not replace the first
-        kept.keep(Some(0.1), &[1.0, 2.0]);
+        kept.keep(Some(0.1), &shared(&[1.0, 2.0]));
         assert!(kept.run(0.1, &[1.0, 2.0]).is_none());
         assert!(kept.run(0.1, &omega).is_some());
         // a grid without a sample time finds runs but keeps no z⁻¹
         let plain = KeptGrid::default();
-        plain.keep(None, &omega);
+        plain.keep(None, &shared(&omega));
         assert!(plain.run(0.1, &omega).is_none());
         let run = |start, step| Some(GridRun { start, step });
         assert_eq!(plain.lines(&omega[7..19]).map(|(_, l)| l), run(7, 1));
@@ -469,7 +513,7 @@ mod tests {
     fn a_grid_that_does_not_rise_is_matched_from_its_start() {
         let omega = [3.0, 1.0, 2.0, 1.0];
         let kept = KeptGrid::default();
-        kept.keep(Some(0.5f64), &omega);
+        kept.keep(Some(0.5f64), &shared(&omega));
         assert!(kept.run(0.5, &omega).is_some());
         assert!(kept.run(0.5, &omega[..2]).is_some());
         assert!(kept.run(0.5, &omega[1..]).is_none());

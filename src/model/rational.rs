@@ -1101,7 +1101,7 @@ impl<T: Real> ModelStructure<T> for Rational<T> {
         if let PolyBasis::DelayPowers { ts } = &self.basis {
             data.check_sampled_grid(*ts, "model")?;
         }
-        self.grid.keep(self.delay_ts(), data.omega());
+        self.grid.keep(self.delay_ts(), data.shared_omega());
         Ok(())
     }
 }
