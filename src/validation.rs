@@ -167,9 +167,10 @@ impl Validation {
         };
         let lags = if n >= 8 { (n / 4).clamp(1, 20) } else { 0 };
         let (whiteness_q, whiteness_p) = if lags > 0 && cost > 0.0 {
+            let parts = Parts::of(r);
             let q: f64 = (1..=lags)
                 .map(|l| {
-                    let rho = lagged_product(r, l) / cost;
+                    let rho = parts.lagged_product(l) / cost;
                     2.0 * (n * n) as f64 * rho.norm_sqr() / (n - l) as f64
                 })
                 .sum();
@@ -193,26 +194,53 @@ impl Validation {
     }
 }
 
-/// Σ_{k ≥ l} r_k r̄_{k−l}, summed in four independent lanes (a single running sum is a chain
-/// of dependent additions).
-fn lagged_product(r: &[Complex<f64>], l: usize) -> Complex<f64> {
-    const LANES: usize = 4;
-    let (head, tail) = (&r[..r.len() - l], &r[l..]);
-    let mut re = [0.0; LANES];
-    let mut im = [0.0; LANES];
-    let chunks = tail.chunks_exact(LANES).zip(head.chunks_exact(LANES));
-    for (a, b) in chunks {
-        for i in 0..LANES {
-            re[i] += a[i].re * b[i].re + a[i].im * b[i].im;
-            im[i] += a[i].im * b[i].re - a[i].re * b[i].im;
+/// The real and imaginary parts of residuals in two arrays, so that the four lanes of
+/// [`Parts::lagged_product`] are read as vectors.
+struct Parts {
+    re: Vec<f64>,
+    im: Vec<f64>,
+}
+
+impl Parts {
+    fn of(r: &[Complex<f64>]) -> Self {
+        Self {
+            re: r.iter().map(|v| v.re).collect(),
+            im: r.iter().map(|v| v.im).collect(),
         }
     }
-    let done = tail.len() - tail.len() % LANES;
-    let rest = tail[done..]
-        .iter()
-        .zip(&head[done..])
-        .fold(Complex::new(0.0, 0.0), |s, (a, b)| s + a * b.conj());
-    Complex::new(re.iter().sum::<f64>(), im.iter().sum::<f64>()) + rest
+
+    /// Σ_{k ≥ l} r_k r̄_{k−l}, summed in four independent lanes (lane i holds the lines
+    /// k ≡ l + i mod 4 of the first 4⌊(N − l)/4⌋; a single running sum is a chain of
+    /// dependent additions), then the lanes and the last lines in turn; for l < N.
+    fn lagged_product(&self, l: usize) -> Complex<f64> {
+        const LANES: usize = 4;
+        let n = self.re.len();
+        let (ar, ai) = (&self.re[l..], &self.im[l..]);
+        let (br, bi) = (&self.re[..n - l], &self.im[..n - l]);
+        let mut re = [0.0; LANES];
+        let mut im = [0.0; LANES];
+        let (a_re, a_im) = (ar.as_chunks::<LANES>().0, ai.as_chunks::<LANES>().0);
+        let (b_re, b_im) = (br.as_chunks::<LANES>().0, bi.as_chunks::<LANES>().0);
+        // the real and the imaginary sums in two loops of plain lane-wise vector arithmetic
+        for c in 0..a_re.len() {
+            let (ar, ai, br, bi) = (&a_re[c], &a_im[c], &b_re[c], &b_im[c]);
+            for i in 0..LANES {
+                re[i] += ar[i] * br[i] + ai[i] * bi[i];
+            }
+        }
+        for c in 0..a_re.len() {
+            let (ar, ai, br, bi) = (&a_re[c], &a_im[c], &b_re[c], &b_im[c]);
+            for i in 0..LANES {
+                im[i] += ai[i] * br[i] - ar[i] * bi[i];
+            }
+        }
+        let done = ar.len() - ar.len() % LANES;
+        let rest = (done..ar.len()).fold(Complex::new(0.0, 0.0), |s, k| {
+            let (a, b) = (Complex::new(ar[k], ai[k]), Complex::new(br[k], bi[k]));
+            s + a * b.conj()
+        });
+        Complex::new(re.iter().sum::<f64>(), im.iter().sum::<f64>()) + rest
+    }
 }
 
 /// Expected cost and upper-tail probability for `n_eff` = N − p/2 complex residuals.
@@ -247,9 +275,46 @@ mod tests {
         let r: Vec<Complex<f64>> = (0..23)
             .map(|k| Complex::new((k as f64 * 0.7).sin(), (k as f64 * 1.3).cos() - 0.2))
             .collect();
+        let parts = Parts::of(&r);
         for l in 0..r.len() {
             let want = (l..r.len()).fold(Complex::new(0.0, 0.0), |s, k| s + r[k] * r[k - l].conj());
-            assert!((lagged_product(&r, l) - want).norm() <= 1e-13, "lag {l}");
+            assert!((parts.lagged_product(l) - want).norm() <= 1e-13, "lag {l}");
+        }
+    }
+
+    #[test]
+    fn lagged_products_are_summed_lane_by_lane_in_line_order() {
+        // lane i: the lines l + i, l + i + 4, … in turn; then the lanes; then the rest
+        let lanes = |r: &[Complex<f64>], l: usize| {
+            let (head, tail) = (&r[..r.len() - l], &r[l..]);
+            let mut sum = [Complex::new(0.0, 0.0); 4];
+            let full = tail.len() - tail.len() % 4;
+            for k in 0..full {
+                let (a, b) = (tail[k], head[k]);
+                let s = &mut sum[k % 4];
+                s.re += a.re * b.re + a.im * b.im;
+                s.im += a.im * b.re - a.re * b.im;
+            }
+            let rest = (full..tail.len())
+                .fold(Complex::new(0.0, 0.0), |s, k| s + tail[k] * head[k].conj());
+            let re: f64 = sum.iter().map(|s| s.re).sum();
+            let im: f64 = sum.iter().map(|s| s.im).sum();
+            Complex::new(re, im) + rest
+        };
+        let mut state = 3u64;
+        for n in [8, 9, 10, 11, 37, 200] {
+            let r: Vec<Complex<f64>> = (0..n)
+                .map(|_| {
+                    let re = crate::test_rng::lcg(&mut state);
+                    Complex::new(re, crate::test_rng::lcg(&mut state))
+                })
+                .collect();
+            let parts = Parts::of(&r);
+            for l in 1..n.min(21) {
+                let (got, want) = (parts.lagged_product(l), lanes(&r, l));
+                let bits = |c: Complex<f64>| (c.re.to_bits(), c.im.to_bits());
+                assert_eq!(bits(got), bits(want), "N = {n}, lag {l}");
+            }
         }
     }
 
