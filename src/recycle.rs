@@ -78,6 +78,36 @@ pub(crate) fn keep<E: 'static>(v: Vec<E>) {
     });
 }
 
+/// A vector from [`filled`] that goes back to the shelf ([`keep`]) when dropped, for a
+/// buffer that lives through one call with many ways out.
+pub(crate) struct Kept<E: 'static>(Vec<E>);
+
+impl<E: Copy + 'static> Kept<E> {
+    /// `len` copies of `value` ([`filled`]).
+    pub(crate) fn filled(len: usize, value: E) -> Self {
+        Self(filled(len, value))
+    }
+}
+
+impl<E: 'static> std::ops::Deref for Kept<E> {
+    type Target = Vec<E>;
+    fn deref(&self) -> &Vec<E> {
+        &self.0
+    }
+}
+
+impl<E: 'static> std::ops::DerefMut for Kept<E> {
+    fn deref_mut(&mut self) -> &mut Vec<E> {
+        &mut self.0
+    }
+}
+
+impl<E: 'static> Drop for Kept<E> {
+    fn drop(&mut self) {
+        keep(std::mem::take(&mut self.0));
+    }
+}
+
 /// `v` as `len` copies of `value`: its buffer given to the shelf ([`keep`]) and the
 /// vector taken again by [`filled`].
 pub(crate) fn refill_vec<E: Copy + 'static>(v: &mut Vec<E>, len: usize, value: E) {
@@ -225,6 +255,22 @@ mod tests {
     /// Any sequence of requests and returns, of both precisions and of real and complex
     /// values: each vector has the length and values asked for, and the shelf stays within
     /// its bounds.
+    #[test]
+    fn a_kept_vector_goes_back_to_the_shelf_when_dropped() {
+        assert_eq!(held(), (0, 0));
+        let mut r = Kept::filled(1_000, 2.0f64);
+        assert!(r.iter().all(|v| *v == 2.0) && r.len() == 1_000);
+        r[3] = 5.0;
+        let address = r.as_ptr();
+        drop(r);
+        assert_eq!(held().0, 1);
+        // the next one takes that buffer, with the values asked for
+        let again = Kept::filled(900, 0.0f64);
+        assert_eq!((again.as_ptr(), again.len()), (address, 900));
+        assert!(again.iter().all(|v| *v == 0.0));
+        assert_eq!(held().0, 0);
+    }
+
     #[test]
     fn any_use_of_the_shelf_gives_the_values_asked_for() {
         fn check<E: Copy + PartialEq + 'static>(len: usize, value: E) -> Option<Vec<E>> {

@@ -112,8 +112,9 @@ impl GramLevenbergMarquardt {
         let (m, p) = (problem.n_residuals(), problem.n_params());
         let (tol, ftol) = self.settings.checked(start, p, m)?;
         let mut x: Vec<T> = start.map(<[T]>::to_vec).unwrap_or_default();
-        let mut r = vec![T::zero(); m];
-        let mut r_try = vec![T::zero(); m];
+        // (kept for the next solve: on a long record each is of the record's size)
+        let mut r = crate::recycle::Kept::filled(m, T::zero());
+        let mut r_try = crate::recycle::Kept::filled(m, T::zero());
         let mut x_try = vec![T::zero(); p];
         // J itself only for problems that do not accumulate JᵀJ and Jᵀr by blocks
         let mut jac = DMatrix::zeros(0, 0);
