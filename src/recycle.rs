@@ -1,14 +1,14 @@
 //! Large buffers a thread keeps from one fit to the next.
 //!
-//! A fit allocates buffers of tens of kilobytes (basis tables, blocks of stacked rows),
-//! frees them at its end, and the next fit allocates them again. The system allocator
-//! returns memory freed at the top of its heap to the operating system once more than
-//! a threshold lies free there (glibc: 128 KiB by default), so that each fit of a loop
-//! faults its pages in again — some 36 page faults, about a tenth of an order-4 fit of
-//! 2 000 lines on a virtual machine, and a fifth of a fit of 200 000 lines. The crate's
-//! large work buffers are therefore given back to the calling thread's shelf when freed,
-//! up to [`MAX_KEPT_BYTES`] (64 MiB, what glibc itself leaves untrimmed once its
-//! thresholds have adapted to large blocks) and 32 buffers a thread, and the next
+//! A fit allocates buffers of tens of kilobytes (basis tables, blocks of stacked rows, the
+//! solver's residual vectors), frees them at its end, and the next fit allocates them
+//! again. The system allocator returns memory freed at the top of its heap to the operating
+//! system once more than a threshold lies free there (glibc: 128 KiB by default), so that
+//! each fit of a loop faults its pages in again — some 36 page faults, about a tenth of an
+//! order-4 fit of 2 000 lines on a virtual machine, and a fifth of a fit of 200 000 lines.
+//! The crate's large work buffers are therefore given back to the calling thread's shelf
+//! when freed, up to [`MAX_KEPT_BYTES`] (64 MiB, what glibc itself leaves untrimmed once
+//! its thresholds have adapted to large blocks) and 32 buffers a thread, and the next
 //! allocation of that type takes the smallest kept buffer large enough. [`release`] frees
 //! the calling thread's buffers, and a thread's are freed when it ends.
 //!
