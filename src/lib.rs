@@ -41,12 +41,12 @@
 //! ([`workflow`]) augments one step by step.
 //!
 //! **Layers.** Each module belongs to one layer and imports only from its own and lower
-//! ones: foundation (`scalar`, `error`, `stats`, `recycle`) → linear algebra (`linalg`, `basis`,
-//! `roots`) → data (`data`, `simulate`, `io`) → models (`model`, `greybox`) → criteria
-//! (`problem`, `criterion`) → solvers (`solver`) → fits (`fit`, `fitted`, `validation`) →
-//! estimation strategies (`estimate`, `ltv`, `mimo`) → the workflow (`workflow`). Models and
-//! criteria describe; only `estimate` runs them. The table is kept, and checked on every
-//! file, by the test `tests/suite/architecture.rs`.
+//! ones: foundation (`scalar`, `error`, `stats`, `progress`, `recycle`) → linear algebra
+//! (`linalg`, `basis`, `roots`) → data (`data`, `simulate`, `io`) → models (`model`,
+//! `greybox`) → criteria (`problem`, `criterion`) → solvers (`solver`) → fits (`fit`,
+//! `fitted`, `validation`) → estimation strategies (`estimate`, `ltv`, `mimo`) → the
+//! workflow (`workflow`). Models and criteria describe; only `estimate` runs them. The
+//! table is kept, and checked on every file, by the test `tests/suite/architecture.rs`.
 //!
 //! Equation numbers refer to T. McKelvey, *Frequency domain identification methods*
 //! (Circuits Systems Signal Processing, 2002).

@@ -329,6 +329,8 @@ impl<T: Real> FrequencyData<T> {
         }
         d.variance_dof = dof;
         d.mixed_ts = self.mixed_ts;
+        // the same lines: their buffer stays shared (see `omega`)
+        d.omega = self.omega;
         Ok(d)
     }
 
@@ -504,4 +506,22 @@ fn pick<X: Copy>(v: &[X], keep: &[bool]) -> Vec<X> {
         .filter(|(_, k)| **k)
         .map(|(x, _)| *x)
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn data_with_the_same_lines_share_their_frequencies() {
+        let omega = vec![1.0, 2.0, 3.0];
+        let y = vec![Complex::new(1.0, 0.5); 3];
+        let data = FrequencyData::new(omega, y.clone(), y, Some(0.1)).unwrap();
+        let same =
+            |d: &FrequencyData<f64>| std::sync::Arc::ptr_eq(d.shared_omega(), data.shared_omega());
+        assert!(same(&data.scaled(0.5, 2.0)));
+        let other_ts = data.clone().with_ts(Some(0.2)).unwrap();
+        assert!(same(&other_ts) && other_ts.ts() == Some(0.2));
+        assert!(!same(&data.filter(&[true, false, true])));
+    }
 }
