@@ -118,13 +118,23 @@ impl<T: Real> FrequencyData<T> {
         u: Vec<Complex<T>>,
         ts: Option<T>,
     ) -> Result<Self> {
+        Self::new_shared(omega.into(), y, u, ts)
+    }
+
+    /// [`Self::new`] with the frequencies already in the shared buffer the data keep.
+    pub(crate) fn new_shared(
+        omega: std::sync::Arc<[T]>,
+        y: Vec<Complex<T>>,
+        u: Vec<Complex<T>>,
+        ts: Option<T>,
+    ) -> Result<Self> {
         Self::checked(omega, y, u, ts, true)
     }
 
     /// [`Self::new`], checking the values of `u` only when `check_u` (not for the unit
     /// input of an FRF).
     fn checked(
-        omega: Vec<T>,
+        omega: std::sync::Arc<[T]>,
         y: Vec<Complex<T>>,
         u: Vec<Complex<T>>,
         ts: Option<T>,
@@ -186,7 +196,7 @@ impl<T: Real> FrequencyData<T> {
             });
         }
         Ok(Self {
-            omega: omega.into(),
+            omega,
             y,
             u,
             noise: None,
@@ -201,6 +211,16 @@ impl<T: Real> FrequencyData<T> {
     /// # Errors
     /// As [`FrequencyData::new`].
     pub fn from_frf(omega: Vec<T>, frf: Vec<Complex<T>>, ts: Option<T>) -> Result<Self> {
+        Self::from_frf_shared(omega.into(), frf, ts)
+    }
+
+    /// [`Self::from_frf`] with the frequencies already in the shared buffer the data keep
+    /// (no copy: a reader builds them there).
+    pub(crate) fn from_frf_shared(
+        omega: std::sync::Arc<[T]>,
+        frf: Vec<Complex<T>>,
+        ts: Option<T>,
+    ) -> Result<Self> {
         let u = vec![Complex::new(T::one(), T::zero()); frf.len()];
         Self::checked(omega, frf, u, ts, false)
     }

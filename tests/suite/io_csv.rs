@@ -438,6 +438,34 @@ fn read_csv_names_the_file_in_errors() {
     }
 }
 
+#[test]
+fn a_file_reads_as_its_bytes_do_small_or_large() {
+    // a file below and one above the size where the reading takes larger pieces (2 MiB),
+    // with a comment among the rows: reading the file (whose length sizes the buffers)
+    // and parsing its bytes give the same data, bit for bit
+    let dir = std::env::temp_dir().join(format!("fdid-io-sizes-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    for rows in [1_000, 40_000] {
+        let mut text = String::from("f,re,im\n");
+        for k in 1..=rows {
+            let f = k as f64 * 0.0137;
+            let g = 1.0 / (1.0 + f * f);
+            text.push_str(&format!("{f:.17e},{g:.17e},{:.17e}\n", -f * g));
+            if k == rows / 3 {
+                text.push_str("# a comment\n\n");
+            }
+        }
+        let path = dir.join(format!("rows{rows}.csv"));
+        std::fs::write(&path, &text).unwrap();
+        let from_file = read_csv::<f64>(&path).unwrap();
+        let from_bytes = parse_csv::<f64, _>(text.as_bytes(), "bytes").unwrap();
+        assert_eq!(from_file, from_bytes, "{rows} rows");
+        let d = from_file.into_frequency_data().unwrap();
+        assert_eq!(d.len(), rows);
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 // ---------------------------------------------------------------- bundled data
 
 fn bundled(name: &str) -> std::path::PathBuf {

@@ -22,6 +22,7 @@ use crate::io::lines::echo;
 use crate::scalar::{Complex, Real};
 use std::io::Read;
 use std::path::Path;
+use std::sync::Arc;
 
 /// Reads a data file; see [`parse_csv`] for the format. Errors name the file.
 ///
@@ -30,7 +31,8 @@ use std::path::Path;
 pub fn read_csv<T: Real>(path: &Path) -> Result<Measurement<T>> {
     let file =
         std::fs::File::open(path).map_err(|e| FdidError::Io(format!("{}: {e}", path.display())))?;
-    parse_csv(file, &path.display().to_string())
+    let bytes = file.metadata().ok().map(|m| m.len());
+    parse_sized(file, &path.display().to_string(), bytes)
 }
 
 /// True when the header of the CSV file at `path` names the columns of a frequency response
@@ -93,10 +95,19 @@ pub fn is_frf_matrix_csv(path: &Path) -> bool {
 /// - [`FdidError::TooShort`] when there are no data rows (or one row of a time record);
 /// - [`FdidError::Io`] when reading fails.
 pub fn parse_csv<T: Real, R: Read>(reader: R, name: &str) -> Result<Measurement<T>> {
+    parse_sized(reader, name, None)
+}
+
+/// [`parse_csv`] of a file of `bytes` bytes when known (its columns are then sized once).
+fn parse_sized<T: Real, R: Read>(
+    reader: R,
+    name: &str,
+    bytes: Option<u64>,
+) -> Result<Measurement<T>> {
     let mut lines = Lines::new(reader);
     let (header_line, names) = read_header(&mut lines, name)?;
     let layout = Layout::from_header(&names).map_err(|m| parse_error(name, header_line, m))?;
-    let table = rows::read_rows::<T, R>(lines, layout, name)?;
+    let table = rows::read_rows::<T, R>(lines, layout, name, bytes)?;
     match table.layout.kind {
         Kind::Time => table.time_record(name),
         Kind::Frf | Kind::Spectra => table.frequency_data(name),
@@ -212,7 +223,7 @@ impl Table {
 
     /// A frequency response matrix: entry (i, j) from `re_ij`, `im_ij` (and `var_ij`).
     fn frf_matrix<T: Real>(&self, name: &str) -> Result<Measurement<T>> {
-        let omega = self.frequencies::<T>(name)?;
+        let omega: Vec<T> = self.frequencies::<T, _>(name)?;
         let (ny, nu, with_var) = self.layout.matrix.unwrap_or((1, 1, false));
         let column = |part: &str, i: usize, j: usize| -> &[f64] {
             let index = self
@@ -254,7 +265,7 @@ impl Table {
 
     /// Frequency data: an FRF or spectra, with their variances if given.
     fn frequency_data<T: Real>(&self, name: &str) -> Result<Measurement<T>> {
-        let omega = self.frequencies::<T>(name)?;
+        let omega: Arc<[T]> = self.frequencies::<T, _>(name)?;
         self.check_variances(name)?;
         let data = if self.layout.kind == Kind::Frf {
             self.frf(omega)?
@@ -266,7 +277,7 @@ impl Table {
 
     /// The angular frequencies of the `f` column: at least one row, non-negative and
     /// strictly increasing.
-    fn frequencies<T: Real>(&self, name: &str) -> Result<Vec<T>> {
+    fn frequencies<T: Real, C: FromIterator<T>>(&self, name: &str) -> Result<C> {
         let f = self.required("f");
         if f.is_empty() {
             return Err(FdidError::TooShort {
@@ -276,27 +287,25 @@ impl Table {
             });
         }
         check_frequencies(f, &self.lines).map_err(|(line, m)| parse_error(name, line, m))?;
-        self.omega::<T>(f, name)
+        self.omega::<T, C>(f, name)
     }
 
-    /// `ω = 2πf` in `T` of the frequencies `f` (Hz).
-    fn omega<T: Real>(&self, f: &[f64], name: &str) -> Result<Vec<T>> {
-        let mut omega = Vec::with_capacity(f.len());
-        for (i, fi) in f.iter().enumerate() {
-            let w = T::lit(std::f64::consts::TAU * fi);
-            if !num_traits::Float::is_finite(w) {
-                return Err(parse_error(
-                    name,
-                    self.lines[i],
-                    format!(
-                        "column `f`: 2π·{fi} Hz is out of range for {}",
-                        std::any::type_name::<T>()
-                    ),
-                ));
-            }
-            omega.push(w);
+    /// `ω = 2πf` in `T` of the frequencies `f` (Hz), collected straight into the buffer
+    /// the data keep (`Arc<[T]>` for frequency data) once every one is known finite.
+    fn omega<T: Real, C: FromIterator<T>>(&self, f: &[f64], name: &str) -> Result<C> {
+        let w = |fi: &f64| T::lit(std::f64::consts::TAU * fi);
+        if let Some(i) = f.iter().position(|fi| !num_traits::Float::is_finite(w(fi))) {
+            return Err(parse_error(
+                name,
+                self.lines[i],
+                format!(
+                    "column `f`: 2π·{} Hz is out of range for {}",
+                    f[i],
+                    std::any::type_name::<T>()
+                ),
+            ));
         }
-        Ok(omega)
+        Ok(f.iter().map(w).collect())
     }
 
     /// Every variance given is non-negative.
@@ -316,9 +325,9 @@ impl Table {
     }
 
     /// FRF rows `G = re + i·im` as `Y = G`, `U = 1`, with `var` as the output variance.
-    fn frf<T: Real>(&self, omega: Vec<T>) -> Result<FrequencyData<T>> {
+    fn frf<T: Real>(&self, omega: Arc<[T]>) -> Result<FrequencyData<T>> {
         let g = complex(self.required("re"), self.required("im"));
-        let d = FrequencyData::from_frf(omega, g, None)?;
+        let d = FrequencyData::from_frf_shared(omega, g, None)?;
         match self.col("var") {
             Some(v) => d.with_noise(NoiseVariances::output_only(to_real(v))),
             None => Ok(d),
@@ -326,11 +335,11 @@ impl Table {
     }
 
     /// Spectra rows `U`, `Y` with `var_u`, `var_y` (a missing one of the two is zero).
-    fn spectra<T: Real>(&self, omega: Vec<T>) -> Result<FrequencyData<T>> {
+    fn spectra<T: Real>(&self, omega: Arc<[T]>) -> Result<FrequencyData<T>> {
         let u = complex(self.required("u_re"), self.required("u_im"));
         let y = complex(self.required("y_re"), self.required("y_im"));
         let n = omega.len();
-        let d = FrequencyData::new(omega, y, u, None)?;
+        let d = FrequencyData::new_shared(omega, y, u, None)?;
         let (vu, vy) = (self.col("var_u"), self.col("var_y"));
         if vu.is_none() && vy.is_none() {
             return Ok(d);
