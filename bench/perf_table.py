@@ -9,16 +9,25 @@ after a warm-up. fdid's fits are scored with the harness's score() through score
 Before timing a command it runs it once with --json and scores that fit too: the script
 stops if its poles or its response are far from the library's fit of the same case.
 
-Usage: perf_table.py PEERS_DIR FDID_BIN [--runs N] [--write README.md]
+With --peer-cases (the examples/peer_cases binary) it also times scipy `oe` and fdid's
+library fit of each case in turn, --rounds times (each side the median of 5 fits after a
+warm-up, as the harness times): both sides then meet the machine in the same state, and
+the table gives the median and the range of the rounds' ratios beside the ratio of the
+two separate runs.
+
+Usage: perf_table.py PEERS_DIR FDID_BIN [--runs N] [--peer-cases BIN [--rounds R]]
+       [--write README.md]
 (PEERS_WORK must point at the cases and results; driven by bench/perf_table.sh)
 """
 import argparse
 import datetime
 import json
 import os
+import shutil
 import statistics
 import subprocess
 import sys
+import tempfile
 import textwrap
 import time
 
@@ -37,9 +46,14 @@ def parse_args():
     p.add_argument("fdid", help="the fdid release binary")
     p.add_argument("--runs", type=int, default=11, help="timed whole-process runs per case")
     p.add_argument("--write", metavar="README", help="replace the table between the markers")
+    p.add_argument("--peer-cases", metavar="BIN",
+                   help="examples/peer_cases: time scipy oe and fdid's library fit in turn")
+    p.add_argument("--rounds", type=int, default=5, help="rounds of the timing in turn")
     a = p.parse_args()
     if a.runs < 1:
         fail("--runs must be at least 1")
+    if a.rounds < 1:
+        fail("--rounds must be at least 1")
     return a
 
 
@@ -119,6 +133,30 @@ def time_whole_process(cmd, env, runs):
     return statistics.median(times), times
 
 
+def in_turn(names, peer_cases, rounds, env):
+    """Each case's scipy `oe` fit (the harness's run_one: median of 5 after a warm-up) and
+    fdid's library fit (peer_cases for that case: the same) timed one after the other,
+    `rounds` times: the ratio oe / fdid of each round, per case."""
+    out = tempfile.mkdtemp(prefix="fdid-in-turn-")
+    ratios = {name: [] for name in names}
+    try:
+        for k in range(rounds):
+            for name in names:
+                oe = peers.run_one(peers.METHODS["oe"], peers.load_case(name))["time_s"]
+                r = subprocess.run([peer_cases, CASES, out], env=dict(env, PEER_CASE=name),
+                                   stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+                if r.returncode != 0:
+                    fail(f"{peer_cases} on {name} exited with {r.returncode}:\n"
+                         + r.stderr.decode(errors="replace"))
+                lib = json.load(open(os.path.join(out, name + ".json")))["time_s"]
+                ratios[name].append(oe / lib)
+                print(f"{name}: round {k + 1}: oe {ms(oe)} ms, fdid {ms(lib)} ms, "
+                      f"{oe / lib:.1f}×", file=sys.stderr)
+    finally:
+        shutil.rmtree(out, ignore_errors=True)
+    return ratios
+
+
 def ms(t):
     """Milliseconds to three significant figures, without an exponent."""
     x = 1e3 * t
@@ -157,6 +195,11 @@ def main():
     if not names:
         fail(f"no fdid fits in {score_fdid.OUT}: run bench/peers_run.sh")
     env = dict(os.environ, RAYON_NUM_THREADS="1")
+    turns = None
+    if ARGS.peer_cases:
+        if not os.access(ARGS.peer_cases, os.X_OK):
+            fail(f"no peer_cases binary at {ARGS.peer_cases}")
+        turns = in_turn(names, ARGS.peer_cases, ARGS.rounds, env)
     rows, lib_runs = [], set()
     for name in names:
         meta = json.load(open(os.path.join(CASES, name + ".json")))
@@ -173,6 +216,9 @@ def main():
               f"({ms(min(times))}–{ms(max(times))} ms)", file=sys.stderr)
         row = [label(name, meta), ms(lib["time_s"]), ms(whole), ms(oe["time_s"]),
                f"{oe['time_s'] / lib['time_s']:.1f}×"]
+        if turns:
+            rs = turns[name]
+            row.append(f"{statistics.median(rs):.1f}× ({min(rs):.1f}–{max(rs):.1f}×)")
         if rust:
             sk = rust.get(name, {}).get("methods", {}).get("dsmc_sk", {})
             row.append(ms(sk["time_s"]) if "time_s" in sk else "–")
@@ -180,14 +226,18 @@ def main():
         rows.append(row)
 
     head = ["case", "fdid library (ms)", "fdid whole process (ms)", "scipy `oe` (ms)",
-            "`oe` ÷ fdid library"] + (["`dsmc` SK (ms)"] if rust else []) + ["rel_rms fdid / oe"]
+            "`oe` ÷ fdid library"] + ([f"`oe` ÷ fdid library in turn ({ARGS.rounds} rounds)"]
+                                       if turns else []) \
+        + (["`dsmc` SK (ms)"] if rust else []) + ["rel_rms fdid / oe"]
     peer_runs = json.load(open(score_fdid.PEER_RESULTS)).get("n_runs", "?")
     lib_n = "/".join(str(n) for n in sorted(lib_runs))
     rust_note = " and `dsmc`" if rust else ""
     intro = (f"Generated by `bash bench/perf_table.sh` on {datetime.date.today().isoformat()}, "
              f"{os.cpu_count()} cores, one thread per fit: medians of {lib_n} fits after a warm-up "
              f"for fdid's library, of {peer_runs} for scipy `oe`{rust_note}, "
-             f"of {ARGS.runs} runs after a warm-up for the whole process.")
+             f"of {ARGS.runs} runs after a warm-up for the whole process."
+             + (f" In turn: each case's `oe` and fdid library timings one after the other, "
+                f"{ARGS.rounds} rounds; the median ratio and its range." if turns else ""))
     intro = textwrap.fill(intro, 88, break_on_hyphens=False, break_long_words=False)
     lines = [intro, "", "| " + " | ".join(head) + " |", "|" + " --- |" * len(head)]
     lines += ["| " + " | ".join(r) + " |" for r in rows]

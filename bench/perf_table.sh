@@ -16,7 +16,9 @@
 # --write replaces what lies between <!-- perf-table:begin --> and <!-- perf-table:end -->
 # in README.md, only once every step has succeeded. PEERS_WORK (default $HOME/fdid-peers),
 # PEERS_DIR and RUST_PEERS_TARGET_DIR as for bench/compare.sh; PERF_RUNS (default 11)
-# timed whole-process runs per case. Not part of the test suite.
+# timed whole-process runs per case; PERF_ROUNDS (default 5) rounds of scipy `oe` and
+# fdid's library fit timed in turn (one after the other, case by case: both sides meet
+# the machine in the same state). Not part of the test suite.
 set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 peers="${PEERS_DIR:-$here/../shared/peers}"
@@ -27,7 +29,7 @@ write=()
 for arg in "$@"; do
     case "$arg" in
         --write) write=(--write "$here/README.md") ;;
-        -h | --help) sed -n '2,19p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//'; exit 0 ;;
+        -h | --help) sed -n '2,21p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//'; exit 0 ;;
         *) fail "unknown argument '$arg' (usage: bash bench/perf_table.sh [--write])" ;;
     esac
 done
@@ -49,5 +51,9 @@ target="$(cargo metadata --format-version 1 --no-deps --manifest-path "$here/Car
 fdid="$target/release/fdid"
 [ -x "$fdid" ] || fail "no fdid binary at $fdid after cargo build --release"
 
-"$py" "$here/bench/perf_table.py" "$peers" "$fdid" --runs "$runs" "${write[@]}"
+# scipy `oe` and fdid's library fits timed in turn too (single-threaded BLAS, as
+# bench/peers_run.sh times the Python peers)
+OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1 "$py" "$here/bench/perf_table.py" "$peers" "$fdid" \
+    --runs "$runs" --peer-cases "$target/release/examples/peer_cases" \
+    --rounds "${PERF_ROUNDS:-5}" "${write[@]}"
 echo "bench/perf_table.sh: $((SECONDS - start)) s" >&2
