@@ -24,10 +24,10 @@ const PART_BYTES: usize = 64 << 10;
 
 /// The data rows after the header: one number per column, finite in `f64` and in `T`.
 ///
-/// The rest of the file is read in pieces of at most [`PIECE_BYTES`] cut after a line break (a
-/// line stays whole, and a line beyond [`MAX_LINE_BYTES`] is refused as line by line);
-/// each piece is split at line breaks into parts of about [`PART_BYTES`] that are parsed
-/// at once, and the first bad line of the file is reported.
+/// The rest of the file is read in pieces of at most [`PIECE_BYTES`] cut after a line
+/// break (a line stays whole, and a line beyond [`MAX_LINE_BYTES`] is refused as line by
+/// line); each piece is split at line breaks into parts of about [`PART_BYTES`] that are
+/// parsed at once, and the first bad line of the file is reported.
 ///
 /// `file_bytes`, the length of the whole file when known, sizes the pieces
 /// ([`piece_bytes`]) and the columns, once, from the lines of the first piece
