@@ -2,21 +2,19 @@
 //! other without it.
 
 /// `(0..n).map(f)` collected in order, the items computed in parallel with the `rayon`
-/// feature.
+/// feature. A single item is computed on the calling thread: handing it to the pool
+/// would only add the hand-over (and, the first time in a process, the pool's start).
 pub(crate) fn map_indices<R, F>(n: usize, f: F) -> Vec<R>
 where
     R: Send,
     F: Fn(usize) -> R + Sync + Send,
 {
     #[cfg(feature = "rayon")]
-    {
+    if n > 1 {
         use rayon::prelude::*;
-        (0..n).into_par_iter().map(f).collect()
+        return (0..n).into_par_iter().map(f).collect();
     }
-    #[cfg(not(feature = "rayon"))]
-    {
-        (0..n).map(f).collect()
-    }
+    (0..n).map(f).collect()
 }
 
 /// `(a(), b())`, the two computed in parallel with the `rayon` feature.
