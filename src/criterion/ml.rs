@@ -39,6 +39,14 @@ pub struct MlProblem<'a, T: Real, M: ?Sized> {
     blocks: RefCell<[Block<T>; 2]>,
 }
 
+impl<T: Real, M: ?Sized> Drop for MlProblem<'_, T, M> {
+    /// Gives the buffers of the full evaluation, of the record's length, back for the next
+    /// fit's ([`crate::recycle`]).
+    fn drop(&mut self) {
+        self.scratch.get_mut().recycle();
+    }
+}
+
 /// The model output and the real-stacked Jacobian rows of one block of lines.
 struct Block<T: Real> {
     out: Output<T>,

@@ -572,6 +572,8 @@ impl Pipeline {
             data,
             weights.as_deref(),
         );
+        // (its buffers, of the record's length, serve the ML problem's next)
+        out.recycle();
         if !num_traits::Float::is_finite(cost) {
             return None;
         }

@@ -875,6 +875,7 @@ impl<'a, T: Real, M: FurtherStarts<T>> DelaySearch<'a, T, M> {
         let problem = self.ml.problem(&model, self.data)?;
         let fast = GramLevenbergMarquardt::from(self.lm);
         let solution = super::chain::ml_solve(&fast, &self.lm, &problem, &start)?;
+        drop(problem);
         // without noise weights the noise level is estimated from the residuals
         let level = if self.search.weights.is_none() {
             noise_level_cost(&model, &solution.theta, self.data)
@@ -1143,6 +1144,7 @@ fn joint_ml<T: Real, M: FurtherStarts<T>>(
     let fast = GramLevenbergMarquardt::from(lm);
     let solution =
         super::chain::ml_solve_in(&fast, &lm, &model, &problem, &theta0, pipeline.stable)?;
+    drop(problem);
     let theta = solution.theta.clone();
     stages.push(Stage::new(StageKind::MlDelayed, solution));
     model.check_delay(theta[theta.len() - 1])?;
