@@ -11,8 +11,8 @@
 //! its thresholds have adapted to large blocks) and 32 buffers a thread, and the next
 //! allocation of that type takes the smallest kept buffer large enough (and not more than
 //! twice as large, so that a small request leaves a large buffer to the large request
-//! that follows it). [`release`] frees
-//! the calling thread's buffers, and a thread's are freed when it ends.
+//! that follows it). [`release`] frees the calling thread's buffers, and a thread's are
+//! freed when it ends.
 //!
 //! ```
 //! use fdid::prelude::*;

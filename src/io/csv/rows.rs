@@ -18,6 +18,10 @@ const PIECE_BYTES: usize = 4 << 20;
 /// The smallest piece of a file of known length ([`piece_bytes`]): four parts.
 const SMALLEST_PIECE_BYTES: usize = 4 * PART_BYTES;
 
+/// The largest file of known length read in pieces of [`SMALLEST_PIECE_BYTES`]
+/// ([`piece_bytes`]): 2 MiB.
+const SMALL_FILE_BYTES: usize = 8 * SMALLEST_PIECE_BYTES;
+
 /// The largest file of known length whose parts are parsed one after the other on the
 /// calling thread ([`read_rows`]).
 const SERIAL_FILE_BYTES: usize = 8 * PART_BYTES;
@@ -65,14 +69,14 @@ fn parallel_parts(file_bytes: Option<u64>) -> bool {
 }
 
 /// The pieces of a file of `file_bytes` bytes: [`SMALLEST_PIECE_BYTES`] for a file of
-/// at most eight of them (2 MiB), [`PIECE_BYTES`] beyond. A process reads its file once,
+/// at most [`SMALL_FILE_BYTES`] (2 MiB), [`PIECE_BYTES`] beyond. A process reads its file once,
 /// and each page of the buffer it touches first is a page fault (3–4 µs on a virtual
 /// machine): a small file is read through a small buffer (10 000 rows read in a fresh
 /// process: 4.0 against 4.5 ms). A large file keeps the two threads busy with large
 /// pieces: each piece ends in a join, and an idle thread is slow to wake (100 000 rows
 /// read again in one process: 16 ms with pieces of 4 MiB, 22 ms with pieces of 1 MiB).
 fn piece_bytes(file_bytes: u64) -> usize {
-    if file_bytes <= 8 * SMALLEST_PIECE_BYTES as u64 {
+    if file_bytes <= SMALL_FILE_BYTES as u64 {
         SMALLEST_PIECE_BYTES
     } else {
         PIECE_BYTES
