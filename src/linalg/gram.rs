@@ -64,15 +64,15 @@ impl<T: Real> GramWork<T> {
     }
 }
 
-/// G = JᵀJ (`accumulate`: G += JᵀJ) into `g` (p × p, p = J's column count): in f64 on
-/// x86-64 with AVX2 or AVX-512, the register-tiled column dot products of
-/// [`super::gram_kernel`] (J read in place, the upper triangle computed); otherwise one
-/// blocked matrix product (`matrixmultiply`, through nalgebra's gemm) of a transposed
-/// *view* of J with J, so no copy of J is made, or column dot products when p ≤ 5 or J has
-/// at most 5 rows, below nalgebra's threshold for the blocked product. The view must not
-/// reach nalgebra's column-by-column fallback of gemm below that threshold: it bounds its
-/// loop over a strided column by the length of the underlying slice, not by the column's,
-/// and writes past the result (a 2 × p block of one line's rows did).
+/// G = JᵀJ (`accumulate`: G += JᵀJ) into `g` (p × p, p = J's column count): in f64 and
+/// f32, the register-tiled column dot products of [`super::gram_kernel`] (J read in place,
+/// the upper triangle computed, the same bits on every processor); for another scalar
+/// type, one blocked matrix product (nalgebra's gemm) of a transposed *view* of J with J,
+/// so no copy of J is made, or column dot products when p ≤ 5 or J has at most 5 rows,
+/// below nalgebra's threshold for the blocked product. The view must not reach
+/// nalgebra's column-by-column fallback of gemm below that threshold: it bounds its loop
+/// over a strided column by the length of the underlying slice, not by the column's, and
+/// writes past the result (a 2 × p block of one line's rows did).
 pub(crate) fn gram_into<T: Real>(jac: &DMatrix<T>, g: &mut DMatrix<T>, accumulate: bool) {
     let (m, p) = jac.shape();
     debug_assert_eq!(g.shape(), (p, p));

@@ -10,6 +10,7 @@ pub(crate) mod householder;
 mod lstsq;
 pub(crate) mod nonnegative_qp;
 pub(crate) mod parallel;
+pub mod simd;
 
 pub use lstsq::least_squares;
 pub(crate) use lstsq::{check_shape, equilibrate_columns, svd_of_r};
