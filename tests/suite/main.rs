@@ -77,6 +77,7 @@ mod robustness_input;
 mod robustness_messages;
 mod saved_model;
 mod silverbox;
+mod simd_paths;
 mod simulate;
 mod stress_numerical;
 mod work_budget;
