@@ -10,7 +10,9 @@
 //!   and `fit_new` (`Fit::new` at the ML estimate) separate that overhead;
 //! * `lines_ct4/{2000,20000,200000}`: the full chain for `a_ct4` against the number of
 //!   lines (throughput in lines);
-//! * `dft_1e6`, `dft_1e7`: `TimeData::dft` of 10⁶ and 10⁷ samples of `u` and `y` (f64).
+//! * `dft_1e6`, `dft_1e7`: `TimeData::dft` of 10⁶ and 10⁷ samples of `u` and `y` (f64);
+//! * `simd/ml_ct4_2000/{scalar,avx2,avx512}`: `ml_ct4_2000` on each SIMD path this
+//!   processor has ([`fdid::linalg::simd`]; every path gives the same bits).
 //!
 //! All data are simulated with constant seeds outside the timed closures. The accuracy of
 //! the fits (relative RMS error against the noise-free truth) is printed once to stderr.
@@ -256,5 +258,29 @@ fn dft(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, full_pipeline, stages, lines, dft);
+/// `ml_ct4_2000` on each SIMD path of this processor, the path forced for the group.
+fn simd_paths(c: &mut Criterion) {
+    use fdid::linalg::simd::{self, SimdPath};
+    let (data4, _) = noisy_frf(&a_ct4(), 2_000, 11);
+    let model4 = Rational::continuous(4, 3, data4.omega()).expect("model");
+    let mut group = c.benchmark_group("simd/ml_ct4_2000");
+    group
+        .sample_size(30)
+        .warm_up_time(Duration::from_secs(2))
+        .measurement_time(Duration::from_secs(6));
+    for path in SimdPath::supported() {
+        simd::force(Some(path)).expect("a supported path");
+        group.bench_function(path.name(), |b| {
+            b.iter(|| {
+                Pipeline::default()
+                    .fit(black_box(&model4), black_box(&data4))
+                    .expect("fit")
+            })
+        });
+    }
+    simd::force(None).expect("the default path");
+    group.finish();
+}
+
+criterion_group!(benches, full_pipeline, stages, lines, dft, simd_paths);
 criterion_main!(benches);

@@ -20,6 +20,9 @@ pub(crate) struct LineReader<R: Read> {
     after_cr: bool,
     /// A byte-order mark at the start of line 1 is dropped (the start of a file).
     bom: bool,
+    /// The byte that starts a comment: the bytes after it on a line that is not UTF-8 are
+    /// read as Latin-1 (a comment is not data, and vendors' files carry such bytes).
+    comment: Option<u8>,
 }
 
 /// A failure of [`LineReader::next_line`], turned into an error once the file name is
@@ -65,6 +68,17 @@ impl<R: Read> LineReader<R> {
             line: 0,
             after_cr: false,
             bom: true,
+            comment: None,
+        }
+    }
+
+    /// A reader at the start of `reader` whose comments start with `marker`: a line that
+    /// is not UTF-8 is read when its bytes before the first `marker` are, the comment then
+    /// as Latin-1 (each byte the character of that code).
+    pub(crate) fn with_comments(reader: R, marker: u8) -> Self {
+        Self {
+            comment: Some(marker),
+            ..Self::new(reader)
         }
     }
 
@@ -144,7 +158,13 @@ impl<R: Read> LineReader<R> {
             return Ok(false);
         }
         self.line += 1;
-        self.text = String::from_utf8(buf).map_err(|_| LineError::Utf8(self.line))?;
+        self.text = match String::from_utf8(buf) {
+            Ok(text) => text,
+            Err(e) => {
+                let bytes = e.into_bytes();
+                latin1_comment(&bytes, self.comment).ok_or(LineError::Utf8(self.line))?
+            }
+        };
         Ok(true)
     }
 
@@ -154,10 +174,33 @@ impl<R: Read> LineReader<R> {
     }
 }
 
+/// `bytes` (not UTF-8) as text when those before the first `marker` are UTF-8: the
+/// comment from the marker on read as Latin-1; `None` otherwise.
+fn latin1_comment(bytes: &[u8], marker: Option<u8>) -> Option<String> {
+    let at = memchr::memchr(marker?, bytes)?;
+    let mut text = std::str::from_utf8(&bytes[..at]).ok()?.to_string();
+    text.extend(bytes[at..].iter().map(|&b| char::from(b)));
+    Some(text)
+}
+
 /// The whole text of `reader` with every line break as `\n` (so that `str::lines`
 /// numbers the lines as the file does), without a byte-order mark; errors name `name`.
 pub(crate) fn read_text<R: Read>(reader: R, name: &str) -> crate::error::Result<String> {
-    let mut lines = LineReader::new(reader);
+    read_lines(LineReader::new(reader), name)
+}
+
+/// [`read_text`] of a file whose comments start with `marker`, read as Latin-1 where
+/// they are not UTF-8 ([`LineReader::with_comments`]).
+pub(crate) fn read_text_with_comments<R: Read>(
+    reader: R,
+    name: &str,
+    marker: u8,
+) -> crate::error::Result<String> {
+    read_lines(LineReader::with_comments(reader, marker), name)
+}
+
+/// The text of the lines of `lines`, each ended by `\n`.
+fn read_lines<R: Read>(mut lines: LineReader<R>, name: &str) -> crate::error::Result<String> {
     let mut text = String::new();
     while let Some((_, line)) = lines.next_line().map_err(|e| e.into_error(name))? {
         text.push_str(line);
@@ -269,6 +312,25 @@ mod tests {
                 .len(),
             MAX_LINE_BYTES
         );
+    }
+
+    #[test]
+    fn latin1_bytes_of_a_comment_are_read_and_of_data_refused() {
+        // 0xB0 (the degree sign in Latin-1) is not UTF-8 on its own
+        let bytes = b"! 25\xB0C, S-parameters\n1e6 0.5 0\n2e6 0.5 0 ! \xE9t\xE9\n".to_vec();
+        let text = read_text_with_comments(&bytes[..], "zx.s1p", b'!').unwrap();
+        assert_eq!(
+            text,
+            "! 25\u{b0}C, S-parameters\n1e6 0.5 0\n2e6 0.5 0 ! \u{e9}t\u{e9}\n"
+        );
+        // without the comment marker, or before it, the line is refused with its number
+        let err = read_text(&bytes[..], "zx.s1p").unwrap_err().to_string();
+        assert!(err.contains("line 1") && err.contains("UTF-8"), "{err}");
+        let data = b"! ok\n1e6 0.\xB05 0\n".to_vec();
+        let err = read_text_with_comments(&data[..], "zx.s1p", b'!')
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("line 2") && err.contains("UTF-8"), "{err}");
     }
 
     #[test]

@@ -1,7 +1,25 @@
 //! Linear-algebra kernels shared by the models, criteria and solvers: dense least squares
 //! by QR and SVD ([`least_squares`]), a never-panicking SVD, the guarded normal equations
 //! over blocks of lines (`gram`), Householder reflectors (`householder`), the eigenvalues
-//! of a real matrix (`eigenvalues`) and independent items in parallel (`parallel`).
+//! of a real matrix (`eigenvalues`), independent items in parallel (`parallel`) and the
+//! choice of vector instructions ([`simd`]).
+//!
+//! **One answer on every processor.** A kernel that picks its instructions at run time
+//! (the Gram matrix JᵀJ of the normal equations, on the scalar, AVX2 or AVX-512 path)
+//! computes the same operations in the same order on every path: each dot product in
+//! W lanes (W = 4 for f64, 8 for f32: one 256-bit register), lane l taking rows
+//! l, l + W, … in turn by fused multiply-adds from zero, the lanes added pairwise
+//! ((s₀ + s₁) + (s₂ + s₃), …), then the last rows in turn by fused multiply-adds. A wider
+//! register holds several such dot products side by side, never more lanes of one. A fit
+//! (θ, cost, stages, every decision of the pipeline and the workflow) is therefore the same
+//! bits whatever the processor; `FDID_SIMD=scalar|avx2|avx512` ([`simd`]) forces a path to
+//! check it. The kernels compiled for every processor alike (the finiteness tests, the
+//! whiteness test's lanes) fix their lanes in the source and are the same by construction.
+//! The dependencies' own run-time choices (rustfft's FFTs, nalgebra's matrix products
+//! through matrixmultiply, the C library's elementary functions) are the same on every
+//! processor with AVX2 and FMA, with or without AVX-512; on an x86-64 processor without
+//! them they round differently (relative differences near 10⁻¹⁰ in a report, the same
+//! decisions).
 
 pub(crate) mod eigenvalues;
 pub(crate) mod gram;

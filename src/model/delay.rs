@@ -166,10 +166,15 @@ impl<M> Delayed<M> {
             Some((lo, hi)) if !(t >= lo && t <= hi) => Err(FdidError::InvalidArgument {
                 name: "delay",
                 value: format!("{t} s"),
-                reason: format!(
-                    "outside the bounds [{lo}, {hi}] s; widen the bounds or check the model \
-                     orders"
-                ),
+                reason: if t < 0.0 && lo >= 0.0 {
+                    "the delay is negative: the output leads the input, which no delay \
+                     explains"
+                        .into()
+                } else if t < lo {
+                    format!("below the smallest delay allowed, {lo} s")
+                } else {
+                    format!("above the largest delay allowed, {hi} s")
+                },
             }),
             _ => Ok(()),
         }

@@ -50,3 +50,28 @@ fn bundled_s1p_is_the_same_s11() {
     }
     assert!(read_touchstone(&bundled("eis_battery.csv")).is_err());
 }
+
+/// The vendor's Touchstone file of a measured 4-port (`../shared/data/minicircuits-zx10q`,
+/// README: Latin-1 degree signs in its `!` comments; S21 on 1 591 lines, 10 MHz–4 GHz,
+/// |S21| = −3.45 dB at 1.8 GHz): the comments are read as Latin-1, the data as written.
+#[test]
+fn a_vendor_file_with_latin1_comments_is_read() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../shared/data/minicircuits-zx10q/ZX10Q-2-19-S+_Plus25degC.s4p");
+    if !path.exists() {
+        eprintln!("skipped: {} is not there", path.display());
+        return;
+    }
+    let t = read_touchstone(&path).unwrap();
+    assert_eq!(t.ports, 4);
+    assert_eq!(t.freq_hz.len(), 1591);
+    assert!((t.freq_hz[0] - 10e6).abs() < 1.0 && (t.freq_hz[1590] - 4e9).abs() < 1.0);
+    let k = t
+        .freq_hz
+        .iter()
+        .position(|f| (f - 1.8e9).abs() < 1.0)
+        .unwrap();
+    let s21 = t.values[k][4]; // row 2, column 1
+    let db = 20.0 * s21.norm().log10();
+    assert!((db + 3.45).abs() < 0.01, "|S21| = {db} dB at 1.8 GHz");
+}

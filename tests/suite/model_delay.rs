@@ -841,3 +841,23 @@ fn serde_round_trip() {
     let back: Delayed<Rational<f64>> = serde_json::from_str(&text).unwrap();
     assert_eq!(back, model);
 }
+
+/// A delay outside the bounds is refused with the fact, not with advice: a negative one
+/// (the output leads the input), one below or above the bounds with the bound.
+#[test]
+fn a_delay_outside_the_bounds_is_named_as_a_fact() {
+    let model = Delayed::new(Rational::discrete(2, 2, 1.0).unwrap())
+        .with_bounds(0.0, 1680.0)
+        .unwrap();
+    let err = model.check_delay(-3.0f64).unwrap_err().to_string();
+    assert!(err.contains("-3 s") && err.contains("negative"), "{err}");
+    assert!(!err.contains("widen"), "{err}");
+    let err = model.check_delay(2000.0f64).unwrap_err().to_string();
+    assert!(err.contains("2000 s") && err.contains("1680"), "{err}");
+    let model = Delayed::new(Rational::discrete(2, 2, 1.0).unwrap())
+        .with_bounds(1.0, 5.0)
+        .unwrap();
+    let err = model.check_delay(0.5f64).unwrap_err().to_string();
+    assert!(err.contains("smallest delay allowed, 1 s"), "{err}");
+    assert!(model.check_delay(2.0f64).is_ok());
+}

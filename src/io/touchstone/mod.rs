@@ -16,7 +16,7 @@ use self::v1::parse_v1;
 use self::v2::parse_v2;
 use crate::data::{FrequencyData, FrfMatrix};
 use crate::error::{FdidError, Result};
-use crate::io::lines::read_text;
+use crate::io::lines::read_text_with_comments;
 use crate::scalar::{Complex, Real};
 use std::io::Read;
 use std::path::Path;
@@ -292,7 +292,7 @@ pub fn parse_touchstone<R: Read>(reader: R, ports: usize, name: &str) -> Result<
             ),
         ));
     }
-    let text = read_text(reader, name)?;
+    let text = read_text_with_comments(reader, name, b'!')?;
     parse_text(&text, Some(ports), name)
 }
 
@@ -303,7 +303,7 @@ pub fn parse_touchstone<R: Read>(reader: R, ports: usize, name: &str) -> Result<
 /// # Errors
 /// As [`parse_touchstone`]; a file that does not start with `[Version] 2.0` is an error.
 pub fn parse_touchstone_v2<R: Read>(reader: R, name: &str) -> Result<Touchstone> {
-    let text = read_text(reader, name)?;
+    let text = read_text_with_comments(reader, name, b'!')?;
     parse_text(&text, None, name)
 }
 
