@@ -173,6 +173,24 @@ fn tile_scalar<E: Float, const W: usize>(a: &[&[E]; TILE], b: &[&[E]; TILE]) -> 
     std::array::from_fn(|i| std::array::from_fn(|k| finish(acc[i][k], a[i], b[k], body)))
 }
 
+/// A path's entry `gram` ([`gram_columns`] on it): its `tile` over the tiles of G, compiled
+/// for the target features `$feature`.
+macro_rules! gram_entry {
+    ($elem:ty, $feature:literal) => {
+        /// [`super::super::gram_columns`] on this path.
+        #[target_feature(enable = $feature)]
+        pub(in super::super) fn gram(
+            j: &[$elem],
+            m: usize,
+            p: usize,
+            g: &mut [$elem],
+            accumulate: bool,
+        ) {
+            tiles(j, m, p, g, accumulate, |a, b| tile(a, b));
+        }
+    };
+}
+
 /// The AVX2 and AVX-512 kernels of one element type: `$w` elements in a 256-bit register.
 macro_rules! vector_kernels {
     ($module:ident, $elem:ty, $w:literal, $v256:ident, $v512:ident, $zero256:ident,
@@ -185,17 +203,7 @@ macro_rules! vector_kernels {
                 use super::super::{Dots, TILE, finish, tiles};
                 use std::arch::x86_64::*;
 
-                /// [`super::super::gram_columns`] on AVX2.
-                #[target_feature(enable = "avx2,fma")]
-                pub(in super::super) fn gram(
-                    j: &[$elem],
-                    m: usize,
-                    p: usize,
-                    g: &mut [$elem],
-                    accumulate: bool,
-                ) {
-                    tiles(j, m, p, g, accumulate, |a, b| tile(a, b));
-                }
+                gram_entry!($elem, "avx2,fma");
 
                 /// A tile as two halves of 4 × 2 dot products: 8 accumulators, the 4
                 /// columns of `a` and one of `b` fit in the 16 registers (a whole tile's
@@ -242,17 +250,7 @@ macro_rules! vector_kernels {
                 use super::super::{Dots, TILE, finish, tiles};
                 use std::arch::x86_64::*;
 
-                /// [`super::super::gram_columns`] on AVX-512.
-                #[target_feature(enable = "avx512f,avx2,fma")]
-                pub(in super::super) fn gram(
-                    j: &[$elem],
-                    m: usize,
-                    p: usize,
-                    g: &mut [$elem],
-                    accumulate: bool,
-                ) {
-                    tiles(j, m, p, g, accumulate, |a, b| tile(a, b));
-                }
+                gram_entry!($elem, "avx512f,avx2,fma");
 
                 #[inline]
                 #[target_feature(enable = "avx512f,avx2,fma")]
