@@ -122,15 +122,14 @@ fn default_path() -> SimdPath {
         let Some(value) = std::env::var_os("FDID_SIMD") else {
             return SimdPath::detected();
         };
+        let best = SimdPath::detected();
         match value.to_str().map(SimdPath::parse) {
             Some(Ok(path)) if path.is_supported() => path,
             Some(Ok(path)) => {
-                let best = SimdPath::detected();
                 eprintln!("fdid: FDID_SIMD={path}: this processor cannot run it; using {best}");
                 best
             }
             _ => {
-                let best = SimdPath::detected();
                 eprintln!("fdid: FDID_SIMD={value:?} is not scalar, avx2 or avx512; using {best}");
                 best
             }

@@ -387,3 +387,12 @@ fn the_reader_finds_paths_in_groups_and_skips_comments() {
     }
     assert_eq!(cycles(&g), vec![vec!["x", "y", "z"]]);
 }
+
+/// The front page stays a front page: README.md within 250 lines (the details live in
+/// `docs/`).
+#[test]
+fn the_readme_is_at_most_250_lines() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("README.md");
+    let lines = std::fs::read_to_string(&path).unwrap().lines().count();
+    assert!(lines <= 250, "README.md has {lines} lines (at most 250)");
+}
